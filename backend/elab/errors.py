@@ -1,0 +1,55 @@
+"""Errors of E-Lab: one root, subclasses that also inherit the matching built-in.
+
+Every message names the field, the offending value and what is allowed, so the
+CLI, the API and a notebook user all learn what to change.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class ElabError(Exception):
+    """Root of every error E-Lab raises on purpose."""
+
+
+class InvalidInput(ElabError, ValueError):
+    """A value given by the user is outside what is allowed.
+
+    Parameters
+    ----------
+    field : str
+        Dotted name of the offending field, e.g. ``"controller.K"``.
+    value : Any
+        The value received (shown abbreviated).
+    allowed : str
+        What would have been accepted, in words.
+    """
+
+    def __init__(self, field: str, value: Any, allowed: str) -> None:
+        self.field = field
+        self.value = value
+        self.allowed = allowed
+        super().__init__(f"{field}: got {_short(value)}; allowed: {allowed}")
+
+
+class DimensionError(InvalidInput):
+    """An array has the wrong shape (python-control's ``ControlDimension``)."""
+
+
+class NotFound(ElabError, LookupError):
+    """An id (plant, run, controller) that does not exist."""
+
+    def __init__(self, kind: str, id_: str, known: list[str] | None = None) -> None:
+        self.kind = kind
+        self.id = id_
+        hint = f"; known: {', '.join(known)}" if known else ""
+        super().__init__(f"unknown {kind} {id_!r}{hint}")
+
+    def __str__(self) -> str:  # LookupError would quote the message like a key
+        return str(self.args[0])
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."

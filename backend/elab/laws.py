@@ -1,0 +1,79 @@
+"""Control laws as pure data.
+
+These frozen dataclasses say *what* a controller is; :mod:`elab.sim.controllers`
+turns one into the discrete state-space form the stepping loop runs, and
+:mod:`elab.design` computes gains for them. The reference ``r`` is a scalar that
+drives the plant's reference output (its ``reference_output``); for state
+feedback it becomes the state reference ``x_ref = r e_i`` with ``i`` the
+plant's ``reference_state``.
+
+Sign convention (as python-control's ``lqr``): state feedback is
+``u = K (x_ref − x)``, i.e. ``u = −K x`` for regulation, so the closed loop is
+``A − B K``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+
+@dataclass(frozen=True)
+class StateFeedback:
+    """State feedback :math:`u = K (x_{ref} - \\hat x)`.
+
+    ``estimate="true_state"`` feeds back the simulated state itself (the
+    textbook analysis); ``"velocity_filters"`` feeds back the measured outputs
+    and the plant's band-limited differentiators (seed eq. 4.3–4.4), as the real
+    rig must.
+    """
+
+    K: tuple[float, ...]
+    estimate: Literal["true_state", "velocity_filters"] = "true_state"
+
+
+@dataclass(frozen=True)
+class PID:
+    """PID on the error :math:`e = r - y`, parallel form with a derivative filter.
+
+    .. math:: C(s) = K_p + \\frac{K_i}{s} + \\frac{K_d s}{T_f s + 1},
+              \\qquad T_f = \\frac{K_d}{N K_p}
+
+    (:math:`T_f = 0.01` s when :math:`K_p = 0`), discretised by Tustin.
+    Anti-windup by back-calculation with tracking time ``Tt`` (default
+    :math:`\\sqrt{T_i T_d}`, or :math:`T_i` without derivative action;
+    Åström & Hägglund, *Advanced PID Control*, 2006, §3.5).
+    """
+
+    Kp: float
+    Ki: float = 0.0
+    Kd: float = 0.0
+    N: float = 10.0
+    Tt: float | None = None
+
+
+@dataclass(frozen=True)
+class LTIController:
+    """Any SISO LTI controller acting on the error :math:`e = r - y`.
+
+    Given as a transfer function ``num/den`` (descending powers) or as state
+    space ``A, B, C, D``. ``dt=None`` means continuous (discretised by Tustin
+    at the run's sample time); a number is the controller's own sample time,
+    which must equal the run's.
+    """
+
+    num: tuple[float, ...] | None = None
+    den: tuple[float, ...] | None = None
+    A: tuple[tuple[float, ...], ...] | None = None
+    B: tuple[tuple[float, ...], ...] | None = None
+    C: tuple[tuple[float, ...], ...] | None = None
+    D: tuple[tuple[float, ...], ...] | None = None
+    dt: float | None = None
+
+
+@dataclass(frozen=True)
+class OpenLoop:
+    """No feedback: the signal is the plant input, :math:`u = r`."""
+
+
+ControlLaw = StateFeedback | PID | LTIController | OpenLoop

@@ -1,0 +1,122 @@
+"""The plant type: a continuous LTI model plus everything a lab needs to run it.
+
+A plant is data. It owns no state and does no I/O; :mod:`elab.sim` steps it and
+:mod:`elab.design` analyses it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from importlib import resources
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.laws import ControlLaw
+
+Matrix = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Channel:
+    """A named signal with its SI unit (``"rad"``, ``"rad/s"``, ``"V"``, ``"m"``)."""
+
+    name: str
+    unit: str
+    label: str
+
+
+@dataclass(frozen=True)
+class VelocityFilter:
+    """A band-limited differentiator :math:`\\omega_c s / (s + \\omega_c)`.
+
+    It estimates state ``state`` from output ``output`` (seed eq. 4.3–4.4).
+    """
+
+    state: int
+    output: int
+    omega_c: float  # rad/s
+
+
+@dataclass(frozen=True)
+class Sensors:
+    """Measurement imperfections per output: quantisation step and noise.
+
+    ``quantum[i]`` is the resolution of output ``i`` in its unit (0 = ideal);
+    ``noise_std[i]`` the standard deviation of additive white noise (applied
+    only when a run asks for noise, with its seed).
+    """
+
+    quantum: tuple[float, ...]
+    noise_std: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class SignalDefaults:
+    """The default reference of the plant's analysis experiment."""
+
+    kind: str
+    amplitude: float  # in the unit of the reference output
+    period: float = 0.0  # s, for square and sine
+    duration: float = 10.0  # s
+
+
+@dataclass(frozen=True)
+class Plant:
+    """A plant of the lab: continuous model :math:`\\dot x = A x + B u,\\; y = C x + D u`.
+
+    States are deviations from ``operating_point`` (absolute state =
+    ``operating_point + x``); results shown to users are absolute.
+    """
+
+    id: str
+    name: str
+    summary: str
+    A: Matrix
+    B: Matrix
+    C: Matrix
+    D: Matrix
+    states: tuple[Channel, ...]
+    inputs: tuple[Channel, ...]
+    outputs: tuple[Channel, ...]
+    u_max: float  # V, symmetric actuator limit
+    saturate: bool  # whether runs saturate at u_max by default
+    Ts: float  # s, default sample time
+    reference_output: int
+    reference_state: int | None
+    predefined: ControlLaw
+    predefined_design: str  # how the predefined controller was obtained
+    sensors: Sensors
+    signal: SignalDefaults
+    operating_point: Matrix
+    initial_state_ranges: tuple[tuple[int, float, float], ...] = ()  # (state, lo, hi) absolute
+    velocity_filters: tuple[VelocityFilter, ...] = ()
+    experiments: tuple[str, ...] = ("analysis", "identification", "design")
+    modes: tuple[str, ...] = ("simulation",)
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def nx(self) -> int:
+        return int(self.A.shape[0])
+
+    @property
+    def nu(self) -> int:
+        return int(self.B.shape[1])
+
+    @property
+    def ny(self) -> int:
+        return int(self.C.shape[0])
+
+    @property
+    def description(self) -> str:
+        """The plant's description page (markdown with LaTeX equations)."""
+        return (resources.files("elab.plants") / "descriptions" / f"{self.id}.md").read_text(
+            encoding="utf-8"
+        )
+
+
+def frozen_matrix(rows: list[list[float]]) -> Matrix:
+    """A read-only float64 2-D array, so a plant's model cannot be mutated."""
+    m = np.array(rows, dtype=np.float64)
+    m.setflags(write=False)
+    return m

@@ -1,0 +1,70 @@
+"""Belt conveyor driven by a DC gear-motor (seed §4.3), positioning the belt.
+
+The seed cites a transfer function that is not in the chapter, so this model is
+chosen here (reasoning in the description page):
+
+.. math::
+    \\frac{\\omega(s)}{u(s)} = \\frac{K_m}{\\tau_m s + 1},\\qquad
+    \\frac{v(s)}{\\omega(s)} = \\frac{2 s + 6}{s^2 + 20 s + 125}\\ \\text{(seed eq. 4.9)},\\qquad
+    \\frac{x(s)}{v(s)} = \\frac{1}{s}
+
+with :math:`K_m = 5` (rad/s)/V and :math:`\\tau_m = 0.2` s. The load model's
+DC gain 6/125 = 0.048 m is the drum radius. States
+:math:`[x, v, \\eta, \\omega]` with :math:`\\eta = \\dot v - 2\\omega`, so
+
+.. math::
+    \\dot x = v,\\quad \\dot v = \\eta + 2\\omega,\\quad
+    \\dot\\eta = -125 v - 20\\eta - 34\\omega,\\quad
+    \\dot\\omega = (K_m u - \\omega)/\\tau_m .
+"""
+
+from __future__ import annotations
+
+import math
+
+from elab.laws import PID
+from elab.plants.base import Channel, Plant, Sensors, SignalDefaults, frozen_matrix
+
+K_M = 5.0  # (rad/s)/V, gear-motor output speed per volt
+TAU_M = 0.2  # s, motor mechanical time constant
+DRUM_RADIUS = 6.0 / 125.0  # m, DC gain of the seed's load model (2s+6)/(s²+20s+125)
+
+PLANT = Plant(
+    id="belt_conveyor",
+    name="Belt conveyor",
+    summary="A DC gear-motor drives an elastic belt: move the load to a position.",
+    A=frozen_matrix(
+        [
+            [0, 1, 0, 0],
+            [0, 0, 1, 2],
+            [0, -125, -20, -34],
+            [0, 0, 0, -1 / TAU_M],
+        ]
+    ),
+    B=frozen_matrix([[0], [0], [0], [K_M / TAU_M]]),
+    C=frozen_matrix([[1, 0, 0, 0], [0, 1, 0, 0]]),
+    D=frozen_matrix([[0], [0]]),
+    states=(
+        Channel("x", "m", "belt position x"),
+        Channel("v", "m/s", "belt speed v"),
+        Channel("eta", "m/s^2", "belt strain rate η = v̇ − 2ω"),
+        Channel("omega", "rad/s", "motor speed ω"),
+    ),
+    inputs=(Channel("u", "V", "motor voltage u"),),
+    outputs=(
+        Channel("x", "m", "belt position x"),
+        Channel("v", "m/s", "belt speed v"),
+    ),
+    u_max=10.0,
+    saturate=True,
+    Ts=0.001,
+    reference_output=0,
+    reference_state=0,
+    predefined=PID(Kp=1.0, Ki=0.05, Kd=0.0),
+    predefined_design="PID Kp = 1, Ki = 0.05, Kd = 0: stable but slow, to be improved",
+    sensors=Sensors(
+        quantum=(2 * math.pi * DRUM_RADIUS / 4096, 0.0), noise_std=(5e-5, 1e-3)
+    ),
+    signal=SignalDefaults(kind="step", amplitude=0.5, duration=20.0),
+    operating_point=frozen_matrix([[0, 0, 0, 0]])[0],
+)

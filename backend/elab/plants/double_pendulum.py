@@ -1,0 +1,85 @@
+"""Rotary double inverted pendulum, seed §4.2 (eq. 4.7).
+
+States :math:`x = [\\alpha, \\beta_1, \\beta_2, \\dot\\alpha, \\dot\\beta_1,
+\\dot\\beta_2]` as deviations from the linearisation point (pendulum 1 upright,
+:math:`\\beta_1 = 0`; pendulum 2 hanging, :math:`\\beta_2 = 180°`). Predefined
+LQR with Q = diag(100, 5e9, 5e9, 1, 1, 1), R = 100 (seed §4.2.3).
+
+The seed's input gain is small (B ≈ 0.03) and its LQR gain large (≈ 17 500 V/rad
+on β1): holding 10° of β1 asks for hundreds of volts. A ±10 V amplifier would
+lose the pendulum, so this plant's runs do not saturate by default; the limit
+stays available and documented (docs/plants.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+from elab.laws import StateFeedback
+from elab.plants.base import (
+    Channel,
+    Plant,
+    Sensors,
+    SignalDefaults,
+    VelocityFilter,
+    frozen_matrix,
+)
+from elab.plants.flexible_link import ENCODER_QUANTUM
+
+PLANT = Plant(
+    id="double_pendulum",
+    name="Rotary double pendulum",
+    summary="Two pendulums on a rotating arm: balance the upper one upright.",
+    A=frozen_matrix(
+        [
+            [0, 0, 0, 1, 0, 0],
+            [0, 0, 0, 0, 1, 0],
+            [0, 0, 0, 0, 0, 1],
+            [0, 4.2017, 1.7791, -0.3247, -0.0222, 0.0095],
+            [0, 28.1858, 0.8197, -0.1496, -0.1486, 0.0044],
+            [0, -2.9100, -40.6937, 0.2249, 0.0153, -0.2162],
+        ]
+    ),
+    B=frozen_matrix([[0], [0], [0], [0.0302], [0.0139], [-0.0209]]),
+    C=frozen_matrix([[1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0]]),
+    D=frozen_matrix([[0], [0], [0]]),
+    states=(
+        Channel("alpha", "rad", "disc angle α"),
+        Channel("beta1", "rad", "pendulum 1 angle β₁ from upright"),
+        Channel("beta2", "rad", "pendulum 2 angle β₂ from upright"),
+        Channel("alpha_dot", "rad/s", "disc speed α̇"),
+        Channel("beta1_dot", "rad/s", "pendulum 1 rate β̇₁"),
+        Channel("beta2_dot", "rad/s", "pendulum 2 rate β̇₂"),
+    ),
+    inputs=(Channel("u", "V", "motor voltage u"),),
+    outputs=(
+        Channel("alpha", "rad", "disc angle α"),
+        Channel("beta1", "rad", "pendulum 1 angle β₁ from upright"),
+        Channel("beta2", "rad", "pendulum 2 angle β₂ from upright"),
+    ),
+    u_max=10.0,
+    saturate=False,
+    Ts=0.001,
+    reference_output=0,
+    reference_state=0,
+    predefined=StateFeedback(
+        K=(-1.00089, 17547.96623, -4771.82226, -32.99478, 3063.53215, 756.42262)
+    ),
+    predefined_design="LQR, Q = diag(100, 5e9, 5e9, 1, 1, 1), R = 100 (seed §4.2.3)",
+    sensors=Sensors(quantum=(ENCODER_QUANTUM,) * 3, noise_std=(2e-4,) * 3),
+    signal=SignalDefaults(kind="step", amplitude=math.radians(10), duration=10.0),
+    operating_point=frozen_matrix([[0, 0, math.pi, 0, 0, 0]])[0],
+    initial_state_ranges=(
+        (1, math.radians(-10), math.radians(10)),
+        (2, math.radians(150), math.radians(210)),
+    ),
+    velocity_filters=(
+        VelocityFilter(3, 0, 100.0),
+        VelocityFilter(4, 1, 100.0),
+        VelocityFilter(5, 2, 100.0),
+    ),
+    notes=(
+        "The seed offers no identification of this plant on hardware: only its linearised "
+        "model exists. Identification here runs on that model in closed loop.",
+    ),
+)

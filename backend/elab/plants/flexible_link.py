@@ -1,0 +1,59 @@
+"""Rotary flexible link (Quanser SRV02 with a flexible link), seed §4.1.
+
+States :math:`x = [\\theta, \\alpha, \\dot\\theta, \\dot\\alpha]` (servo angle,
+link deflection, rad and rad/s), input motor voltage :math:`u` (V), outputs
+:math:`\\theta` and :math:`\\alpha` from two 4096-count encoders. Model from the
+seed, section 4.1.1; predefined LQR with Q = diag(400, 10000, 3, 2), R = 1
+(seed eq. 4.6), fed by the velocity filters 150s/(s+150) and 50s/(s+50).
+"""
+
+from __future__ import annotations
+
+import math
+
+from elab.laws import StateFeedback
+from elab.plants.base import (
+    Channel,
+    Plant,
+    Sensors,
+    SignalDefaults,
+    VelocityFilter,
+    frozen_matrix,
+)
+
+ENCODER_QUANTUM = 2 * math.pi / 4096  # rad per count, SRV02 encoders
+
+PLANT = Plant(
+    id="flexible_link",
+    name="Rotary flexible link",
+    summary="A servo turns a flexible steel link; control the angle, damp the vibration.",
+    A=frozen_matrix(
+        [[0, 0, 1, 0], [0, 0, 0, 1], [0, 566.46, -37.022, 0], [0, -921.77, 37.022, 0]]
+    ),
+    B=frozen_matrix([[0], [0], [65.113], [-65.113]]),
+    C=frozen_matrix([[1, 0, 0, 0], [0, 1, 0, 0]]),
+    D=frozen_matrix([[0], [0]]),
+    states=(
+        Channel("theta", "rad", "servo angle θ"),
+        Channel("alpha", "rad", "link deflection α"),
+        Channel("theta_dot", "rad/s", "servo speed θ̇"),
+        Channel("alpha_dot", "rad/s", "deflection rate α̇"),
+    ),
+    inputs=(Channel("u", "V", "motor voltage u"),),
+    outputs=(
+        Channel("theta", "rad", "servo angle θ"),
+        Channel("alpha", "rad", "link deflection α"),
+    ),
+    u_max=10.0,
+    saturate=True,
+    Ts=0.001,
+    reference_output=0,
+    reference_state=0,
+    predefined=StateFeedback(K=(20.0, -93.5614, 3.3621, 0.9623), estimate="velocity_filters"),
+    predefined_design="LQR, Q = diag(400, 10000, 3, 2), R = 1 (seed eq. 4.6)",
+    sensors=Sensors(quantum=(ENCODER_QUANTUM, ENCODER_QUANTUM), noise_std=(2e-4, 2e-4)),
+    signal=SignalDefaults(kind="square", amplitude=math.radians(30), period=4.0, duration=10.0),
+    operating_point=frozen_matrix([[0, 0, 0, 0]])[0],
+    velocity_filters=(VelocityFilter(2, 0, 150.0), VelocityFilter(3, 1, 50.0)),
+    modes=("simulation", "rig"),
+)

@@ -1,0 +1,62 @@
+"""Checks for user-given numbers, shared by design and simulation.
+
+Each returns a clean float64 array or float, or raises
+:class:`~elab.errors.InvalidInput` naming the field, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.errors import DimensionError, InvalidInput
+
+
+def finite_array(
+    field: str, value: Any, shape: Sequence[int | None] | None = None
+) -> NDArray[np.float64]:
+    """``value`` as a finite float64 array of ``shape`` (``None`` = any length there)."""
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInput(field, value, "an array of real numbers") from None
+    if shape is not None:
+        if arr.ndim != len(shape) or any(
+            want is not None and got != want for got, want in zip(arr.shape, shape, strict=True)
+        ):
+            want_text = "×".join("n" if s is None else str(s) for s in shape)
+            raise DimensionError(field, value, f"shape {want_text}, got {arr.shape}")
+    if arr.size == 0:
+        raise InvalidInput(field, value, "a non-empty array")
+    if not np.all(np.isfinite(arr)):
+        raise InvalidInput(field, value, "finite numbers (no NaN or infinity)")
+    return arr
+
+
+def finite_float(field: str, value: Any, lo: float | None = None, hi: float | None = None,
+                 *, lo_open: bool = False) -> float:
+    """``value`` as a finite float within ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+        raise InvalidInput(field, value, "a real number")
+    x = float(value)
+    allowed = _range_text(lo, hi, lo_open)
+    if not np.isfinite(x):
+        raise InvalidInput(field, value, f"a finite number{allowed}")
+    if lo is not None and (x < lo or (lo_open and x == lo)):
+        raise InvalidInput(field, value, f"a number{allowed}")
+    if hi is not None and x > hi:
+        raise InvalidInput(field, value, f"a number{allowed}")
+    return x
+
+
+def _range_text(lo: float | None, hi: float | None, lo_open: bool) -> str:
+    if lo is None and hi is None:
+        return ""
+    if hi is None:
+        return f" {'>' if lo_open else '≥'} {lo:g}"
+    if lo is None:
+        return f" ≤ {hi:g}"
+    return f" in {'(' if lo_open else '['}{lo:g}, {hi:g}]"
