@@ -23,12 +23,9 @@ def finite_array(
         arr = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise InvalidInput(field, value, "an array of real numbers") from None
-    if shape is not None:
-        if arr.ndim != len(shape) or any(
-            want is not None and got != want for got, want in zip(arr.shape, shape, strict=True)
-        ):
-            want_text = "×".join("n" if s is None else str(s) for s in shape)
-            raise DimensionError(field, value, f"shape {want_text}, got {arr.shape}")
+    if shape is not None and not _shape_matches(arr.shape, shape):
+        want_text = "×".join("n" if s is None else str(s) for s in shape)
+        raise DimensionError(field, value, f"shape {want_text}, got {arr.shape}")
     if arr.size == 0:
         raise InvalidInput(field, value, "a non-empty array")
     if not np.all(np.isfinite(arr)):
@@ -50,6 +47,11 @@ def finite_float(field: str, value: Any, lo: float | None = None, hi: float | No
     if hi is not None and x > hi:
         raise InvalidInput(field, value, f"a number{allowed}")
     return x
+
+
+def _shape_matches(got: tuple[int, ...], want: Sequence[int | None]) -> bool:
+    same = len(got) == len(want)
+    return same and all(w is None or g == w for g, w in zip(got, want, strict=True))
 
 
 def _range_text(lo: float | None, hi: float | None, lo_open: bool) -> str:
