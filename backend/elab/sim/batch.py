@@ -29,6 +29,7 @@ _MATRICES: dict[str, Callable[..., tuple[int, ...]]] = {
     "u_lim": lambda R, X, Y, C, W, L: (R,), "quantum": lambda R, X, Y, C, W, L: (R, Y),
     "x": lambda R, X, Y, C, W, L: (R, X), "xc": lambda R, X, Y, C, W, L: (R, C),
     "exo": lambda R, X, Y, C, W, L: (R, L, 2 + Y),
+    "y_op": lambda R, X, Y, C, W, L: (R, Y), "x_op": lambda R, X, Y, C, W, L: (R, X),
 }
 
 
@@ -44,6 +45,7 @@ class Batch:
         self._k = np.zeros(capacity, dtype=np.int64)
         self._runs: dict[int, CompiledRun] = {}
         self._out = np.zeros((capacity, 0, 0))
+        self._last_n = 0
 
     def __len__(self) -> int:
         return len(self._runs)
@@ -85,34 +87,44 @@ class Batch:
         self._runs[slot] = run
         self.refresh_exogenous(slot)
 
-    def advance(self, n: int, slots: list[int] | None = None) -> dict[int, Samples]:
-        """Step the runs in ``slots`` (default: all) by ``n`` samples each."""
+    def advance(self, n: int, slots: list[int] | None = None) -> Array:
+        """Step the runs in ``slots`` (default: all) by ``n`` samples each.
+
+        Returns the stacked output block ``(slots, n, 2 + NY + NX)`` (a view, valid
+        until the next call); :meth:`columns` says where a run's channels are and
+        :meth:`samples` copies one run's chunk out as :class:`Samples`.
+        """
         if n > self.block:
             raise ValueError(f"n: got {n}; allowed: at most block = {self.block} samples")
-        active = sorted(self._runs) if slots is None else slots
-        for s in active:
-            if self._exo_off[s] + n > self.block:
-                exo = self._runs[s].exogenous(int(self._k[s]), self.block)
-                self._a["exo"][s, :, : exo.shape[1]] = exo
-                self._exo_off[s] = 0
+        active = np.asarray(sorted(self._runs) if slots is None else slots, dtype=np.int64)
+        for s in active[self._exo_off[active] + n > self.block]:
+            exo = self._runs[int(s)].exogenous(int(self._k[s]), self.block)
+            self._a["exo"][s, :, : exo.shape[1]] = exo
+            self._exo_off[s] = 0
         R, X, Y = self._dims[:3]
         if self._out.shape[1] < n or self._out.shape[0] < R:
-            self._out = np.zeros((R, n, 2 + Y + X))
+            self._out = np.zeros((R, max(n, self._out.shape[1]), 2 + Y + X))
         a = self._a
-        advance(np.asarray(active, dtype=np.int64), n, a["Ad"], a["Bd"], a["C"], a["Ac"],
-                a["Bc"], a["Cc"], a["Dc"], a["Lw"], self._use_state, a["u_lim"], a["quantum"],
-                a["x"], a["xc"], a["exo"], self._exo_off, self._out)
-        result = {s: self._samples(s, n) for s in active}
+        advance(active, n, a["Ad"], a["Bd"], a["C"], a["Ac"], a["Bc"], a["Cc"], a["Dc"], a["Lw"],
+                self._use_state, a["u_lim"], a["quantum"], a["x"], a["xc"], a["exo"],
+                self._exo_off, a["y_op"], a["x_op"], self._out)
         self._k[active] += n
-        return result
+        self._last_n = n
+        return self._out[:, :n]
 
-    def _samples(self, s: int, n: int) -> Samples:
-        run, Y = self._runs[s], self._dims[2]
-        p = run.spec.plant
-        o = self._out[s, :n]
-        return Samples(p, run.Ts, int(self._k[s]), o[:, 0].copy(), o[:, 1].copy(),
-                       o[:, 2:2 + p.ny] + p.C @ p.operating_point,
-                       o[:, 2 + Y:2 + Y + p.nx] + p.operating_point)
+    def columns(self, slot: int) -> tuple[slice, slice]:
+        """Column slices of outputs ``y`` and states ``x`` of ``slot`` in the block
+        (``r`` is column 0, ``u`` column 1)."""
+        p, Y = self._runs[slot].spec.plant, self._dims[2]
+        return slice(2, 2 + p.ny), slice(2 + Y, 2 + Y + p.nx)
+
+    def samples(self, slot: int) -> Samples:
+        """A copy of the chunk the last :meth:`advance` produced for ``slot``."""
+        run, n = self._runs[slot], self._last_n
+        ys, xs = self.columns(slot)
+        o = self._out[slot, :n]
+        return Samples(run.spec.plant, run.Ts, int(self._k[slot]) - n, o[:, 0].copy(),
+                       o[:, 1].copy(), o[:, ys].copy(), o[:, xs].copy())
 
     def _load(self, s: int, run: CompiledRun, keep_state: bool = False) -> None:
         a, p, c = self._a, run.spec.plant, run.controller
@@ -124,6 +136,7 @@ class Batch:
         a["Ac"][s, :nc, :nc], a["Bc"][s, :nc, :m] = c.Ac, c.Bc
         a["Cc"][s, :nc], a["Dc"][s, :m], a["Lw"][s, :nc] = c.Cc, c.Dc, c.Lw
         a["u_lim"][s], a["quantum"][s, :ny] = run.u_lim, run.quantum
+        a["x_op"][s, :nx], a["y_op"][s, :ny] = p.operating_point, p.C @ p.operating_point
         if not keep_state:
             a["x"][s, :nx] = run.x0
         self._use_state[s] = c.feedback == "state"

@@ -41,7 +41,8 @@ class Simulation:
         parts = []
         while n > 0:
             step = min(n, self._batch.block)
-            parts.append(self._batch.advance(step)[self._slot])
+            self._batch.advance(step)
+            parts.append(self._batch.samples(self._slot))
             n -= step
         if not parts:
             return self._empty()
@@ -80,7 +81,8 @@ def simulate(spec: RunSpec) -> Samples:
     run: CompiledRun = compile_run(spec)
     batch = Batch(capacity=1, block=run.n_samples)
     slot = batch.add(run)
-    samples = batch.advance(run.n_samples)[slot]
+    batch.advance(run.n_samples)
+    samples = batch.samples(slot)
     bad = divergence_index(samples)
     return samples if bad is None else samples.head(bad)
 

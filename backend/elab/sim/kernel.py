@@ -13,7 +13,7 @@ so a run gives the same bits alone or in a batch. Per sample :math:`k`:
 with :math:`v` sensor noise, :math:`Q` quantisation, :math:`z = x` (state
 feedback) or :math:`y`, :math:`e` the excitation added at the plant input.
 Row ``i`` of ``out`` is ``[r, u, y (NY), x (NX)]`` at sample ``k`` (state before
-the update).
+the update), with the operating point ``y_op``, ``x_op`` added: absolute values.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from numba import njit
 def advance(
     slots: Any, n: int, Ad: Any, Bd: Any, C: Any, Ac: Any, Bc: Any, Cc: Any, Dc: Any,
     Lw: Any, use_state: Any, u_lim: Any, quantum: Any, x: Any, xc: Any, exo: Any,
-    exo_off: Any, out: Any,
+    exo_off: Any, y_op: Any, x_op: Any, out: Any,
 ) -> None:  # pragma: no cover - compiled; covered through elab.sim.batch
     NX, NY, NC = x.shape[1], C.shape[1], xc.shape[1]
     NZ = Dc.shape[1] - 1
@@ -77,9 +77,9 @@ def advance(
             out[s, i, 0] = r
             out[s, i, 1] = u
             for o in range(NY):
-                out[s, i, 2 + o] = y[o]
+                out[s, i, 2 + o] = y[o] + y_op[s, o]
             for c in range(NX):
-                out[s, i, 2 + NY + c] = x[s, c]
+                out[s, i, 2 + NY + c] = x[s, c] + x_op[s, c]
                 x[s, c] = xn[c]
             for c in range(NC):
                 xc[s, c] = xcn[c]

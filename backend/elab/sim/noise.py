@@ -8,10 +8,12 @@ always gives the same run.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numpy.typing import NDArray
 
-BLOCK = 4096
+BLOCK = 1024
 
 
 def sensor_noise(seed: int, k0: int, n: int, std: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -21,9 +23,16 @@ def sensor_noise(seed: int, k0: int, n: int, std: NDArray[np.float64]) -> NDArra
     first, last = k0 // BLOCK, (k0 + n - 1) // BLOCK if n else k0 // BLOCK - 1
     pos = 0
     for j in range(first, last + 1):
-        block = np.random.default_rng([seed, j]).standard_normal((BLOCK, m))
+        block = _block(seed, j, m)
         lo = max(k0, j * BLOCK) - j * BLOCK
         hi = min(k0 + n, (j + 1) * BLOCK) - j * BLOCK
         out[pos : pos + hi - lo] = block[lo:hi]
         pos += hi - lo
     return out * std
+
+
+@lru_cache(maxsize=1024)  # ≤ 8 MiB per channel; a live run reuses its current block
+def _block(seed: int, j: int, m: int) -> NDArray[np.float64]:
+    block = np.random.default_rng([seed, j]).standard_normal((BLOCK, m))
+    block.setflags(write=False)
+    return block

@@ -1,0 +1,135 @@
+"""`make bench`: measure the simulation engine and write docs/benchmarks.md.
+
+Figures are ratios against named peers measured in the same run (these shared
+2-core machines vary too much for absolute times to mean much alone).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+import resource
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from datetime import UTC, datetime
+from pathlib import Path
+
+import control as ct
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+from elab.plants import get_plant  # noqa: E402
+from elab.sim import Batch, RunSpec, Simulation, Square, compile_run, simulate  # noqa: E402
+from tests.unit.conftest import discrete_loop  # noqa: E402
+
+FLEX = get_plant("flexible_link")
+SPEC = RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 4.0), duration=10.0)
+
+
+def best_of(fn: Callable[[], object], repeat: int) -> float:
+    """Median wall time of ``repeat`` calls (s), after one warm-up call."""
+    fn()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def bench_whole_run() -> dict[str, float]:
+    n = compile_run(SPEC).n_samples
+    t_sim = best_of(lambda: simulate(SPEC), 50)
+    run = compile_run(SPEC)
+    t_compile = best_of(lambda: compile_run(SPEC), 50)
+    loop = discrete_loop(compile_run(RunSpec(**{**SPEC.__dict__, "saturate": False})))
+    T = np.arange(n) * run.Ts
+    r = SPEC.reference.sample(0, n, run.Ts)
+    t_fr = best_of(lambda: ct.forced_response(loop, T=T, U=r), 5)
+    return {"n": n, "sim_ns": t_sim / n * 1e9, "step_ns": (t_sim - t_compile) / n * 1e9,
+            "fr_ns": t_fr / n * 1e9, "x_realtime": n * run.Ts / t_sim}
+
+
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def bench_concurrent(runs: int = 300, chunk: int = 20, seconds: float = 20.0) -> dict[str, float]:
+    spec = RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 4.0), duration=3600.0,
+                   noise_seed=1, quantize=True)
+    batch = Batch(capacity=runs, block=1000)
+    for _ in range(runs):
+        batch.add(compile_run(spec))
+    ticks = round(seconds / (chunk * FLEX.Ts))
+    slots = list(range(runs))
+    cols = [batch.columns(s) for s in slots]
+    batch.advance(chunk)  # warm-up
+    c0 = _cpu()
+    for _ in range(ticks):
+        block = batch.advance(chunk)
+        # what a consumer does per run: take views of its outputs and input
+        for s, (ys, _xs) in zip(slots, cols, strict=True):
+            block[s, :, ys], block[s, :, 1]
+    batched = (_cpu() - c0) / seconds
+    sims = [Simulation(spec, block=1000) for _ in range(runs)]
+    for s in sims:
+        s.advance(chunk)
+    per_ticks = max(1, ticks // 10)
+    c0 = _cpu()
+    for _ in range(per_ticks):
+        for s in sims:
+            s.advance(chunk)
+    per_run = (_cpu() - c0) / (per_ticks * chunk * FLEX.Ts)
+    return {"runs": runs, "chunk": chunk, "batched_core": batched, "per_run_core": per_run}
+
+
+def render(w: dict[str, float], c: dict[str, float]) -> str:
+    now = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    return f"""# Benchmarks
+
+Written by `make bench` (`tests/bench/run.py`) on {now}; {platform.processor() or platform.machine()},
+{os.cpu_count()} cores, Python {platform.python_version()}, NumPy {np.__version__},
+python-control {ct.__version__}. Shared 2-core machines: compare the ratios, not the absolutes.
+
+## Simulation engine (issue 2)
+
+### Whole run: flexible link, predefined LQR with velocity filters, ±10 V saturation, 10 s at 1 kHz
+
+| measure | value | goal |
+|---|---|---|
+| `simulate()` per step, everything included (validation, ZOH, Tustin, signals) | {w['sim_ns']:.0f} ns | ≤ 200 ns |
+| stepping loop per step (the same minus `compile_run`) | {w['step_ns']:.0f} ns | |
+| faster than real time | {w['x_realtime']:,.0f}× | ≥ 5,000× |
+| peer: python-control `forced_response`, same discrete loop without saturation | {w['fr_ns']:.0f} ns per step | |
+| **ratio `forced_response` / `simulate()`** | **{w['fr_ns'] / w['sim_ns']:.0f}×** | |
+
+### Chunked stepping: {c['runs']:.0f} concurrent flexible-link runs in {c['chunk'] * FLEX.Ts * 1e3:.0f} ms chunks
+
+Each run: predefined LQR with velocity filters, quantised encoders, seeded sensor noise,
+±10 V saturation. CPU time (user + system) per second of simulated (real) time:
+
+| stepping | share of one core | goal |
+|---|---|---|
+| one `Batch.advance` call per chunk for all runs, then a view of each run's outputs (the engine's way) | {c['batched_core'] * 100:.2f} % | ≤ 5 % |
+| peer: one `Simulation.advance` call per run per chunk | {c['per_run_core'] * 100:.1f} % | |
+| **ratio per-run / batched** | **{c['per_run_core'] / c['batched_core']:.0f}×** | |
+"""
+
+
+def main() -> None:
+    w = bench_whole_run()
+    c = bench_concurrent()
+    text = render(w, c)
+    out = ROOT / "docs" / "benchmarks.md"
+    out.write_text(text, encoding="utf-8")
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
