@@ -63,7 +63,7 @@ PLANT = Plant(
     reference_output=0,
     reference_state=0,
     predefined=StateFeedback(
-        K=(-1.00089, 17547.96623, -4771.82226, -32.99478, 3063.53215, 756.42262)
+        K=(-1.0, 17549.1681, -4772.05208, -32.9730917, 3063.80861, 756.623012)
     ),
     predefined_design="LQR, Q = diag(100, 5e9, 5e9, 1, 1, 1), R = 100 (seed §4.2.3)",
     sensors=Sensors(quantum=(ENCODER_QUANTUM,) * 3, noise_std=(2e-4,) * 3),

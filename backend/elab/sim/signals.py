@@ -8,7 +8,7 @@ unit of the channel the signal drives (rad, m or V).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -177,4 +177,9 @@ def make_signal(kind: str, **params: float | int | tuple[float, ...]) -> Signal:
                                + ", ".join(cls.__dataclass_fields__))
         if name not in ("values", "order"):
             finite_float(f"signal.{name}", value)
+    for name, f in cls.__dataclass_fields__.items():
+        if name not in params and f.default is MISSING and f.default_factory is MISSING:
+            raise InvalidInput(f"signal.{name}", None, f"a value: {kind} needs "
+                               + ", ".join(n for n, g in cls.__dataclass_fields__.items()
+                                           if g.default is MISSING))
     return cls(**params)  # type: ignore[arg-type]

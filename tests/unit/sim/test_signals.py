@@ -69,6 +69,7 @@ def test_chirp_sweeps_its_band() -> None:
     ("prbs", {"amplitude": 1.0, "order": 40}, "signal.order"),
     ("prbs", {"amplitude": 1.0, "band": 1.5}, "signal.band"),
     ("step", {"amplitude": 1.0, "colour": 3.0}, "signal.colour"),
+    ("square", {"amplitude": 1.0}, "signal.period"),
     ("samples", {"values": (1.0, float("inf"))}, "signal.values"),
 ])
 def test_bad_signal_names_the_field(kind: str, params: dict[str, float], field: str) -> None:

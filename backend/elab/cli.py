@@ -1,0 +1,261 @@
+"""``elab``: the lab on the command line, calling the same functions as the server.
+
+Errors in the input print ``error: <field>: got ...; allowed: ...`` and exit 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from elab import design
+from elab.errors import ElabError, InvalidInput
+from elab.laws import PID, ControlLaw, OpenLoop, StateFeedback
+from elab.plants import PLANTS, Plant, get_plant
+from elab.runs.export import describe, to_csv
+from elab.sim import RunSpec, make_signal, simulate
+
+UNITS = {"deg": math.pi / 180, "rad": 1.0, "mm": 1e-3, "m": 1.0, "V": 1.0, "s": 1.0, "Hz": 1.0}
+
+
+def parse_quantity(text: str, field: str = "value") -> float:
+    """``"30deg"`` → 0.5236 (SI); a plain number is taken as SI."""
+    for suffix, factor in sorted(UNITS.items(), key=lambda kv: -len(kv[0])):
+        if text.endswith(suffix):
+            return _number(text[: -len(suffix)], field, text) * factor
+    return _number(text, field, text)
+
+
+def _number(text: str, field: str, original: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise InvalidInput(field, original, "a number, optionally with a unit: "
+                           + ", ".join(UNITS)) from None
+    if not math.isfinite(x):
+        raise InvalidInput(field, original, "a finite number")
+    return x
+
+
+def parse_vector(text: str, field: str) -> tuple[float, ...]:
+    """``"400,1e4,3,2"`` → a tuple of floats (complex allowed via ``complex_vector``)."""
+    return tuple(parse_quantity(p.strip(), field) for p in text.split(",") if p.strip())
+
+
+def parse_complex_vector(text: str, field: str) -> tuple[complex, ...]:
+    try:
+        values = tuple(complex(p.strip().replace("i", "j")) for p in text.split(","))
+    except ValueError:
+        raise InvalidInput(field, text, "comma-separated numbers such as -5,-6+2j,-6-2j") from None
+    return values
+
+
+def parse_law(text: str, plant: Plant, estimate: str) -> ControlLaw:
+    """``predefined`` | ``open`` | ``K:k1,k2,...`` | ``pid:Kp,Ki,Kd`` | ``lqr:Q1,..,Qn;R``."""
+    kind, _, arg = text.partition(":")
+    if kind == "predefined":
+        return plant.predefined
+    if kind == "open":
+        return OpenLoop()
+    if kind == "K":
+        return StateFeedback(parse_vector(arg, "controller.K"), estimate)  # type: ignore[arg-type]
+    if kind == "pid":
+        gains = parse_vector(arg, "controller.pid")
+        if not 1 <= len(gains) <= 3:
+            raise InvalidInput("controller.pid", arg, "1 to 3 gains: Kp[,Ki[,Kd]]")
+        return PID(*gains)
+    if kind == "lqr":
+        q, _, r = arg.partition(";")
+        K = design.design_lqr(plant, parse_vector(q, "Q"), parse_quantity(r or "1", "R")).K
+        return StateFeedback(tuple(float(k) for k in np.ravel(K)), estimate)  # type: ignore[arg-type]
+    raise InvalidInput("controller", text, "predefined, open, K:k1,..,kn, pid:Kp,Ki,Kd or "
+                       "lqr:q1,..,qn;R")
+
+
+def cmd_plants(args: argparse.Namespace) -> str:
+    if args.json:
+        return _json([{"id": p.id, "name": p.name, "summary": p.summary, "modes": p.modes}
+                      for p in PLANTS.values()])
+    return "\n".join(f"{p.id:18} {p.name:26} {p.summary}" for p in PLANTS.values())
+
+
+def cmd_analyze(args: argparse.Namespace) -> str:
+    plant = get_plant(args.plant)
+    a = design.analyze(plant)
+    cl = design.closed_loop(plant, plant.predefined)
+    cl_stab = design.stability(cl.A)
+    if args.json:
+        return _json({
+            "plant": plant.id,
+            "eigenvalues": _complex_list(a.stability.eigenvalues),
+            "stability": {"verdict": a.stability.verdict, "reason": a.stability.reason},
+            "controllability": _rank(a.controllability),
+            "observability": _rank(a.observability),
+            "transfer_functions": [{"output": tf.output, "input": tf.input,
+                                    "num": tf.num.tolist(), "den": tf.den.tolist()}
+                                   for tf in a.transfer_functions],
+            "predefined": {"law": describe(plant.predefined), "design": plant.predefined_design,
+                           "closed_loop_poles": _complex_list(cl_stab.eigenvalues),
+                           "verdict": cl_stab.verdict},
+        })
+    lines = [f"{plant.name} ({plant.id})", "",
+             "eigenvalues: " + ", ".join(_c(z) for z in a.stability.eigenvalues),
+             f"open loop: {a.stability.verdict} — {a.stability.reason}",
+             _rank_text("controllability", a.controllability),
+             _rank_text("observability", a.observability), "", "transfer functions:"]
+    lines += [f"  {tf.output}/{tf.input} = {tf.text()}" for tf in a.transfer_functions]
+    lines += ["", f"predefined controller: {describe(plant.predefined)}",
+              f"  {plant.predefined_design}",
+              "  closed-loop poles: " + ", ".join(_c(z) for z in cl_stab.eigenvalues),
+              f"  closed loop: {cl_stab.verdict}"]
+    return "\n".join(lines)
+
+
+def cmd_design(args: argparse.Namespace) -> str:
+    plant = get_plant(args.plant)
+    if args.method == "lqr":
+        if args.Q is None:
+            raise InvalidInput("Q", None, f"{plant.nx} diagonal weights, e.g. --Q 1,1,...")
+        res = design.design_lqr(plant, parse_vector(args.Q, "Q"), parse_quantity(args.R, "R"))
+        K, poles = np.ravel(res.K), res.poles
+    else:
+        if args.poles is None:
+            raise InvalidInput("poles", None, f"{plant.nx} poles, e.g. --poles -5,-6,-7+2j,-7-2j")
+        pl = design.design_place(plant, parse_complex_vector(args.poles, "poles"))
+        K, poles = np.ravel(pl.K), pl.poles
+    if args.json:
+        return _json({"plant": plant.id, "method": args.method, "K": K.tolist(),
+                      "closed_loop_poles": _complex_list(poles), "convention": "u = K (x_ref - x)"})
+    return "\n".join([f"K = [{' '.join(f'{k:.6g}' for k in K)}]   (u = K (x_ref − x))",
+                      "closed-loop poles: " + ", ".join(_c(z) for z in poles)])
+
+
+def cmd_simulate(args: argparse.Namespace) -> str:
+    plant = get_plant(args.plant)
+    law = parse_law(args.controller, plant, args.estimate)
+    params: dict[str, Any] = {"amplitude": parse_quantity(args.amplitude, "signal.amplitude")}
+    for name in ("period", "frequency", "offset", "band"):
+        if getattr(args, name) is not None:
+            params[name] = parse_quantity(getattr(args, name), f"signal.{name}")
+    if args.order is not None:
+        params["order"] = args.order
+    if args.signal == "square" and "period" not in params:
+        params["period"] = plant.signal.period or 4.0
+    spec = RunSpec(plant, law, make_signal(args.signal, **params), duration=args.duration,
+                   Ts=args.Ts, saturate=False if args.no_saturation else None,
+                   noise_seed=args.noise_seed, quantize=args.quantize)
+    res = simulate(spec)
+    header = {"plant": f"{plant.id} ({plant.name})", "controller": describe(law),
+              "signal": describe(spec.reference), "generator": "elab simulate"}
+    if args.out:
+        Path(args.out).write_text(to_csv(res, header), encoding="utf-8")
+    return _simulate_summary(plant, spec, res, args.out)
+
+
+def _simulate_summary(plant: Plant, spec: RunSpec, res: Any, out: str | None) -> str:
+    i = plant.reference_output
+    ref = plant.outputs[i]
+    y = res.y[:, i]
+    lines = [f"{res.n} samples at Ts = {res.Ts:g} s, {res.n * res.Ts:g} s simulated",
+             f"{ref.name}: min {y.min():.4g}, max {y.max():.4g} {ref.unit};  "
+             f"u: min {res.u.min():.4g}, max {res.u.max():.4g} V"]
+    expected = round(spec.duration / res.Ts)
+    if res.n < expected:
+        lines.append(f"DIVERGED at t = {res.n * res.Ts:.4g} s: the closed loop is unstable")
+    if out:
+        lines.append(f"wrote {out}")
+    return "\n".join(lines)
+
+
+def _rank(r: Any) -> dict[str, Any]:
+    return {"rank": r.rank, "full": r.full, "condition_number": r.condition_number,
+            "singular_values": r.singular_values.tolist()}
+
+
+def _rank_text(name: str, r: Any) -> str:
+    n = min(r.matrix.shape)
+    word = "full rank" if r.full else "rank deficient"
+    return f"{name}: rank {r.rank} of {n} ({word}, condition number {r.condition_number:.3g})"
+
+
+def _c(z: complex) -> str:
+    z = complex(z)
+    if abs(z.imag) < 1e-12:
+        return f"{z.real:.6g}"
+    return f"{z.real:.6g}{z.imag:+.6g}j"
+
+
+def _complex_list(zs: Any) -> list[list[float]]:
+    return [[float(complex(z).real), float(complex(z).imag)] for z in zs]
+
+
+def _json(obj: Any) -> str:
+    return json.dumps(obj, indent=2)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="elab", description="E-Lab on the command line")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("plants", help="list the plants")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_plants)
+    p = sub.add_parser("analyze", help="eigenvalues, stability, controllability, TFs")
+    p.add_argument("plant")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_analyze)
+    p = sub.add_parser("design", help="state-feedback design: lqr or place")
+    p.add_argument("method", choices=["lqr", "place"])
+    p.add_argument("plant")
+    p.add_argument("--Q", help="diagonal of Q, comma-separated")
+    p.add_argument("--R", default="1", help="R (scalar)")
+    p.add_argument("--poles", help="closed-loop poles, comma-separated, e.g. -5,-6+2j,-6-2j")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_design)
+    _add_simulate(sub)
+    return parser
+
+
+def _add_simulate(sub: Any) -> None:
+    p = sub.add_parser("simulate", help="simulate a run and write its CSV")
+    p.add_argument("plant")
+    p.add_argument("--controller", default="predefined",
+                   help="predefined | open | K:k1,..,kn | pid:Kp,Ki,Kd | lqr:q1,..,qn;R")
+    p.add_argument("--estimate", default="velocity_filters",
+                   choices=["true_state", "velocity_filters"],
+                   help="state feedback on true states or on outputs + velocity filters")
+    p.add_argument("--signal", default="square", help="step, square, sine, chirp, prbs")
+    p.add_argument("--amplitude", default="30deg", help="with unit: 30deg, 0.5rad, 0.2m, 2V")
+    p.add_argument("--period", help="square wave period (s)")
+    p.add_argument("--frequency", help="sine frequency (Hz)")
+    p.add_argument("--offset")
+    p.add_argument("--band", help="PRBS band (fraction of Nyquist)")
+    p.add_argument("--order", type=int, help="PRBS register length")
+    p.add_argument("--duration", type=float, default=10.0, help="s")
+    p.add_argument("--Ts", type=float, help="sample time (s); default: the plant's")
+    p.add_argument("--noise-seed", type=int, help="add seeded sensor noise")
+    p.add_argument("--quantize", action="store_true", help="round outputs to encoder counts")
+    p.add_argument("--no-saturation", action="store_true")
+    p.add_argument("--out", help="CSV file to write")
+    p.set_defaults(func=cmd_simulate)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    func: Callable[[argparse.Namespace], str] = args.func
+    try:
+        print(func(args))
+    except ElabError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

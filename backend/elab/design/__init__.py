@@ -1,0 +1,68 @@
+"""Analysis and design of continuous LTI plants, built on python-control.
+
+- :mod:`~elab.design.analysis`: eigenvalues and stability, controllability,
+  observability, transfer functions;
+- :mod:`~elab.design.response`: step response and its metrics, Bode, margins;
+- :mod:`~elab.design.realise`: any control law as one continuous LTI controller;
+- :mod:`~elab.design.closed_loop`: a plant closed by any control law, loop transfer;
+- :mod:`~elab.design.synthesis`: LQR and pole placement.
+
+Every result is a frozen dataclass of read-only numpy arrays.
+"""
+
+from elab.design.analysis import (
+    Analysis,
+    RankReport,
+    Stability,
+    TransferFunction,
+    analyze,
+    controllability,
+    observability,
+    stability,
+    transfer_functions,
+)
+from elab.design.closed_loop import closed_loop, loop_transfer
+from elab.design.realise import Realisation, lti_ss, pid_tf, realise
+from elab.design.response import (
+    Bode,
+    Margins,
+    StepInfo,
+    StepResponse,
+    bode,
+    margins,
+    step_info,
+    step_response,
+)
+from elab.design.synthesis import LQR, Placement, design_lqr, design_place, lqr, place
+
+__all__ = [
+    "LQR",
+    "Analysis",
+    "Bode",
+    "Margins",
+    "Placement",
+    "RankReport",
+    "Realisation",
+    "Stability",
+    "StepInfo",
+    "StepResponse",
+    "TransferFunction",
+    "analyze",
+    "bode",
+    "closed_loop",
+    "controllability",
+    "design_lqr",
+    "design_place",
+    "loop_transfer",
+    "lqr",
+    "lti_ss",
+    "margins",
+    "observability",
+    "pid_tf",
+    "place",
+    "realise",
+    "stability",
+    "step_info",
+    "step_response",
+    "transfer_functions",
+]

@@ -1,0 +1,1 @@
+"""Runs: lifecycle, storage and export (the server's layer above the engine)."""
