@@ -86,11 +86,21 @@ def cmd_plants(args: argparse.Namespace) -> str:
     return "\n".join(f"{p.id:18} {p.name:26} {p.summary}" for p in PLANTS.values())
 
 
+def _closed_loop_figures(plant: Plant) -> tuple[Any, Any, Any]:
+    """Stability, step metrics (10 % of the default reference) and margins of the
+    predefined loop, continuous and unsaturated."""
+    cl = design.closed_loop(plant, plant.predefined)
+    stab = design.stability(cl.A)
+    slowest = float(np.min(np.abs(stab.eigenvalues.real)))
+    step = design.step_response(cl, T=min(10.0 / slowest, 600.0), n=20001, u_output=-1)
+    info = design.step_info(step.t, step.y[plant.reference_output])
+    return stab, info, design.margins(design.loop_transfer(plant, plant.predefined))
+
+
 def cmd_analyze(args: argparse.Namespace) -> str:
     plant = get_plant(args.plant)
     a = design.analyze(plant)
-    cl = design.closed_loop(plant, plant.predefined)
-    cl_stab = design.stability(cl.A)
+    cl_stab, info, m = _closed_loop_figures(plant)
     if args.json:
         return _json({
             "plant": plant.id,
@@ -103,7 +113,9 @@ def cmd_analyze(args: argparse.Namespace) -> str:
                                    for tf in a.transfer_functions],
             "predefined": {"law": describe(plant.predefined), "design": plant.predefined_design,
                            "closed_loop_poles": _complex_list(cl_stab.eigenvalues),
-                           "verdict": cl_stab.verdict},
+                           "verdict": cl_stab.verdict,
+                           "unit_step": {k: _finite_or_none(v) for k, v in vars(info).items()},
+                           "margins": {k: _finite_or_none(v) for k, v in vars(m).items()}},
         })
     lines = [f"{plant.name} ({plant.id})", "",
              "eigenvalues: " + ", ".join(_c(z) for z in a.stability.eigenvalues),
@@ -114,8 +126,25 @@ def cmd_analyze(args: argparse.Namespace) -> str:
     lines += ["", f"predefined controller: {describe(plant.predefined)}",
               f"  {plant.predefined_design}",
               "  closed-loop poles: " + ", ".join(_c(z) for z in cl_stab.eigenvalues),
-              f"  closed loop: {cl_stab.verdict}"]
+              f"  closed loop: {cl_stab.verdict}",
+              f"  unit step (linear): rise {info.rise_time:.3g} s, settling (2 %) "
+              f"{info.settling_time:.3g} s, overshoot {info.overshoot:.3g} %, "
+              f"steady-state error {info.steady_state_error:.2g}",
+              f"  margins (loop broken at u): {_margins_text(m)}"]
     return "\n".join(lines)
+
+
+def _margins_text(m: Any) -> str:
+    if not math.isfinite(m.gain_margin_db):
+        gain = "gain ∞ (no phase crossover)"
+    elif m.gain_margin_db < 0:
+        gain = (f"gain {m.gain_margin_db:.3g} dB at {m.phase_crossover:.4g} rad/s (a gain "
+                "decrease that much destabilises: the open loop is unstable)")
+    else:
+        gain = f"gain {m.gain_margin_db:.3g} dB at {m.phase_crossover:.4g} rad/s"
+    if not math.isfinite(m.phase_margin_deg):
+        return f"{gain}, phase ∞ (no gain crossover)"
+    return f"{gain}, phase {m.phase_margin_deg:.3g}° at {m.gain_crossover:.4g} rad/s"
 
 
 def cmd_design(args: argparse.Namespace) -> str:
@@ -194,6 +223,11 @@ def _c(z: complex) -> str:
 
 def _complex_list(zs: Any) -> list[list[float]]:
     return [[float(complex(z).real), float(complex(z).imag)] for z in zs]
+
+
+def _finite_or_none(x: float) -> float | None:
+    """JSON has no NaN or infinity: undefined figures become null."""
+    return float(x) if math.isfinite(x) else None
 
 
 def _json(obj: Any) -> str:

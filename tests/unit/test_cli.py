@@ -32,6 +32,18 @@ def test_analyze_json_matches_the_library(capsys: pytest.CaptureFixture[str]) ->
     lib = design.analyze(get_plant("flexible_link"))
     np.testing.assert_allclose(data["transfer_functions"][0]["num"], lib.transfer_functions[0].num)
     assert data["predefined"]["verdict"] == "asymptotically stable"
+    # seed-reproduction.md: the link's LQR step rises in 0.34 s with 1.75 % overshoot
+    assert data["predefined"]["unit_step"]["rise_time"] == pytest.approx(0.342, abs=2e-3)
+    assert data["predefined"]["unit_step"]["overshoot"] == pytest.approx(1.75, abs=0.02)
+    assert data["predefined"]["margins"]["gain_margin_db"] is None  # ∞: JSON null
+    assert data["predefined"]["margins"]["phase_margin_deg"] == pytest.approx(47.4, abs=0.1)
+
+
+def test_analyze_text_explains_a_negative_gain_margin(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "analyze", "double_pendulum")
+    assert code == 0
+    assert "open loop: unstable — eigenvalue 5.222 in the right half-plane" in out
+    assert "the open loop is unstable" in out.splitlines()[-1]
 
 
 def test_design_lqr_prints_the_seed_gain(capsys: pytest.CaptureFixture[str]) -> None:
