@@ -29,6 +29,13 @@ K_M = 5.0  # (rad/s)/V, gear-motor output speed per volt
 TAU_M = 0.2  # s, motor mechanical time constant
 DRUM_RADIUS = 6.0 / 125.0  # m, DC gain of the seed's load model (2s+6)/(s²+20s+125)
 
+STATES = (
+    Channel("x", "m", "belt position x"),
+    Channel("v", "m/s", "belt speed v"),
+    Channel("eta", "m/s^2", "belt strain rate η = v̇ − 2ω"),
+    Channel("omega", "rad/s", "motor speed ω"),
+)
+
 PLANT = Plant(
     id="belt_conveyor",
     name="Belt conveyor",
@@ -44,17 +51,9 @@ PLANT = Plant(
     B=frozen_matrix([[0], [0], [0], [K_M / TAU_M]]),
     C=frozen_matrix([[1, 0, 0, 0], [0, 1, 0, 0]]),
     D=frozen_matrix([[0], [0]]),
-    states=(
-        Channel("x", "m", "belt position x"),
-        Channel("v", "m/s", "belt speed v"),
-        Channel("eta", "m/s^2", "belt strain rate η = v̇ − 2ω"),
-        Channel("omega", "rad/s", "motor speed ω"),
-    ),
+    states=STATES,
     inputs=(Channel("u", "V", "motor voltage u"),),
-    outputs=(
-        Channel("x", "m", "belt position x"),
-        Channel("v", "m/s", "belt speed v"),
-    ),
+    outputs=STATES[:2],  # the outputs measure the first 2 states
     u_max=10.0,
     saturate=True,
     Ts=0.001,

@@ -26,6 +26,15 @@ from elab.plants.base import (
 )
 from elab.plants.flexible_link import ENCODER_QUANTUM
 
+STATES = (
+    Channel("alpha", "rad", "disc angle α"),
+    Channel("beta1", "rad", "pendulum 1 angle β₁ from upright"),
+    Channel("beta2", "rad", "pendulum 2 angle β₂ from upright"),
+    Channel("alpha_dot", "rad/s", "disc speed α̇"),
+    Channel("beta1_dot", "rad/s", "pendulum 1 rate β̇₁"),
+    Channel("beta2_dot", "rad/s", "pendulum 2 rate β̇₂"),
+)
+
 PLANT = Plant(
     id="double_pendulum",
     name="Rotary double pendulum",
@@ -43,20 +52,9 @@ PLANT = Plant(
     B=frozen_matrix([[0], [0], [0], [0.0302], [0.0139], [-0.0209]]),
     C=frozen_matrix([[1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0]]),
     D=frozen_matrix([[0], [0], [0]]),
-    states=(
-        Channel("alpha", "rad", "disc angle α"),
-        Channel("beta1", "rad", "pendulum 1 angle β₁ from upright"),
-        Channel("beta2", "rad", "pendulum 2 angle β₂ from upright"),
-        Channel("alpha_dot", "rad/s", "disc speed α̇"),
-        Channel("beta1_dot", "rad/s", "pendulum 1 rate β̇₁"),
-        Channel("beta2_dot", "rad/s", "pendulum 2 rate β̇₂"),
-    ),
+    states=STATES,
     inputs=(Channel("u", "V", "motor voltage u"),),
-    outputs=(
-        Channel("alpha", "rad", "disc angle α"),
-        Channel("beta1", "rad", "pendulum 1 angle β₁ from upright"),
-        Channel("beta2", "rad", "pendulum 2 angle β₂ from upright"),
-    ),
+    outputs=STATES[:3],  # the outputs measure the first 3 states
     u_max=10.0,
     saturate=False,
     Ts=0.001,

@@ -23,6 +23,13 @@ from elab.plants.base import (
 
 ENCODER_QUANTUM = 2 * math.pi / 4096  # rad per count, SRV02 encoders
 
+STATES = (
+    Channel("theta", "rad", "servo angle θ"),
+    Channel("alpha", "rad", "link deflection α"),
+    Channel("theta_dot", "rad/s", "servo speed θ̇"),
+    Channel("alpha_dot", "rad/s", "deflection rate α̇"),
+)
+
 PLANT = Plant(
     id="flexible_link",
     name="Rotary flexible link",
@@ -33,17 +40,9 @@ PLANT = Plant(
     B=frozen_matrix([[0], [0], [65.113], [-65.113]]),
     C=frozen_matrix([[1, 0, 0, 0], [0, 1, 0, 0]]),
     D=frozen_matrix([[0], [0]]),
-    states=(
-        Channel("theta", "rad", "servo angle θ"),
-        Channel("alpha", "rad", "link deflection α"),
-        Channel("theta_dot", "rad/s", "servo speed θ̇"),
-        Channel("alpha_dot", "rad/s", "deflection rate α̇"),
-    ),
+    states=STATES,
     inputs=(Channel("u", "V", "motor voltage u"),),
-    outputs=(
-        Channel("theta", "rad", "servo angle θ"),
-        Channel("alpha", "rad", "link deflection α"),
-    ),
+    outputs=STATES[:2],  # the outputs measure the first 2 states
     u_max=10.0,
     saturate=True,
     Ts=0.001,
