@@ -253,7 +253,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_design)
     _add_simulate(sub)
+    p = sub.add_parser("serve", help="run the lab server (REST + websocket stream)")
+    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--port", type=int, default=8000)
+    p.add_argument("--data", help="data directory (default: $ELAB_DATA or ./data)")
+    p.set_defaults(func=cmd_serve)
     return parser
+
+
+def cmd_serve(args: argparse.Namespace) -> str:
+    import os
+
+    import uvicorn
+
+    from elab.api.app import create_app
+    from elab.api.settings import Settings
+
+    if args.data:
+        os.environ["ELAB_DATA"] = args.data
+    settings = Settings.from_env()
+    print(f"E-Lab on http://{args.host}:{args.port}  (data: {settings.database})", flush=True)
+    uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="warning",
+                ws_max_size=1 << 20)
+    return "E-Lab stopped"
 
 
 def _add_simulate(sub: Any) -> None:

@@ -53,3 +53,11 @@ class NotFound(ElabError, LookupError):
 def _short(value: Any, limit: int = 80) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+class Conflict(ElabError, RuntimeError):
+    """The request conflicts with the current state (a finished run, a busy rig)."""
+
+
+class TooMany(ElabError, RuntimeError):
+    """A limit on concurrent work is reached (e.g. live runs)."""

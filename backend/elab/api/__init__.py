@@ -1,0 +1,1 @@
+"""The web edge: Starlette app, REST routes, the websocket stream, pydantic schemas."""

@@ -1,0 +1,95 @@
+"""Wire models ↔ core types (laws, signals, run specs). Validation happened in
+the models; the core re-checks what only it knows (dimensions, sample time)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from elab.api import schemas as s
+from elab.errors import InvalidInput
+from elab.laws import PID, ControlLaw, LTIController, OpenLoop, StateFeedback
+from elab.plants.base import Plant
+from elab.sim import signals as sig
+from elab.sim.spec import RunSpec
+
+
+def law(model: Any, plant: Plant) -> ControlLaw:
+    """The control law of a controller model (``predefined`` → the plant's)."""
+    if isinstance(model, s.PredefinedController):
+        return plant.predefined
+    if isinstance(model, s.StateFeedbackController):
+        return StateFeedback(tuple(model.K), model.estimate)
+    if isinstance(model, s.PIDController):
+        return PID(model.Kp, model.Ki, model.Kd, model.N, model.Tt)
+    if isinstance(model, s.LTIControllerModel):
+        return LTIController(
+            num=_tuple(model.num), den=_tuple(model.den), A=_rows(model.A), B=_rows(model.B),
+            C=_rows(model.C), D=_rows(model.D), dt=model.dt)
+    if isinstance(model, s.OpenLoopController):
+        return OpenLoop()
+    raise InvalidInput("controller.kind", type(model).__name__, "a known controller kind")
+
+
+def law_model(law_: ControlLaw) -> Any:
+    """The model of a core law (for a plant's predefined controller)."""
+    if isinstance(law_, StateFeedback):
+        return s.StateFeedbackController(K=list(law_.K), estimate=law_.estimate)
+    if isinstance(law_, PID):
+        return s.PIDController(Kp=law_.Kp, Ki=law_.Ki, Kd=law_.Kd, N=law_.N, Tt=law_.Tt)
+    if isinstance(law_, OpenLoop):
+        return s.OpenLoopController()
+    return s.LTIControllerModel.model_validate(
+        {"num": _list(law_.num), "den": _list(law_.den), "dt": law_.dt})
+
+
+def signal(model: Any) -> sig.Signal:
+    data = model.model_dump(exclude={"kind"})
+    if isinstance(model, s.SamplesSignal):
+        return sig.Samples(tuple(model.values))
+    return sig.make_signal(model.kind, **data)
+
+
+def default_signal(plant: Plant) -> Any:
+    d = plant.signal
+    if d.kind == "square":
+        return s.SquareSignal.model_validate({"amplitude": d.amplitude, "period": d.period})
+    if d.kind == "sine":
+        return s.SineSignal.model_validate({"amplitude": d.amplitude, "frequency": 1 / d.period})
+    return s.StepSignal.model_validate({"amplitude": d.amplitude})
+
+
+def run_spec(req: s.RunCreate, plant: Plant) -> RunSpec:
+    """The core run of a request, with the plant's defaults filled in."""
+    if req.mode == "rig" and "rig" not in plant.modes:
+        raise InvalidInput("mode", req.mode, f"one of {', '.join(plant.modes)} for {plant.id}")
+    if req.experiment not in plant.experiments:
+        raise InvalidInput("experiment", req.experiment,
+                           f"one of {', '.join(plant.experiments)}")
+    return RunSpec(
+        plant=plant, law=law(req.controller, plant),
+        reference=signal(req.signal or default_signal(plant)),
+        duration=req.duration if req.duration is not None else plant.signal.duration,
+        Ts=req.Ts, excitation=signal(req.excitation) if req.excitation else None,
+        excitation_at=req.excitation_at, saturate=req.saturate, noise_seed=req.seed,
+        quantize=req.quantize, x0=tuple(req.x0) if req.x0 is not None else None)
+
+
+def complex_list(values: Any) -> list[s.Complex]:
+    return [s.Complex(re=float(complex(z).real), im=float(complex(z).imag)) for z in values]
+
+
+def finite_or_none(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def _tuple(v: list[float] | None) -> tuple[float, ...] | None:
+    return tuple(v) if v is not None else None
+
+
+def _rows(v: list[list[float]] | None) -> tuple[tuple[float, ...], ...] | None:
+    return tuple(tuple(r) for r in v) if v is not None else None
+
+
+def _list(v: tuple[float, ...] | None) -> list[float] | None:
+    return list(v) if v is not None else None

@@ -1,0 +1,151 @@
+"""HTTP plumbing: the endpoint registry (routes and OpenAPI come from it), JSON
+bodies with a size limit, responses from models, and errors as JSON.
+
+Status codes: 422 invalid input (every field error listed), 404 unknown id,
+409 conflict with the current state, 413 body too large, 429 too many live
+runs. Every error body is ``{"error": {"code", "message", "field", "errors"}}``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
+
+from pydantic import BaseModel, ValidationError
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response
+
+from elab.api.schemas import ErrorBody, ErrorDetail, FieldError
+from elab.errors import Conflict, ElabError, InvalidInput, NotFound, TooMany
+
+Handler = Callable[[Request], Awaitable[Response]]
+M = TypeVar("M", bound=BaseModel)
+
+
+class TooLarge(ElabError):
+    """A request body over the configured limit."""
+
+    def __init__(self, limit: int) -> None:
+        super().__init__(f"request body is larger than {limit} bytes (ELAB_MAX_BODY)")
+
+
+@dataclass(frozen=True)
+class Param:
+    """A path or query parameter, for the OpenAPI document."""
+
+    name: str
+    where: str  # "path" | "query"
+    description: str
+    schema: dict[str, Any] = field(default_factory=lambda: {"type": "string"})
+    required: bool = False
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    method: str
+    path: str
+    summary: str
+    handler: Handler
+    body: type[BaseModel] | None = None
+    response: Any = None
+    status: int = 200
+    params: tuple[Param, ...] = ()
+    errors: tuple[int, ...] = (404, 422)
+    media: str = "application/json"
+
+
+ENDPOINTS: list[Endpoint] = []
+
+
+def endpoint(method: str, path: str, summary: str, **meta: Any) -> Callable[[Handler], Handler]:
+    """Register ``handler`` under ``/api/v1`` + ``path`` (the docstring is its description)."""
+    def register(handler: Handler) -> Handler:
+        ENDPOINTS.append(Endpoint(method, path, summary, handler, **meta))
+        return handler
+    return register
+
+
+async def read_model(request: Request, model: type[M]) -> M:
+    """The body as ``model``: 413 over the limit, 422 for bad JSON or fields."""
+    limit: int = request.app.state.settings.max_body
+    length = request.headers.get("content-length")
+    if length is not None and length.isdigit() and int(length) > limit:
+        raise TooLarge(limit)
+    body = bytearray()
+    async for part in request.stream():
+        body += part
+        if len(body) > limit:
+            raise TooLarge(limit)
+    try:
+        data = json.loads(body) if body.strip() else None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InvalidInput("body", bytes(body[:40]), f"a JSON object ({exc})") from None
+    if not isinstance(data, dict):
+        raise InvalidInput("body", data, f"a JSON object ({model.__name__})")
+    return model.model_validate(data)
+
+
+def ok(model: BaseModel | list[Any], status: int = 200) -> JSONResponse:
+    if isinstance(model, list):
+        return JSONResponse([m.model_dump(mode="json") for m in model], status_code=status)
+    return JSONResponse(model.model_dump(mode="json"), status_code=status)
+
+
+def error_response(exc: Exception) -> JSONResponse:
+    """The JSON error for a known exception (anything else is a bug: 500)."""
+    status, detail = _detail(exc)
+    return JSONResponse(ErrorBody(error=detail).model_dump(mode="json"), status_code=status)
+
+
+def _detail(exc: Exception) -> tuple[int, ErrorDetail]:
+    if isinstance(exc, ValidationError):
+        errors = [FieldError(field=_loc(e["loc"]), message=_msg(e)) for e in exc.errors()]
+        return 422, ErrorDetail(code="invalid", message="; ".join(
+            f"{e.field}: {e.message}" for e in errors), field=errors[0].field if errors else None,
+            errors=errors)
+    if isinstance(exc, InvalidInput):
+        return 422, ErrorDetail(code="invalid", message=str(exc), field=exc.field,
+                                errors=[FieldError(field=exc.field, message=str(exc))])
+    if isinstance(exc, NotFound):
+        return 404, ErrorDetail(code="not_found", message=str(exc))
+    if isinstance(exc, Conflict):
+        return 409, ErrorDetail(code="conflict", message=str(exc))
+    if isinstance(exc, TooMany):
+        return 429, ErrorDetail(code="too_many", message=str(exc))
+    if isinstance(exc, TooLarge):
+        return 413, ErrorDetail(code="too_large", message=str(exc))
+    raise exc
+
+
+def _loc(loc: tuple[int | str, ...]) -> str:
+    return ".".join(str(p) for p in loc) or "body"
+
+
+def _msg(e: Any) -> str:
+    value = json.dumps(e.get("input"), default=str)
+    value = value if len(value) <= 60 else value[:57] + "..."
+    return f"{e['msg']} (got {value})"
+
+
+def query_float(request: Request, name: str) -> float | None:
+    raw = request.query_params.get(name)
+    if raw is None or raw == "":
+        return None
+    try:
+        value = float(raw)
+    except ValueError:
+        raise InvalidInput(name, raw, "a number") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise InvalidInput(name, raw, "a finite number")
+    return value
+
+
+def query_int(request: Request, name: str, default: int, lo: int, hi: int) -> int:
+    raw = request.query_params.get(name)
+    if raw is None:
+        return default
+    if not raw.lstrip("-").isdigit() or not lo <= int(raw) <= hi:
+        raise InvalidInput(name, raw, f"an integer in [{lo}, {hi}]")
+    return int(raw)

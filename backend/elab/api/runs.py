@@ -1,0 +1,181 @@
+"""``/runs``: start, list, inspect, control and download runs."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from typing import Any
+
+from starlette.requests import HTTPConnection, Request
+from starlette.responses import Response
+
+from elab.api import convert
+from elab.api import schemas as s
+from elab.api.http import Param, endpoint, ok, query_float, query_int, read_model
+from elab.errors import InvalidInput
+from elab.plants import get_plant
+from elab.runs import export
+from elab.runs.fanout import frame_samples
+from elab.runs.manager import RunManager
+from elab.runs.store import RunRecord
+
+RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
+FORMATS = {"csv": "text/csv; charset=utf-8", "json": "application/json",
+           "mat": "application/x-matlab-data"}
+
+
+def manager(request: HTTPConnection) -> RunManager:
+    return request.app.state.manager  # type: ignore[no-any-return]
+
+
+async def run_info(request: HTTPConnection, record: RunRecord) -> s.RunInfo:
+    changes = await asyncio.to_thread(manager(request).store.param_changes, record.id)
+    base = "/api/v1/runs/" + record.id
+    return s.RunInfo(
+        id=record.id, plant=record.plant, mode=record.mode, experiment=record.experiment,
+        status=record.status, Ts=record.Ts,  # type: ignore[arg-type]
+        channels=[s.ChannelInfo(name=n, unit=u) for n, u in record.channels],
+        n_planned=record.n_planned, n_samples=record.n_stored,
+        frame_samples=frame_samples(record.Ts), created_at=record.created_at,
+        started_at=record.started_at, finished_at=record.finished_at, error=record.error,
+        stream_url=base + "/stream", data_url=base + "/data", request=record.spec,
+        param_changes=[s.ParamChangeInfo(k=c.k, t=c.k * record.Ts, at=c.at, params=c.params)
+                       for c in changes])
+
+
+@endpoint("POST", "/runs", "Start a run (simulation); samples stream live and are recorded",
+          body=s.RunCreate, response=s.RunInfo, status=201, errors=(404, 409, 413, 422, 429))
+async def create_run(request: Request) -> Response:
+    """Starts stepping at once (paced to real time unless ``pace`` is ``fast``). Follow it on
+    ``stream_url`` (websocket, subprotocol ``elab.v1``); download it from ``data_url``."""
+    req = await read_model(request, s.RunCreate)
+    plant = get_plant(req.plant)
+    if req.mode == "rig":
+        raise InvalidInput("mode", "rig", "simulation (the rig is not connected to this server)")
+    req = req.model_copy(update={  # store what ran, with the plant's defaults filled in
+        "signal": req.signal or convert.default_signal(plant),
+        "duration": req.duration if req.duration is not None else plant.signal.duration})
+    spec = convert.run_spec(req, plant)
+    record = await manager(request).create(
+        spec, pace=req.pace, mode=req.mode, experiment=req.experiment,
+        request=req.model_dump(mode="json"))
+    return ok(await run_info(request, record), status=201)
+
+
+@endpoint("GET", "/runs", "List runs, newest first", response=s.RunList, errors=(422,),
+          params=(Param("plant", "query", "only runs of this plant"),
+                  Param("limit", "query", "page size, 1..500 (default 50)", {"type": "integer"}),
+                  Param("offset", "query", "runs to skip (default 0)", {"type": "integer"})))
+async def list_runs(request: Request) -> Response:
+    m = manager(request)
+    plant = request.query_params.get("plant")
+    if plant is not None:
+        get_plant(plant)
+    limit = query_int(request, "limit", 50, 1, 500)
+    offset = query_int(request, "offset", 0, 0, 10**9)
+    records, total = await asyncio.to_thread(m.store.list_runs, plant=plant, limit=limit,
+                                             offset=offset)
+    infos = [await run_info(request, await m.get(r.id)) for r in records]
+    return ok(s.RunList(runs=infos, total=total, limit=limit, offset=offset))
+
+
+@endpoint("GET", "/runs/{run_id}", "A run: state, progress, channels, parameter changes",
+          response=s.RunInfo, params=(RUN_ID,), errors=(404,))
+async def get_run(request: Request) -> Response:
+    return ok(await run_info(request, await manager(request).get(request.path_params["run_id"])))
+
+
+async def _control(request: Request, action: str) -> Response:
+    m = manager(request)
+    run_id = request.path_params["run_id"]
+    record = await getattr(m, action)(run_id)
+    return ok(await run_info(request, record))
+
+
+@endpoint("POST", "/runs/{run_id}/stop", "Stop a run; its samples so far stay recorded",
+          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409))
+async def stop_run(request: Request) -> Response:
+    return await _control(request, "stop")
+
+
+@endpoint("POST", "/runs/{run_id}/pause", "Pause a run (its clock stops)",
+          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409))
+async def pause_run(request: Request) -> Response:
+    return await _control(request, "pause")
+
+
+@endpoint("POST", "/runs/{run_id}/resume", "Resume a paused run",
+          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409))
+async def resume_run(request: Request) -> Response:
+    return await _control(request, "resume")
+
+
+@endpoint("POST", "/runs/{run_id}/params",
+          "Change the controller gains and/or the reference of a live run",
+          body=s.ParamsUpdate, response=s.ParamsApplied, params=(RUN_ID,),
+          errors=(404, 409, 413, 422))
+async def set_params(request: Request) -> Response:
+    """Applied from the next sample; the change and its sample index are recorded."""
+    req = await read_model(request, s.ParamsUpdate)
+    run_id = request.path_params["run_id"]
+    k = await apply_params(manager(request), run_id, req.controller, req.signal)
+    record = await manager(request).get(run_id)
+    return ok(s.ParamsApplied(k=k, t=k * record.Ts))
+
+
+async def apply_params(m: RunManager, run_id: str, controller: Any, signal: Any) -> int:
+    """Shared by REST and the websocket's ``set_params``."""
+    if controller is None and signal is None:
+        raise InvalidInput("body", {}, "controller and/or signal")
+    record = await m.get(run_id)
+    plant = get_plant(record.plant)
+    params = {k: v.model_dump(mode="json") for k, v in
+              (("controller", controller), ("signal", signal)) if v is not None}
+    return await m.set_params(
+        run_id, law=convert.law(controller, plant) if controller else None,
+        reference=convert.signal(signal) if signal else None, params=params)
+
+
+@endpoint("GET", "/runs/{run_id}/data", "The complete recording as CSV, JSON or MATLAB .mat",
+          response="file", params=(
+              RUN_ID, Param("format", "query", "csv (default), json or mat"),
+              Param("channels", "query", "comma-separated channel names (default: all)"),
+              Param("t_from", "query", "first sample time (s)", {"type": "number"}),
+              Param("t_to", "query", "last sample time (s)", {"type": "number"})))
+async def get_data(request: Request) -> Response:
+    """CSV starts with ``# key: value`` lines (plant, controller, signal, sample time, units,
+    parameter changes); numbers are the shortest decimals that read back exactly."""
+    fmt = request.query_params.get("format", "csv")
+    if fmt not in FORMATS:
+        raise InvalidInput("format", fmt, ", ".join(FORMATS))
+    m = manager(request)
+    record = await m.get(request.path_params["run_id"])
+    data = await m.read(record.id)
+    changes = await asyncio.to_thread(m.store.param_changes, record.id)
+    table = export.Table(header=_header(record), Ts=record.Ts, k0=0, channels=record.channels,
+                         data=data, param_changes=tuple(changes))
+    names = request.query_params.get("channels")
+    table = export.select(table, names.split(",") if names else None,
+                          query_float(request, "t_from"), query_float(request, "t_to"))
+    writers: dict[str, Callable[[export.Table], bytes | str]] = {
+        "csv": export.to_csv, "json": export.to_json, "mat": export.to_mat}
+    body = await asyncio.to_thread(writers[fmt], table)
+    filename = f"{record.id}-{record.plant}.{fmt}"
+    return Response(body, media_type=FORMATS[fmt],
+                    headers={"content-disposition": f'attachment; filename="{filename}"'})
+
+
+def _header(record: RunRecord) -> dict[str, str]:
+    spec = record.spec
+    return {"run": record.id, "plant": record.plant, "mode": record.mode,
+            "experiment": record.experiment, "status": record.status,
+            "controller": _compact(spec.get("controller")), "signal": _compact(spec.get("signal")),
+            "generator": "elab serve"}
+
+
+def _compact(obj: Any) -> str:
+    if obj is None:
+        return "plant default"
+    import json
+
+    return json.dumps(obj, separators=(",", ":"))

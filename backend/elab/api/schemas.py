@@ -1,0 +1,422 @@
+"""The wire protocol ``elab.v1``: every request, response and websocket message.
+
+These pydantic models are the single source of truth: the OpenAPI document,
+``shared/elab.v1.schema.json`` and the app's TypeScript types are generated
+from them (a test fails when the committed copies drift).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+PROTOCOL = "elab.v1"
+Finite = float  # with allow_inf_nan=False below, NaN and ±inf are refused everywhere
+
+
+class Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+
+# -- controllers ------------------------------------------------------------------
+class PredefinedController(Model):
+    """The plant's predefined controller."""
+
+    kind: Literal["predefined"] = "predefined"
+
+
+class StateFeedbackController(Model):
+    """u = K (x_ref − x̂): one gain per state."""
+
+    kind: Literal["state_feedback"] = "state_feedback"
+    K: list[Finite] = Field(min_length=1, max_length=64)
+    estimate: Literal["true_state", "velocity_filters"] = "velocity_filters"
+
+
+class PIDController(Model):
+    """C(s) = Kp + Ki/s + Kd s/(Tf s + 1), Tf = Kd/(N Kp), on e = r − y."""
+
+    kind: Literal["pid"] = "pid"
+    Kp: Finite
+    Ki: Finite = 0.0
+    Kd: Finite = 0.0
+    N: Finite = Field(10.0, gt=0)
+    Tt: Finite | None = Field(None, gt=0, description="anti-windup tracking time (s)")
+
+
+class LTIControllerModel(Model):
+    """Any SISO LTI controller on e = r − y: num/den or A, B, C, D; dt = null: continuous."""
+
+    kind: Literal["lti"] = "lti"
+    num: list[Finite] | None = Field(None, max_length=64)
+    den: list[Finite] | None = Field(None, max_length=64)
+    A: list[list[Finite]] | None = Field(None, max_length=64)
+    B: list[list[Finite]] | None = Field(None, max_length=64)
+    C: list[list[Finite]] | None = Field(None, max_length=1)
+    D: list[list[Finite]] | None = Field(None, max_length=1)
+    dt: Finite | None = Field(None, gt=0)
+
+
+class OpenLoopController(Model):
+    """No feedback: the signal is the plant input (V)."""
+
+    kind: Literal["open_loop"] = "open_loop"
+
+
+Controller = Annotated[
+    PredefinedController | StateFeedbackController | PIDController | LTIControllerModel
+    | OpenLoopController,
+    Field(discriminator="kind"),
+]
+
+
+# -- signals ------------------------------------------------------------------------
+class StepSignal(Model):
+    kind: Literal["step"] = "step"
+    amplitude: Finite
+    t0: Finite = Field(0.0, ge=0)
+    offset: Finite = 0.0
+
+
+class SquareSignal(Model):
+    kind: Literal["square"] = "square"
+    amplitude: Finite
+    period: Finite = Field(gt=0)
+    offset: Finite = 0.0
+    duty: Finite = Field(0.5, gt=0, le=1)
+
+
+class SineSignal(Model):
+    kind: Literal["sine"] = "sine"
+    amplitude: Finite
+    frequency: Finite = Field(gt=0, description="Hz")
+    phase: Finite = 0.0
+    offset: Finite = 0.0
+
+
+class ChirpSignal(Model):
+    kind: Literal["chirp"] = "chirp"
+    amplitude: Finite
+    f0: Finite = Field(ge=0)
+    f1: Finite = Field(gt=0)
+    sweep: Finite = Field(gt=0)
+    offset: Finite = 0.0
+
+
+class PRBSSignal(Model):
+    kind: Literal["prbs"] = "prbs"
+    amplitude: Finite
+    order: int = Field(10, ge=3, le=20)
+    band: Finite = Field(1.0, gt=0, le=1)
+    offset: Finite = 0.0
+
+
+class SamplesSignal(Model):
+    kind: Literal["samples"] = "samples"
+    values: list[Finite] = Field(min_length=1, max_length=100_000)
+
+
+Signal = Annotated[
+    StepSignal | SquareSignal | SineSignal | ChirpSignal | PRBSSignal | SamplesSignal,
+    Field(discriminator="kind"),
+]
+
+
+# -- runs --------------------------------------------------------------------------
+class RunCreate(Model):
+    """A run to start. Omitted fields take the plant's defaults; units are SI."""
+
+    plant: str = Field(min_length=1, max_length=64)
+    mode: Literal["simulation", "rig"] = "simulation"
+    experiment: Literal["analysis", "identification", "design"] = "analysis"
+    controller: Controller = PredefinedController()
+    signal: Signal | None = None
+    excitation: Signal | None = None
+    excitation_at: Literal["reference", "input"] = "input"
+    duration: Finite | None = Field(None, gt=0, description="s")
+    pace: Literal["realtime", "fast"] = "realtime"
+    seed: int | None = Field(None, ge=0, le=2**63 - 1, description="sensor noise seed")
+    quantize: bool = False
+    saturate: bool | None = None
+    Ts: Finite | None = Field(None, gt=0)
+    x0: list[Finite] | None = Field(None, max_length=64)
+
+
+class ChannelInfo(Model):
+    name: str
+    unit: str
+
+
+class ParamChangeInfo(Model):
+    k: int
+    t: float
+    at: float
+    params: dict[str, Any]
+
+
+class RunInfo(Model):
+    id: str
+    plant: str
+    mode: str
+    experiment: str
+    status: Literal["created", "running", "paused", "finished", "stopped", "failed",
+                    "interrupted"]
+    Ts: float
+    channels: list[ChannelInfo]
+    n_planned: int
+    n_samples: int
+    frame_samples: int
+    created_at: float
+    started_at: float | None
+    finished_at: float | None
+    error: str | None
+    stream_url: str
+    data_url: str
+    request: dict[str, Any]
+    param_changes: list[ParamChangeInfo] = []
+
+
+class RunList(Model):
+    runs: list[RunInfo]
+    total: int
+    limit: int
+    offset: int
+
+
+class ParamsUpdate(Model):
+    """New controller gains and/or reference, applied from the next sample."""
+
+    controller: Controller | None = None
+    signal: Signal | None = None
+
+
+class ParamsApplied(Model):
+    k: int = Field(description="first sample computed with the new parameters")
+    t: float
+
+
+# -- plants, analysis, design ------------------------------------------------------
+class Complex(Model):
+    re: float
+    im: float
+
+
+class PlantSummary(Model):
+    id: str
+    name: str
+    summary: str
+    modes: list[str]
+    experiments: list[str]
+
+
+class PlantChannel(Model):
+    name: str
+    unit: str
+    label: str
+
+
+class PlantDetail(PlantSummary):
+    A: list[list[float]]
+    B: list[list[float]]
+    C: list[list[float]]
+    D: list[list[float]]
+    states: list[PlantChannel]
+    inputs: list[PlantChannel]
+    outputs: list[PlantChannel]
+    u_max: float
+    saturate: bool
+    Ts: float
+    reference_output: str
+    operating_point: list[float]
+    initial_state_ranges: list[tuple[str, float, float]]
+    predefined: Controller
+    predefined_design: str
+    default_signal: Signal
+    default_duration: float
+    sensors: dict[str, list[float]]
+    description: str
+
+
+class RankInfo(Model):
+    rank: int
+    n: int
+    full: bool
+    condition_number: float | None
+    singular_values: list[float]
+
+
+class TransferFunctionInfo(Model):
+    output: str
+    input: str
+    num: list[float]
+    den: list[float]
+    text: str
+    latex: str
+
+
+class AnalysisInfo(Model):
+    plant: str
+    eigenvalues: list[Complex]
+    verdict: Literal["asymptotically stable", "marginally stable", "unstable"]
+    reason: str
+    controllability: RankInfo
+    observability: RankInfo
+    transfer_functions: list[TransferFunctionInfo]
+
+
+class BodeInfo(Model):
+    output: str
+    omega: list[float] = Field(description="rad/s")
+    hz: list[float]
+    mag_db: list[float]
+    phase_deg: list[float]
+
+
+class BodeList(Model):
+    plant: str
+    input: str
+    bode: list[BodeInfo]
+
+
+class StepRequest(Model):
+    """Open loop (controller omitted or open_loop) or closed loop with a controller."""
+
+    controller: Controller | None = None
+    T: Finite | None = Field(None, gt=0, le=3600, description="final time (s)")
+    amplitude: Finite = 1.0
+    n: int = Field(2001, ge=2, le=100_000)
+
+
+class StepInfoOut(Model):
+    rise_time: float | None
+    settling_time: float | None
+    overshoot: float | None
+    peak: float | None
+    peak_time: float | None
+    steady_state: float | None
+    steady_state_error: float | None
+
+
+class StepOut(Model):
+    plant: str
+    loop: Literal["open", "closed"]
+    t: list[float]
+    outputs: dict[str, list[float]]
+    u: list[float]
+    info: StepInfoOut | None = Field(description="of the reference output (closed loop)")
+    poles: list[Complex]
+    verdict: str
+
+
+class LQRRequest(Model):
+    Q: list[Finite] | list[list[Finite]] = Field(description="diagonal or full matrix")
+    R: Finite | list[list[Finite]] = 1.0
+
+
+class PlaceRequest(Model):
+    poles: list[Complex] = Field(min_length=1, max_length=64)
+
+
+class DesignOut(Model):
+    plant: str
+    method: Literal["lqr", "place"]
+    K: list[float]
+    closed_loop_poles: list[Complex]
+    convention: str = "u = K (x_ref - x)"
+
+
+# -- errors --------------------------------------------------------------------------
+class FieldError(Model):
+    field: str
+    message: str
+
+
+class ErrorDetail(Model):
+    code: Literal["invalid", "not_found", "conflict", "too_many", "too_large", "unavailable"]
+    message: str
+    field: str | None = None
+    errors: list[FieldError] = []
+
+
+class ErrorBody(Model):
+    error: ErrorDetail
+
+
+# -- websocket messages ------------------------------------------------------------
+class Hello(Model):
+    type: Literal["hello"] = "hello"
+    protocol: Literal["elab.v1"] = "elab.v1"
+    run: RunInfo
+    live_seq: int = Field(description="seq of the next live frame")
+
+
+class Frame(Model):
+    """Samples k0 .. k0+n−1: float32 little-endian bytes per channel (t = k·Ts)."""
+
+    type: Literal["frame"] = "frame"
+    seq: int
+    k0: int
+    n: int
+    columns: dict[str, bytes]
+
+
+class Status(Model):
+    type: Literal["status"] = "status"
+    state: str
+    k: int
+    error: str | None = None
+
+
+class Skipped(Model):
+    type: Literal["skipped"] = "skipped"
+    from_seq: int
+    to_seq: int
+    reason: str
+
+
+class ParamsNotice(Model):
+    type: Literal["params"] = "params"
+    k: int
+    t: float
+    params: dict[str, Any]
+
+
+class ErrorMessage(Model):
+    type: Literal["error"] = "error"
+    code: str
+    message: str
+    field: str | None = None
+
+
+ServerMessage = Annotated[Hello | Frame | Status | Skipped | ParamsNotice | ErrorMessage,
+                          Field(discriminator="type")]
+
+
+class SetParams(Model):
+    type: Literal["set_params"]
+    controller: Controller | None = None
+    signal: Signal | None = None
+
+
+class Pause(Model):
+    type: Literal["pause"]
+
+
+class Resume(Model):
+    type: Literal["resume"]
+
+
+class Stop(Model):
+    type: Literal["stop"]
+
+
+class ResumeFrom(Model):
+    """Send every sample from frame ``seq`` on, from the recording."""
+
+    type: Literal["resume_from"]
+    seq: int = Field(ge=0)
+
+
+ClientMessage = Annotated[SetParams | Pause | Resume | Stop | ResumeFrom,
+                          Field(discriminator="type")]

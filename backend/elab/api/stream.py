@@ -1,0 +1,119 @@
+"""``/runs/{id}/stream``: the live websocket (subprotocol ``elab.v1``, msgpack).
+
+A receiver and a sender run in one task group (encode/broadcaster's pattern):
+the sender drains the watcher's queue (:mod:`elab.runs.fanout`), the receiver
+validates each client message against :data:`~elab.api.schemas.ClientMessage`
+and answers a bad one with an ``error`` message, keeping the connection.
+Query ``from_seq=N`` starts the watcher at frame N from the recording
+(default: the live edge for a running run, 0 for a finished one).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import anyio
+import msgpack
+from pydantic import TypeAdapter, ValidationError
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+from elab.api import schemas as s
+from elab.api.http import error_response
+from elab.api.runs import apply_params, run_info
+from elab.errors import ElabError, NotFound
+from elab.runs.fanout import Watcher, pack
+
+CLOSE_NOT_FOUND = 4404
+CLOSE_BAD_PROTOCOL = 4400
+CLIENT = TypeAdapter(s.ClientMessage)
+
+
+async def stream(ws: WebSocket) -> None:
+    if s.PROTOCOL not in ws.scope.get("subprotocols", []):
+        await ws.accept()
+        await ws.close(CLOSE_BAD_PROTOCOL, f"use the websocket subprotocol {s.PROTOCOL}")
+        return
+    m = ws.app.state.manager
+    try:
+        record = await m.get(ws.path_params["run_id"])
+    except NotFound as exc:
+        await ws.accept(subprotocol=s.PROTOCOL)
+        await ws.close(CLOSE_NOT_FOUND, str(exc)[:120])
+        return
+    await ws.accept(subprotocol=s.PROTOCOL)
+    channel = m.channel(record)
+    watcher = Watcher(ws.send_bytes, max_frames=ws.app.state.settings.watcher_frames)
+    info = await run_info(ws, record)
+    await ws.send_bytes(pack(s.Hello(run=info, live_seq=channel.edge // channel.F)
+                             .model_dump(mode="python")))
+    channel.watchers.add(watcher)
+    start = _start_seq(ws, channel.edge // channel.F, record.status)
+    if start is not None:
+        channel.resume_from(watcher, start)
+    if channel.ended:
+        watcher.control(pack({"type": "status", "state": record.status, "k": record.n_stored}))
+    try:
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(_send, channel, watcher, tg.cancel_scope)
+            await _receive(ws, m, record.id, channel, watcher)
+            tg.cancel_scope.cancel()
+    except (WebSocketDisconnect, anyio.ClosedResourceError):
+        pass
+    finally:
+        watcher.closed = True
+        channel.watchers.discard(watcher)
+        m.release(record.id, channel)
+
+
+def _start_seq(ws: WebSocket, live_seq: int, status: str) -> int | None:
+    raw = ws.query_params.get("from_seq")
+    if raw is not None and raw.isdigit():
+        return int(raw)
+    return 0 if status not in ("running", "paused", "created") else None
+
+
+async def _send(channel: Any, watcher: Watcher, scope: anyio.CancelScope) -> None:
+    try:
+        await channel.serve(watcher)
+    except (WebSocketDisconnect, RuntimeError, OSError):
+        scope.cancel()  # the client went away: stop receiving too
+
+
+async def _receive(ws: WebSocket, m: Any, run_id: str, channel: Any, watcher: Watcher) -> None:
+    while True:
+        message = await ws.receive()
+        if message["type"] == "websocket.disconnect":
+            return
+        raw = message.get("bytes") or message.get("text") or b""
+        try:
+            data = msgpack.unpackb(raw) if isinstance(raw, bytes) else _json(raw)
+            await _handle(CLIENT.validate_python(data), m, run_id, channel, watcher)
+        except (ValidationError, ElabError, ValueError) as exc:
+            watcher.control(pack(_error(exc)))
+
+
+async def _handle(msg: Any, m: Any, run_id: str, channel: Any, watcher: Watcher) -> None:
+    if isinstance(msg, s.ResumeFrom):
+        channel.resume_from(watcher, msg.seq)
+    elif isinstance(msg, s.SetParams):
+        await apply_params(m, run_id, msg.controller, msg.signal)
+    else:
+        await getattr(m, msg.type)(run_id)
+
+
+def _json(text: str) -> Any:
+    import json
+
+    return json.loads(text)
+
+
+def _error(exc: Exception) -> dict[str, Any]:
+    if isinstance(exc, ValidationError | ElabError):
+        body = error_response(exc).body
+        import json
+
+        detail = json.loads(bytes(body))["error"]
+        return {"type": "error", "code": detail["code"], "message": detail["message"],
+                "field": detail.get("field")}
+    return {"type": "error", "code": "invalid", "message": f"not a message: {exc}",
+            "field": None}

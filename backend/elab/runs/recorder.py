@@ -1,0 +1,98 @@
+"""Every sample of every live run, kept until stored, then flushed in batches.
+
+The stepping thread appends chunks; a writer thread moves them to the
+:class:`~elab.runs.store.Store` every ``interval`` seconds in one transaction;
+readers see stored and not-yet-stored samples as one consecutive recording.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.runs.store import Store
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class _Tail:
+    nch: int
+    stored: int = 0  # samples committed to the store
+    chunks: list[tuple[int, Array]] = field(default_factory=list)  # not yet committed
+
+
+class Recorder:
+    """In-memory tails of the live runs in front of the store."""
+
+    def __init__(self, store: Store, interval: float = 0.25) -> None:
+        self.store = store
+        self.interval = interval
+        self._lock = threading.Lock()
+        self._tails: dict[str, _Tail] = {}
+        self._stop = threading.Event()
+        self._flushing = threading.Lock()
+        self._thread = threading.Thread(target=self._loop, name="elab-writer", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=10)
+        self.flush()
+
+    def open(self, run_id: str, nch: int) -> None:
+        with self._lock:
+            self._tails[run_id] = _Tail(nch)
+
+    def append(self, run_id: str, k0: int, data: Array) -> None:
+        with self._lock:
+            self._tails[run_id].chunks.append((k0, data))
+
+    def finish(self, run_id: str) -> None:
+        """Store what is left of ``run_id`` now and stop tracking it."""
+        self.flush()
+        with self._lock:
+            self._tails.pop(run_id, None)
+
+    def read(self, run_id: str, k0: int, k1: int) -> Array:
+        """Samples ``[k0, k1)`` that exist so far, stored or not."""
+        with self._lock:
+            tail = self._tails.get(run_id)
+            chunks = list(tail.chunks) if tail else []
+            stored = tail.stored if tail else None
+        if stored is None:
+            return self.store.read(run_id, k0, k1)
+        parts = [self.store.read(run_id, k0, min(k1, stored))] if k0 < stored else []
+        for c0, data in chunks:
+            lo, hi = max(k0, c0), min(k1, c0 + data.shape[0])
+            if lo < hi:
+                parts.append(data[lo - c0:hi - c0])
+        if not parts:
+            return np.zeros((0, tail.nch if tail else 0))
+        return np.concatenate(parts) if len(parts) > 1 else parts[0]
+
+    def flush(self) -> None:
+        """Commit every pending chunk in one transaction."""
+        with self._flushing:
+            with self._lock:
+                batch = [(rid, c0, d) for rid, t in self._tails.items() for c0, d in t.chunks
+                         if d.shape[0]]
+                counts = {rid: len(t.chunks) for rid, t in self._tails.items()}
+            if batch:
+                self.store.append_many(batch)
+            with self._lock:
+                for rid, n in counts.items():
+                    tail = self._tails.get(rid)
+                    if tail is None:
+                        continue
+                    done, tail.chunks = tail.chunks[:n], tail.chunks[n:]
+                    tail.stored += sum(d.shape[0] for _, d in done)
+
+    def _loop(self) -> None:
+        while not self._stop.wait(self.interval):
+            self.flush()

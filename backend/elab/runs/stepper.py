@@ -1,0 +1,216 @@
+"""The stepping thread: advances every live run, paced to the wall clock.
+
+All live runs share one :class:`~elab.sim.batch.Batch`; each tick (10 ms) the
+thread applies queued commands (add, pause, resume, stop, parameter changes),
+steps each real-time run by the samples now due (sample ``k`` is due at
+``t_origin + k Ts``, so the run's clock never drifts) and each fast run by a
+block, then hands the new samples to ``on_tick`` in one call. The compiled loop
+releases the GIL, so stepping does not stall the web event loop.
+"""
+
+from __future__ import annotations
+
+import math
+import queue
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.sim.batch import Batch
+from elab.sim.engine import DIVERGENCE_LIMIT
+from elab.sim.spec import CompiledRun
+
+Array = NDArray[np.float64]
+Pace = Literal["realtime", "fast"]
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """New samples of one run: rows ``k0 .. k0+n-1``, columns ``[r, u, y…, x…]``."""
+
+    run_id: str
+    k0: int
+    data: Array
+
+
+@dataclass(frozen=True)
+class Ended:
+    """A run left the stepper: ``finished`` (all samples), ``stopped`` or ``failed``."""
+
+    run_id: str
+    state: Literal["finished", "stopped", "failed"]
+    k: int
+    error: str | None = None
+
+
+@dataclass
+class _Live:
+    id: str
+    run: CompiledRun
+    pace: Pace
+    slot: int
+    t_origin: float
+    k: int = 0
+    paused_at: float | None = None
+    cols: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+
+
+Command = Callable[[], None]
+
+
+class Stepper:
+    """Owns the batch and the thread; every method is safe to call from any thread."""
+
+    def __init__(self, on_tick: Callable[[list[Chunk], list[Ended]], None], *,
+                 tick: float = 0.01, fast_block: int = 1024,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self._on_tick = on_tick
+        self.tick = tick
+        self._fast_block = fast_block
+        self._clock = clock
+        self._batch = Batch(capacity=16, block=max(fast_block, 1024))
+        self._runs: dict[str, _Live] = {}
+        self._commands: queue.SimpleQueue[Command] = queue.SimpleQueue()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name="elab-stepper", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+
+    # -- commands (any thread) -------------------------------------------------
+    def add(self, run_id: str, run: CompiledRun, pace: Pace) -> None:
+        self._commands.put(lambda: self._add(run_id, run, pace))
+
+    def pause(self, run_id: str) -> Future[int]:
+        return self._call(lambda: self._pause(run_id))
+
+    def resume(self, run_id: str) -> Future[int]:
+        return self._call(lambda: self._resume(run_id))
+
+    def stop(self, run_id: str) -> Future[int]:
+        return self._call(lambda: self._stop_run(run_id))
+
+    def replace(self, run_id: str, run: CompiledRun, *, controller: bool) -> Future[int]:
+        """New spec from the next sample on; returns that sample's index."""
+        return self._call(lambda: self._replace(run_id, run, controller))
+
+    def _call(self, fn: Callable[[], int]) -> Future[int]:
+        fut: Future[int] = Future()
+
+        def command() -> None:
+            try:
+                fut.set_result(fn())
+            except Exception as exc:  # handed to the caller through the future
+                fut.set_exception(exc)
+
+        self._commands.put(command)
+        return fut
+
+    # -- in the thread ---------------------------------------------------------
+    def _add(self, run_id: str, run: CompiledRun, pace: Pace) -> None:
+        slot = self._batch.add(run)
+        self._runs[run_id] = _Live(run_id, run, pace, slot, self._clock())
+        self._refresh_columns()
+
+    def _pause(self, run_id: str) -> int:
+        live = self._runs[run_id]
+        if live.paused_at is None:
+            live.paused_at = self._clock()
+        return live.k
+
+    def _resume(self, run_id: str) -> int:
+        live = self._runs[run_id]
+        if live.paused_at is not None:
+            live.t_origin += self._clock() - live.paused_at
+            live.paused_at = None
+        return live.k
+
+    def _stop_run(self, run_id: str) -> int:
+        ended = self._end(self._runs[run_id], "stopped")
+        self._on_tick([], [ended])
+        return ended.k
+
+    def _replace(self, run_id: str, run: CompiledRun, controller: bool) -> int:
+        live = self._runs[run_id]
+        if controller:
+            self._batch.set_controller(live.slot, run)
+        else:
+            self._batch.set_run(live.slot, run)
+        live.run = run
+        return live.k
+
+    def _refresh_columns(self) -> None:
+        for live in self._runs.values():
+            ys, xs = self._batch.columns(live.slot)
+            live.cols = np.r_[0, 1, np.arange(ys.start, ys.stop), np.arange(xs.start, xs.stop)]
+
+    def _loop(self) -> None:
+        deadline = self._clock()
+        while not self._stop.is_set():
+            while True:
+                try:
+                    self._commands.get_nowait()()
+                except queue.Empty:
+                    break
+            chunks, ended = self._step(self._clock())
+            if chunks or ended:
+                self._on_tick(chunks, ended)
+            fast = any(r.pace == "fast" and r.paused_at is None for r in self._runs.values())
+            deadline = max(deadline + self.tick, self._clock() - self.tick)
+            time.sleep(0.0005 if fast else max(0.0, deadline - self._clock()))
+
+    def _step(self, now: float) -> tuple[list[Chunk], list[Ended]]:
+        groups: dict[int, list[_Live]] = {}
+        for live in self._runs.values():
+            n = self._due(live, now)
+            if n > 0:
+                groups.setdefault(n, []).append(live)
+        chunks: list[Chunk] = []
+        ended: list[Ended] = []
+        for n, lives in groups.items():
+            block = self._batch.advance(n, [live.slot for live in lives])
+            for live in lives:
+                data = block[live.slot][:, live.cols]
+                chunks.append(self._record(live, data, ended))
+        for live in [r for r in self._runs.values() if r.k >= r.run.n_samples]:
+            ended.append(self._end(live, "finished"))
+        return chunks, ended
+
+    def _due(self, live: _Live, now: float) -> int:
+        if live.paused_at is not None:
+            return 0
+        left = live.run.n_samples - live.k
+        if live.pace == "fast":
+            return min(self._fast_block, left)
+        due = math.floor((now - live.t_origin) / live.run.Ts) + 1 - live.k
+        return max(0, min(due, left, self._batch.block))
+
+    def _record(self, live: _Live, data: Array, ended: list[Ended]) -> Chunk:
+        bad = ~(np.abs(data[:, 1:]) <= DIVERGENCE_LIMIT).all(axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            data = data[:i]
+            chunk = Chunk(live.id, live.k, data)
+            live.k += i
+            msg = f"diverged at t = {live.k * live.run.Ts:.4g} s: the closed loop is unstable"
+            ended.append(self._end(live, "failed", msg))
+            return chunk
+        chunk = Chunk(live.id, live.k, data)
+        live.k += data.shape[0]
+        return chunk
+
+    def _end(self, live: _Live, state: Literal["finished", "stopped", "failed"],
+             error: str | None = None) -> Ended:
+        del self._runs[live.id]
+        self._batch.remove(live.slot)
+        return Ended(live.id, state, live.k, error)

@@ -1,0 +1,140 @@
+"""A real ``elab serve`` on loopback in its own process, and a websocket watcher."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import httpx
+import msgpack
+import numpy as np
+from websockets.asyncio.client import ClientConnection, connect
+
+ELAB = str(Path(sys.executable).parent / "elab")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class Server:
+    """``elab serve`` as a subprocess: start, stop, kill -9, restart on the same data."""
+
+    def __init__(self, data: Path, **env: str) -> None:
+        self.data = data
+        self.env = {**os.environ, "ELAB_DATA": str(data), **env}
+        self.port = free_port()
+        self.proc: subprocess.Popen[bytes] | None = None
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    @property
+    def ws_url(self) -> str:
+        return f"ws://127.0.0.1:{self.port}"
+
+    def start(self) -> Server:
+        self.proc = subprocess.Popen([ELAB, "serve", "--port", str(self.port)], env=self.env,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"server exited: {self.proc.stderr.read().decode()}")  # type: ignore[union-attr]
+            try:
+                httpx.get(self.url + "/api/v1/plants", timeout=1).raise_for_status()
+                return self
+            except httpx.HTTPError:
+                time.sleep(0.1)
+        raise RuntimeError("server did not start in 60 s")
+
+    def stop(self) -> None:
+        if self.proc and self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+    def kill9(self) -> None:
+        assert self.proc is not None
+        self.proc.send_signal(signal.SIGKILL)
+        self.proc.wait()
+
+    def client(self) -> httpx.Client:
+        return httpx.Client(base_url=self.url + "/api/v1", timeout=30)
+
+
+@dataclass
+class Watcher:
+    """Collects a run's stream: frames by sample index, and every other message."""
+
+    conn: ClientConnection
+    hello: dict[str, Any]
+    columns: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)  # k0 -> columns
+    messages: list[dict[str, Any]] = field(default_factory=list)
+    arrivals: list[float] = field(default_factory=list)
+    last_seq: int = -1
+
+    @classmethod
+    async def open(cls, ws_url: str, run_id: str, query: str = "", **kw: Any) -> Watcher:
+        conn = await connect(f"{ws_url}/api/v1/runs/{run_id}/stream{query}",
+                             subprotocols=["elab.v1"], max_size=None, **kw)  # type: ignore[list-item]
+        hello = msgpack.unpackb(await conn.recv())
+        assert hello["type"] == "hello"
+        return cls(conn, hello)
+
+    async def next(self, timeout: float = 30) -> dict[str, Any]:
+        msg = msgpack.unpackb(await asyncio.wait_for(self.conn.recv(), timeout))
+        if msg["type"] == "frame":
+            self.columns[msg["k0"]] = {k: np.frombuffer(v, "<f4") for k, v in
+                                       msg["columns"].items()}
+            self.arrivals.append(time.monotonic())
+            self.last_seq = msg["seq"] + max(0, -(-msg["n"] // self.hello["run"]["frame_samples"])
+                                             - 1)
+        else:
+            self.messages.append(msg)
+        return msg  # type: ignore[no-any-return]
+
+    async def until_status(self, states: set[str], timeout: float = 60) -> dict[str, Any]:
+        deadline = time.monotonic() + timeout
+        while True:
+            msg = await self.next(max(0.1, deadline - time.monotonic()))
+            if msg["type"] == "status" and msg["state"] in states:
+                return msg
+
+    def assemble(self, n: int) -> dict[str, np.ndarray]:
+        """Every channel's samples 0..n-1 from all frames received (overlaps must agree);
+        asserts none is missing."""
+        names = [c["name"] for c in self.hello["run"]["channels"]]
+        out = {name: np.full(n, np.nan, dtype="<f4") for name in names}
+        for k0, cols in self.columns.items():
+            for name, v in cols.items():
+                seg = out[name][k0:k0 + v.size]
+                seen = ~np.isnan(seg)
+                assert np.array_equal(seg[seen], v[seen]), f"frames disagree near sample {k0}"
+                seg[:] = v
+        missing = np.flatnonzero(np.isnan(out[names[0]]))
+        assert missing.size == 0, f"{missing.size} samples missing, first at {missing[:5]}"
+        return out
+
+    def samples(self) -> tuple[int, dict[str, np.ndarray]]:
+        """(first k, concatenated columns); asserts the frames are contiguous."""
+        keys = sorted(self.columns)
+        k = keys[0]
+        for k0 in keys:
+            assert k0 == k, f"gap or overlap at sample {k} (next frame starts at {k0})"
+            k += len(next(iter(self.columns[k0].values())))
+        names = self.columns[keys[0]].keys()
+        return keys[0], {n: np.concatenate([self.columns[k0][n] for k0 in keys]) for n in names}

@@ -1,0 +1,178 @@
+"""Acceptance of the live server: real uvicorn, real websocket clients, real SQLite."""
+
+from __future__ import annotations
+
+import asyncio
+import io
+import json
+import math
+import socket
+import time
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import scipy.io
+
+from elab.laws import StateFeedback
+from elab.plants import get_plant
+from elab.sim import RunSpec, Samples, Simulation, Square
+from tests.api.server import Server, Watcher
+
+FLEX = get_plant("flexible_link")
+SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
+NEW_K = [8.0, -40.0, 1.5, 0.5]
+NAMES = ["r", "u", "theta", "alpha", "x_theta", "x_alpha", "x_theta_dot", "x_alpha_dot"]
+
+
+def offline(duration: float, change_at: int | None = None) -> np.ndarray:
+    """The same run computed offline, with the gain change at sample ``change_at``."""
+    spec = RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 2.0), duration=duration)
+    sim = Simulation(spec)
+    parts = []
+    if change_at is not None:
+        parts.append(sim.advance(change_at))
+        sim.set_law(StateFeedback(tuple(NEW_K), "velocity_filters"))
+    parts.append(sim.advance(sim.remaining))
+    res = Samples.concatenate([p for p in parts if p.n])
+    return np.column_stack([res.r, res.u, res.y, res.x])
+
+
+def read_csv(text: str) -> tuple[list[str], np.ndarray]:
+    lines = text.splitlines()
+    header = [line for line in lines if line.startswith("#")]
+    names = lines[len(header)].split(",")
+    data = np.loadtxt(io.StringIO(text), delimiter=",", comments="#", skiprows=len(header) + 1)
+    return header, np.atleast_2d(data)[:, 1:] if names[0] == "t" else data
+
+
+def downloads(c: httpx.Client, run_id: str) -> dict[str, Any]:
+    csv = c.get(f"/runs/{run_id}/data", params={"format": "csv"})
+    js = c.get(f"/runs/{run_id}/data", params={"format": "json"}).json()
+    mat = scipy.io.loadmat(io.BytesIO(c.get(f"/runs/{run_id}/data",
+                                            params={"format": "mat"}).content))
+    return {"csv_text": csv.text, "csv": read_csv(csv.text)[1],
+            "json": np.column_stack([js["data"][n] for n in NAMES]),
+            "mat": np.column_stack([mat[n].ravel() for n in NAMES])}
+
+
+def test_watchers_gain_change_downloads_and_restart(tmp_path: Path) -> None:
+    srv = Server(tmp_path / "data").start()
+    try:
+        with srv.client() as c:
+            run = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
+                                        "duration": 4.0}).json()
+            rid = run["id"]
+
+            async def scenario() -> tuple[list[Watcher], dict[str, Any]]:
+                ws = [await Watcher.open(srv.ws_url, rid, "?from_seq=0") for _ in range(3)]
+                tasks = [asyncio.create_task(w.until_status({"finished"})) for w in ws]
+                await asyncio.sleep(1.5)
+                r = await asyncio.to_thread(c.post, f"/runs/{rid}/params", json={
+                    "controller": {"kind": "state_feedback", "K": NEW_K}})
+                await asyncio.gather(*tasks)
+                return ws, r.json()
+
+            watchers, applied = asyncio.run(scenario())
+            k = applied["k"]
+            assert 1000 < k < 2500  # applied about 1.5 s in, at a recorded sample
+            info = c.get(f"/runs/{rid}").json()
+            assert info["status"] == "finished" and info["n_samples"] == 4000
+            assert [p["k"] for p in info["param_changes"]] == [k]
+
+            want = offline(4.0, change_at=k)
+            before = offline(4.0)
+            got = downloads(c, rid)
+            for fmt in ("csv", "json", "mat"):  # float64, exactly the offline run
+                np.testing.assert_array_equal(got[fmt], want, err_msg=fmt)
+            # the response changes at the recorded sample, not before
+            np.testing.assert_array_equal(want[:k], before[:k])
+            assert want[k, 1] != before[k, 1]
+            for w in watchers:  # streamed float32 = the recording, every sample, no gaps
+                k0, cols = w.samples()
+                assert k0 == 0
+                for i, name in enumerate(NAMES):
+                    np.testing.assert_array_equal(cols[name], want[:, i].astype("<f4"))
+                assert any(m["type"] == "params" and m["k"] == k for m in w.messages)
+            assert f"k={k}" in got["csv_text"]  # the change is in the CSV header
+
+        srv.stop()
+        srv.start()  # the recording survives a restart
+        with srv.client() as c:
+            assert c.get(f"/runs/{rid}").json()["status"] == "finished"
+            again = downloads(c, rid)
+            assert again["csv_text"] == got["csv_text"]
+    finally:
+        srv.stop()
+
+
+def test_kill_9_mid_run_leaves_an_interrupted_run_with_its_data(tmp_path: Path) -> None:
+    srv = Server(tmp_path / "data").start()
+    try:
+        with srv.client() as c:
+            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
+                                        "duration": 60.0}).json()["id"]
+            time.sleep(2.5)
+        srv.kill9()
+        srv.start()
+        with srv.client() as c:
+            info = c.get(f"/runs/{rid}").json()
+            assert info["status"] == "interrupted"
+            assert 1500 <= info["n_samples"] <= 3500  # up to the last stored chunk
+            got = downloads(c, rid)["csv"]
+            assert got.shape[0] == info["n_samples"]
+            np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
+            listed = {r["id"]: r["status"] for r in c.get("/runs").json()["runs"]}
+            assert listed[rid] == "interrupted"
+    finally:
+        srv.stop()
+
+
+def _small_buffer_socket(port: int) -> socket.socket:
+    sock = socket.socket()
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    sock.connect(("127.0.0.1", port))
+    sock.setblocking(False)
+    return sock
+
+
+def test_a_stalled_watcher_delays_nobody_and_gets_every_sample_back(tmp_path: Path) -> None:
+    srv = Server(tmp_path / "data", ELAB_WATCHER_FRAMES="20").start()
+    try:
+        with srv.client() as c:
+            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
+                                        "duration": 14.0, "x0": None}).json()["id"]
+
+            async def scenario() -> tuple[Watcher, Watcher, float, list[dict[str, Any]]]:
+                fast = await Watcher.open(srv.ws_url, rid, "?from_seq=0")
+                slow = await Watcher.open(srv.ws_url, rid, "?from_seq=0", max_queue=2,
+                                          sock=_small_buffer_socket(srv.port))
+                done = asyncio.create_task(fast.until_status({"finished"}))
+                await slow.next()
+                t_stall = time.monotonic()
+                await asyncio.sleep(10.0)  # not reading: its socket and queue fill up
+                notices: list[dict[str, Any]] = []
+                while True:
+                    msg = await slow.next()
+                    if msg["type"] == "skipped":
+                        notices.append(msg)
+                        await slow.conn.send(json.dumps({"type": "resume_from",
+                                                         "seq": msg["from_seq"]}))
+                    if msg["type"] == "status" and msg["state"] == "finished":
+                        break
+                await done
+                return fast, slow, t_stall, notices
+
+            fast, slow, t_stall, notices = asyncio.run(scenario())
+            assert notices, "the stalled watcher was never told it skipped frames"
+            during = np.array([t for t in fast.arrivals if t_stall < t < t_stall + 10])
+            assert during.size > 300  # ~50 frames/s kept coming to the other watcher
+            assert np.max(np.diff(during)) < 0.5
+            recorded = downloads(c, rid)["csv"]
+            assert recorded.shape[0] == 14_000
+            got = slow.assemble(14_000)
+            for i, name in enumerate(NAMES):
+                np.testing.assert_array_equal(got[name], recorded[:, i].astype("<f4"))
+    finally:
+        srv.stop()
