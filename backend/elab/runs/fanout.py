@@ -51,7 +51,7 @@ def encode_frame(names: tuple[str, ...], F: int, k0: int, data: Array) -> bytes:
                  "columns": {name: cols[i].tobytes() for i, name in enumerate(names)}})
 
 
-@dataclass
+@dataclass(eq=False)  # identity: watchers live in sets
 class Watcher:
     """One subscriber: a send function and its queue of pending messages."""
 
