@@ -176,6 +176,7 @@ def test_a_vanishing_watcher_does_not_disturb_the_run(server: Server) -> None:
         sock = w.conn.transport.get_extra_info("socket")
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
         w.conn.transport.abort()  # TCP reset, no close handshake
+        await asyncio.sleep(0.1)  # let the aborted transport release its socket
 
     asyncio.run(vanish())
     with server.client() as c:

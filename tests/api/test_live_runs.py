@@ -73,6 +73,8 @@ def test_watchers_gain_change_downloads_and_restart(tmp_path: Path) -> None:
                 r = await asyncio.to_thread(c.post, f"/runs/{rid}/params", json={
                     "controller": {"kind": "state_feedback", "K": NEW_K}})
                 await asyncio.gather(*tasks)
+                for w in ws:
+                    await w.conn.close()
                 return ws, r.json()
 
             watchers, applied = asyncio.run(scenario())
@@ -166,6 +168,8 @@ def test_a_stalled_watcher_delays_nobody_and_gets_every_sample_back(tmp_path: Pa
                     if msg["type"] == "status" and msg["state"] == "finished":
                         break
                 await done
+                await fast.conn.close()
+                await slow.conn.close()
                 return fast, slow, t_stall, notices
 
             fast, slow, t_stall, notices = asyncio.run(scenario())
