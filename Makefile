@@ -14,12 +14,10 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
-# Until the live server lands this is the CLI's demo of the core library.
+# The lab server on http://127.0.0.1:8000 (data: $ELAB_DATA or ./data). The browser app
+# is the next piece; until then / shows the API reference.
 run: install
-	$(VENV)/bin/elab plants
-	$(VENV)/bin/elab analyze flexible_link
-	$(VENV)/bin/elab simulate flexible_link --signal square --amplitude 30deg --period 4 \
-		--duration 10 --out demo-flexible-link.csv
+	$(VENV)/bin/elab serve --host 127.0.0.1 --port 8000
 
 lint: install
 	$(VENV)/bin/ruff check backend tests scripts
