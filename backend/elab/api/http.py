@@ -95,11 +95,12 @@ def ok(model: BaseModel | list[Any], status: int = 200) -> JSONResponse:
 
 def error_response(exc: Exception) -> JSONResponse:
     """The JSON error for a known exception (anything else is a bug: 500)."""
-    status, detail = _detail(exc)
+    status, detail = error_detail(exc)
     return JSONResponse(ErrorBody(error=detail).model_dump(mode="json"), status_code=status)
 
 
-def _detail(exc: Exception) -> tuple[int, ErrorDetail]:
+def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
+    """Status code and body of a known exception (re-raises anything else)."""
     if isinstance(exc, ValidationError):
         errors = [FieldError(field=_loc(e["loc"]), message=_msg(e)) for e in exc.errors()]
         return 422, ErrorDetail(code="invalid", message="; ".join(

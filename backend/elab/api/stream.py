@@ -10,6 +10,7 @@ Query ``from_seq=N`` starts the watcher at frame N from the recording
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 import anyio
@@ -18,7 +19,7 @@ from pydantic import TypeAdapter, ValidationError
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from elab.api import schemas as s
-from elab.api.http import error_response
+from elab.api.http import error_detail
 from elab.api.runs import apply_params, run_info
 from elab.errors import ElabError, NotFound
 from elab.runs.fanout import Watcher, pack
@@ -102,18 +103,13 @@ async def _handle(msg: Any, m: Any, run_id: str, channel: Any, watcher: Watcher)
 
 
 def _json(text: str) -> Any:
-    import json
-
     return json.loads(text)
 
 
 def _error(exc: Exception) -> dict[str, Any]:
     if isinstance(exc, ValidationError | ElabError):
-        body = error_response(exc).body
-        import json
-
-        detail = json.loads(bytes(body))["error"]
-        return {"type": "error", "code": detail["code"], "message": detail["message"],
-                "field": detail.get("field")}
+        _, detail = error_detail(exc)
+        return {"type": "error", "code": detail.code, "message": detail.message,
+                "field": detail.field}
     return {"type": "error", "code": "invalid", "message": f"not a message: {exc}",
             "field": None}

@@ -11,7 +11,7 @@ from __future__ import annotations
 import asyncio
 import secrets
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -37,6 +37,7 @@ class _Live:
     run: CompiledRun
     state: RunState
     k: int = 0  # samples published
+    ended: asyncio.Event = field(default_factory=asyncio.Event)
 
 
 def channels_of(run: CompiledRun) -> tuple[tuple[str, str], ...]:
@@ -128,10 +129,9 @@ class RunManager:
         return await self.get(run_id)
 
     async def stop(self, run_id: str) -> RunRecord:
-        self._require_live(run_id, RunState.STOPPED)
+        live = self._require_live(run_id, RunState.STOPPED)
         await asyncio.wrap_future(self.stepper.stop(run_id))
-        while run_id in self._live:  # the stepper reports the end through the loop
-            await asyncio.sleep(0.001)
+        await live.ended.wait()  # the stepper reports the end through the loop
         return await self.get(run_id)
 
     async def set_params(self, run_id: str, *, law: ControlLaw | None, reference: Signal | None,
@@ -207,6 +207,7 @@ class RunManager:
                  "failed": RunState.FAILED}[e.state]
         await self._set_state(live, state, error=e.error, end=True)
         self._live.pop(e.run_id, None)
+        live.ended.set()
         ch = self._channels.get(e.run_id)
         if ch is not None:
             self.release(e.run_id, ch)

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elab.sim.batch import Batch
-from elab.sim.engine import DIVERGENCE_LIMIT
+from elab.sim.engine import first_divergence
 from elab.sim.spec import CompiledRun
 
 Array = NDArray[np.float64]
@@ -196,9 +196,8 @@ class Stepper:
         return max(0, min(due, left, self._batch.block))
 
     def _record(self, live: _Live, data: Array, ended: list[Ended]) -> Chunk:
-        bad = ~(np.abs(data[:, 1:]) <= DIVERGENCE_LIMIT).all(axis=1)
-        if bad.any():
-            i = int(np.argmax(bad))
+        i = first_divergence(data[:, 1:])  # u, y, x
+        if i is not None:
             data = data[:i]
             chunk = Chunk(live.id, live.k, data)
             live.k += i

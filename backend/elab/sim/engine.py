@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from elab.laws import ControlLaw
 from elab.sim.batch import Batch
@@ -90,14 +91,16 @@ def simulate(spec: RunSpec) -> Samples:
 DIVERGENCE_LIMIT = 1e9  # |state| or |input| beyond this (SI units) means the loop diverged
 
 
-def divergence_index(samples: Samples) -> int | None:
-    """Index of the first sample with a state or input non-finite or beyond the limit."""
+def first_divergence(rows: NDArray[np.float64]) -> int | None:
+    """Index of the first row with a value non-finite or beyond :data:`DIVERGENCE_LIMIT`."""
     with np.errstate(invalid="ignore"):
-        ok = (np.abs(samples.x) <= DIVERGENCE_LIMIT).all(axis=1) & (
-            np.abs(samples.u) <= DIVERGENCE_LIMIT)
-    if ok.all():
-        return None
-    return int(np.argmin(ok))
+        ok = (np.abs(rows) <= DIVERGENCE_LIMIT).all(axis=1)
+    return None if ok.all() else int(np.argmin(ok))
+
+
+def divergence_index(samples: Samples) -> int | None:
+    """Index of the first sample whose input or state diverged."""
+    return first_divergence(np.column_stack([samples.u, samples.x]))
 
 
 def _replace(spec: RunSpec, **changes: object) -> RunSpec:
