@@ -91,8 +91,8 @@ def _closed_loop_figures(plant: Plant) -> tuple[Any, Any, Any]:
     predefined loop, continuous and unsaturated."""
     cl = design.closed_loop(plant, plant.predefined)
     stab = design.stability(cl.A)
-    slowest = float(np.min(np.abs(stab.eigenvalues.real)))
-    step = design.step_response(cl, T=min(10.0 / slowest, 600.0), n=20001, u_output=-1)
+    step = design.step_response(cl, T=design.default_horizon(stab.eigenvalues), n=20001,
+                                u_output=-1)
     info = design.step_info(step.t, step.y[plant.reference_output])
     return stab, info, design.margins(design.loop_transfer(plant, plant.predefined))
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 from typing import Literal
 
+import control as ct
 import numpy as np
 from starlette.requests import Request
 from starlette.responses import Response
@@ -80,8 +81,6 @@ async def bode(request: Request) -> Response:
     names = [o.name for o in p.outputs]
     if name is not None and name not in names:
         raise InvalidInput("output", name, "one of " + ", ".join(names))
-    import control as ct
-
     b = await asyncio.to_thread(design.bode, ct.ss(p.A, p.B, p.C, p.D))
     keep = [i for i, o in enumerate(names) if name in (None, o)]
     return ok(s.BodeList(plant=p.id, input=p.inputs[0].name, bode=[
@@ -104,7 +103,7 @@ def _step(p: Plant, law: object, req: s.StepRequest) -> s.StepOut:
     loop: Literal["open", "closed"] = "open" if isinstance(law, OpenLoop) else "closed"
     sys = design.closed_loop(p, law)  # type: ignore[arg-type]
     stab = design.stability(sys.A)
-    T = req.T or _horizon(stab.eigenvalues)
+    T = req.T or design.default_horizon(stab.eigenvalues)
     r = design.step_response(sys, T=T, n=req.n, amplitude=req.amplitude, u_output=-1)
     y_ref = r.y[p.reference_output]
     info = None
@@ -115,12 +114,6 @@ def _step(p: Plant, law: object, req: s.StepRequest) -> s.StepOut:
                      outputs={o.name: _finite(r.y[i]) for i, o in enumerate(p.outputs)},
                      u=_finite(r.u), info=info, poles=convert.complex_list(stab.eigenvalues),
                      verdict=stab.verdict)
-
-
-def _horizon(eigenvalues: np.ndarray) -> float:
-    """Five slowest time constants of the stable poles (10 s if none), at most 600 s."""
-    re = -eigenvalues.real[eigenvalues.real < -1e-9]
-    return float(min(600.0, 5.0 / re.min())) if re.size else 10.0
 
 
 def _finite(v: np.ndarray) -> list[float]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import json
 from collections.abc import Callable
 from typing import Any
 
@@ -176,6 +177,4 @@ def _header(record: RunRecord) -> dict[str, str]:
 def _compact(obj: Any) -> str:
     if obj is None:
         return "plant default"
-    import json
-
     return json.dumps(obj, separators=(",", ":"))

@@ -259,3 +259,11 @@ def margins(L: ct.TransferFunction | ct.StateSpace) -> Margins:
 def _check_siso_input(sys: Any, field: str) -> None:
     if not isinstance(sys, ct.LTI) or not sys.isctime() or sys.ninputs != 1:
         raise InvalidInput(field, sys, "a continuous LTI system with one input")
+
+
+def default_horizon(eigenvalues: Any, time_constants: float = 10.0) -> float:
+    """A step-response horizon (s): ``time_constants`` of the slowest stable pole,
+    10 s when no pole is stable, at most 600 s."""
+    re = -np.real(np.asarray(eigenvalues))
+    re = re[re > 1e-9]
+    return float(min(600.0, time_constants / re.min())) if re.size else 10.0
