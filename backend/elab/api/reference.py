@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import html
 import json
-from typing import Any
+from typing import Any, Literal, get_args
 
-from pydantic import TypeAdapter
+from pydantic import BaseModel, RootModel
+from pydantic.json_schema import models_json_schema
 
 from elab.api import schemas as s
 from elab.api.http import ENDPOINTS, Endpoint
@@ -26,13 +27,56 @@ did not get) and `error`. The client may send `set_params`, `pause`, `resume`, `
 starts there. Close codes: 4404 unknown run, 4400 missing subprotocol."""
 
 
-def _schema(tp: Any, defs: dict[str, Any]) -> dict[str, Any]:
-    schema = TypeAdapter(tp).json_schema(ref_template=REF, mode="serialization")
-    defs.update(schema.pop("$defs", {}))
-    return schema
+Mode = Literal["validation", "serialization"]
 
 
-def _operation(e: Endpoint, defs: dict[str, Any]) -> dict[str, Any]:
+def _model(tp: Any) -> type[BaseModel]:
+    """``tp`` itself if it is a model, else a root model around it (a union, a list)."""
+    if isinstance(tp, type) and issubclass(tp, BaseModel):
+        return tp
+    if id(tp) not in _ROOTS:
+        name = _UNION_NAMES.get(id(tp)) or f"{get_args(tp)[0].__name__}List"
+        _ROOTS[id(tp)] = type(name, (RootModel[tp],), {"__module__": s.__name__})
+    return _ROOTS[id(tp)]
+
+
+_UNION_NAMES = {id(s.ServerMessage): "ServerMessage", id(s.ClientMessage): "ClientMessage"}
+_ROOTS: dict[int, type[BaseModel]] = {}
+
+
+def _schemas(roots: list[tuple[Any, Mode]], template: str) -> tuple[list[dict[str, Any]],
+                                                                    dict[str, Any]]:
+    """JSON Schema refs for ``roots`` and their shared definitions.
+
+    Requests are read in validation mode (fields with defaults optional), responses and
+    server messages in serialization mode (every field present); a model used both ways
+    gets two definitions, ``Name-Input`` and ``Name-Output``.
+    """
+    models = [(_model(tp), mode) for tp, mode in roots]
+    refs, top = models_json_schema(models, ref_template=template)
+    return [refs[m] for m in models], top.get("$defs", {})
+
+
+def openapi_document() -> dict[str, Any]:
+    roots: list[tuple[Any, Mode]] = [(s.ErrorBody, "serialization"),
+                                     (s.ServerMessage, "serialization"),
+                                     (s.ClientMessage, "validation")]
+    for e in ENDPOINTS:
+        if e.body is not None:
+            roots.append((e.body, "validation"))
+        if e.response not in (None, "file"):
+            roots.append((e.response, "serialization"))
+    refs, defs = _schemas(roots, REF)
+    ref = dict(zip(((id(tp), mode) for tp, mode in roots), refs, strict=True))
+    paths: dict[str, Any] = {}
+    for e in ENDPOINTS:
+        paths.setdefault("/api/v1" + e.path, {})[e.method.lower()] = _operation(e, ref)
+    return {"openapi": "3.1.0",
+            "info": {"title": "E-Lab API", "version": s.PROTOCOL, "description": STREAM_TEXT},
+            "paths": paths, "components": {"schemas": dict(sorted(defs.items()))}}
+
+
+def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict[str, Any]:
     op: dict[str, Any] = {"summary": e.summary, "operationId": e.handler.__name__,
                           "tags": [e.path.split("/")[1]]}
     if e.handler.__doc__:
@@ -43,48 +87,34 @@ def _operation(e: Endpoint, defs: dict[str, Any]) -> dict[str, Any]:
                             for p in e.params]
     if e.body is not None:
         op["requestBody"] = {"required": True, "content": {
-            "application/json": {"schema": _schema(e.body, defs)}}}
+            "application/json": {"schema": ref[id(e.body), "validation"]}}}
     if e.response == "file":
         content = {m: {"schema": {"type": "string", "format": "binary"}}
                    for m in ("text/csv", "application/json", "application/x-matlab-data")}
     else:
-        content = {"application/json": {"schema": _schema(e.response, defs)}}
+        content = {"application/json": {"schema": ref[id(e.response), "serialization"]}}
     op["responses"] = {str(e.status): {"description": STATUS_TEXT.get(e.status, "OK"),
                                        "content": content}}
     for code in e.errors:
         op["responses"][str(code)] = {"description": STATUS_TEXT[code], "content": {
-            "application/json": {"schema": _schema(s.ErrorBody, defs)}}}
+            "application/json": {"schema": ref[id(s.ErrorBody), "serialization"]}}}
     return op
 
 
-def openapi_document() -> dict[str, Any]:
-    defs: dict[str, Any] = {}
-    paths: dict[str, Any] = {}
-    for e in ENDPOINTS:
-        paths.setdefault("/api/v1" + e.path, {})[e.method.lower()] = _operation(e, defs)
-    for tp in (s.ServerMessage, s.ClientMessage):
-        _schema(tp, defs)
-    return {"openapi": "3.1.0",
-            "info": {"title": "E-Lab API", "version": s.PROTOCOL, "description": STREAM_TEXT},
-            "paths": paths, "components": {"schemas": dict(sorted(defs.items()))}}
+#: The wire schema's roots: what clients send (validation) and what they receive.
+WIRE_ROOTS: list[tuple[Any, Mode]] = [
+    (s.RunCreate, "validation"), (s.ParamsUpdate, "validation"), (s.StepRequest, "validation"),
+    (s.LQRRequest, "validation"), (s.PlaceRequest, "validation"), (s.ClientMessage, "validation"),
+    (s.RunInfo, "serialization"), (s.RunList, "serialization"), (s.ParamsApplied, "serialization"),
+    (s.PlantSummary, "serialization"), (s.PlantDetail, "serialization"),
+    (s.AnalysisInfo, "serialization"), (s.BodeList, "serialization"),
+    (s.StepOut, "serialization"), (s.DesignOut, "serialization"), (s.ErrorBody, "serialization"),
+    (s.ServerMessage, "serialization")]
 
 
 def wire_schema() -> dict[str, Any]:
     """Every wire model as one JSON Schema (``shared/elab.v1.schema.json``)."""
-    defs: dict[str, Any] = {}
-    roots: dict[str, Any] = {"RunCreate": s.RunCreate, "RunInfo": s.RunInfo, "RunList": s.RunList,
-             "ParamsUpdate": s.ParamsUpdate, "ParamsApplied": s.ParamsApplied,
-             "PlantSummary": s.PlantSummary, "PlantDetail": s.PlantDetail,
-             "AnalysisInfo": s.AnalysisInfo, "BodeList": s.BodeList, "StepRequest": s.StepRequest,
-             "StepOut": s.StepOut, "LQRRequest": s.LQRRequest, "PlaceRequest": s.PlaceRequest,
-             "DesignOut": s.DesignOut, "ErrorBody": s.ErrorBody,
-             "ServerMessage": s.ServerMessage, "ClientMessage": s.ClientMessage}
-    ref = "#/$defs/{model}"
-    for name, tp in roots.items():
-        schema = TypeAdapter(tp).json_schema(ref_template=ref, mode="serialization")
-        defs.update(schema.pop("$defs", {}))
-        if name not in defs:
-            defs[name] = schema
+    _, defs = _schemas(WIRE_ROOTS, "#/$defs/{model}")
     return {"$schema": "https://json-schema.org/draft/2020-12/schema", "$id": s.PROTOCOL,
             "title": "E-Lab wire protocol elab.v1", "$defs": dict(sorted(defs.items()))}
 

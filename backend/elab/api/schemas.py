@@ -16,7 +16,8 @@ Finite = float  # with allow_inf_nan=False below, NaN and ±inf are refused ever
 
 
 class Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True,
+                              json_schema_serialization_defaults_required=True)
 
 
 # -- controllers ------------------------------------------------------------------

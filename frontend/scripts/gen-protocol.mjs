@@ -1,0 +1,69 @@
+// Generate src/protocol.gen.ts from ../shared/elab.v1.schema.json (written from the
+// backend's pydantic models by scripts/wire_schema.py). `--check` exits 1 when the
+// committed file differs from what the schema gives (tests/unit/test_wire_schema.py).
+import { readFileSync, writeFileSync } from "node:fs";
+import { dirname, resolve } from "node:path";
+import { fileURLToPath } from "node:url";
+import { compile } from "json-schema-to-typescript";
+
+const here = dirname(fileURLToPath(import.meta.url));
+const schemaPath = resolve(here, "../../shared/elab.v1.schema.json");
+const outPath = resolve(here, "../src/protocol.gen.ts");
+
+/** msgpack `bin` (JSON Schema: string, format binary) arrives as a Uint8Array. */
+function binaryAsBytes(node) {
+  if (Array.isArray(node)) return node.map(binaryAsBytes);
+  if (node === null || typeof node !== "object") return node;
+  const out = Object.fromEntries(Object.entries(node).map(([k, v]) => [k, binaryAsBytes(v)]));
+  if (out.type === "string" && out.format === "binary") out.tsType = "Uint8Array";
+  return out;
+}
+
+/** Property titles would each become a type alias (Kind1, Kind2, ...): keep model titles only. */
+function dropPropertyTitles(node, isModel = false) {
+  if (Array.isArray(node)) return node.map((n) => dropPropertyTitles(n));
+  if (node === null || typeof node !== "object") return node;
+  const out = {};
+  for (const [k, v] of Object.entries(node)) {
+    if (k === "title" && !isModel) continue;
+    out[k] = k === "$defs" || k === "properties"
+      ? Object.fromEntries(Object.entries(v).map(([n, d]) => [n, dropPropertyTitles(d, k === "$defs")]))
+      : dropPropertyTitles(v);
+  }
+  return out;
+}
+
+const schema = dropPropertyTitles(binaryAsBytes(JSON.parse(readFileSync(schemaPath, "utf8"))));
+// A model used both ways has two definitions: `X-Input` (what a client sends, defaults
+// optional) becomes X and `X-Output` (what the server sends, every field present) XOut.
+for (const [key, def] of Object.entries(schema.$defs)) {
+  def.title = key.replace(/-Input$/, "").replace(/-Output$/, "Out");
+}
+// One root whose properties name every definition, so each becomes an exported type.
+const root = {
+  title: "ElabProtocol",
+  type: "object",
+  additionalProperties: false,
+  properties: Object.fromEntries(Object.keys(schema.$defs).map((k) => [k, { $ref: `#/$defs/${k}` }])),
+  $defs: schema.$defs,
+};
+const banner = `/* Generated from shared/elab.v1.schema.json by scripts/gen-protocol.mjs (make protocol).
+ * Do not edit: change the pydantic models in backend/elab/api/schemas.py instead. */`;
+const ts = await compile(root, "ElabProtocol", {
+  bannerComment: banner,
+  additionalProperties: false,
+  unreachableDefinitions: true,
+  style: { singleQuote: false, printWidth: 100 },
+});
+
+if (process.argv.includes("--check")) {
+  const current = readFileSync(outPath, "utf8");
+  if (current !== ts) {
+    console.error("frontend/src/protocol.gen.ts is out of date: run `make protocol`");
+    process.exit(1);
+  }
+  console.log("frontend/src/protocol.gen.ts is current");
+} else {
+  writeFileSync(outPath, ts);
+  console.log("wrote frontend/src/protocol.gen.ts");
+}
