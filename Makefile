@@ -4,10 +4,13 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 NODE_STAMP := frontend/node_modules/.installed
+APP    := backend/elab/api/static/index.html
+APP_SRC := $(shell find frontend/src frontend/index.html frontend/vite.config.ts \
+                        frontend/tsconfig.json -type f 2>/dev/null)
 
-.PHONY: install run test lint typecheck unit bench docs protocol clean
+.PHONY: install run test lint typecheck unit frontend-test chromium bench docs protocol clean
 
-install: $(STAMP) $(NODE_STAMP)
+install: $(STAMP) $(NODE_STAMP) $(APP)
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -19,6 +22,15 @@ $(NODE_STAMP): frontend/package.json frontend/package-lock.json
 	cd frontend && npm ci --no-audit --no-fund --loglevel=error
 	touch $(NODE_STAMP)
 
+# The browser app, built into the Python package (type-checked first).
+$(APP): $(NODE_STAMP) $(APP_SRC)
+	cd frontend && npm run build --silent
+
+# The end-to-end tests drive Debian's Chromium.
+chromium:
+	@test -x /usr/bin/chromium || (apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium)
+
 # The lab server on http://127.0.0.1:8000 (data: $ELAB_DATA or ./data).
 run: install
 	$(VENV)/bin/elab serve --host 127.0.0.1 --port 8000
@@ -29,10 +41,13 @@ lint: install
 typecheck: install
 	$(VENV)/bin/mypy
 
-unit: install
+unit: install chromium
 	$(PY) -m pytest
 
-test: lint typecheck unit
+frontend-test: install
+	cd frontend && npx vitest run
+
+test: lint typecheck frontend-test unit
 
 bench: install
 	$(PY) tests/bench/run.py
@@ -47,4 +62,4 @@ protocol: install
 
 clean:
 	rm -rf $(VENV) build *.egg-info backend/*.egg-info .pytest_cache .mypy_cache .ruff_cache \
-	       frontend/node_modules
+	       frontend/node_modules backend/elab/api/static

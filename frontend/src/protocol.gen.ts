@@ -8,9 +8,46 @@
 export type ClientMessage = SetParams | Pause | Resume | Stop | ResumeFrom;
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "Controller-Input".
+ */
+export type Controller =
+  | PredefinedController
+  | StateFeedbackController
+  | PIDController
+  | LTIControllerModel
+  | OpenLoopController;
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "Controller-Output".
+ */
+export type ControllerOut =
+  | PredefinedControllerOut
+  | StateFeedbackControllerOut
+  | PIDControllerOut
+  | LTIControllerModelOut
+  | OpenLoopControllerOut;
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ServerMessage".
  */
 export type ServerMessage = Hello | Frame | Status | Skipped | ParamsNotice | ErrorMessage;
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "Signal-Input".
+ */
+export type Signal =
+  StepSignal | SquareSignal | SineSignal | ChirpSignal | PRBSSignal | SamplesSignal;
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "Signal-Output".
+ */
+export type SignalOut =
+  | StepSignalOut
+  | SquareSignalOut
+  | SineSignalOut
+  | ChirpSignalOut
+  | PRBSSignalOut
+  | SamplesSignalOut;
 
 export interface ElabProtocol {
   AnalysisInfo?: AnalysisInfo;
@@ -21,6 +58,8 @@ export interface ElabProtocol {
   "ChirpSignal-Output"?: ChirpSignalOut;
   ClientMessage?: ClientMessage;
   Complex?: Complex;
+  "Controller-Input"?: Controller;
+  "Controller-Output"?: ControllerOut;
   DesignOut?: DesignOut;
   ErrorBody?: ErrorBody;
   ErrorDetail?: ErrorDetail;
@@ -58,6 +97,8 @@ export interface ElabProtocol {
   "SamplesSignal-Output"?: SamplesSignalOut;
   ServerMessage?: ServerMessage;
   SetParams?: SetParams;
+  "Signal-Input"?: Signal;
+  "Signal-Output"?: SignalOut;
   "SineSignal-Input"?: SineSignal;
   "SineSignal-Output"?: SineSignalOut;
   Skipped?: Skipped;
@@ -347,6 +388,72 @@ export interface ResumeFrom {
   seq: number;
 }
 /**
+ * The plant's predefined controller.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "PredefinedController-Output".
+ */
+export interface PredefinedControllerOut {
+  kind: "predefined";
+}
+/**
+ * u = K (x_ref − x̂): one gain per state.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "StateFeedbackController-Output".
+ */
+export interface StateFeedbackControllerOut {
+  kind: "state_feedback";
+  /**
+   * @minItems 1
+   * @maxItems 64
+   */
+  K: [number, ...number[]];
+  estimate: "true_state" | "velocity_filters";
+}
+/**
+ * C(s) = Kp + Ki/s + Kd s/(Tf s + 1), Tf = Kd/(N Kp), on e = r − y.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "PIDController-Output".
+ */
+export interface PIDControllerOut {
+  kind: "pid";
+  Kp: number;
+  Ki: number;
+  Kd: number;
+  N: number;
+  /**
+   * anti-windup tracking time (s)
+   */
+  Tt: number | null;
+}
+/**
+ * Any SISO LTI controller on e = r − y: num/den or A, B, C, D; dt = null: continuous.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "LTIControllerModel-Output".
+ */
+export interface LTIControllerModelOut {
+  kind: "lti";
+  num: number[] | null;
+  den: number[] | null;
+  A: number[][] | null;
+  B: number[][] | null;
+  C: [] | [number[]] | null;
+  D: [] | [number[]] | null;
+  dt: number | null;
+}
+/**
+ * No feedback: the signal is the plant input (V).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "OpenLoopController-Output".
+ */
+export interface OpenLoopControllerOut {
+  kind: "open_loop";
+}
+/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "DesignOut".
  */
@@ -470,48 +577,6 @@ export interface LQRRequest {
   R?: number | number[][];
 }
 /**
- * Any SISO LTI controller on e = r − y: num/den or A, B, C, D; dt = null: continuous.
- *
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "LTIControllerModel-Output".
- */
-export interface LTIControllerModelOut {
-  kind: "lti";
-  num: number[] | null;
-  den: number[] | null;
-  A: number[][] | null;
-  B: number[][] | null;
-  C: [] | [number[]] | null;
-  D: [] | [number[]] | null;
-  dt: number | null;
-}
-/**
- * No feedback: the signal is the plant input (V).
- *
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "OpenLoopController-Output".
- */
-export interface OpenLoopControllerOut {
-  kind: "open_loop";
-}
-/**
- * C(s) = Kp + Ki/s + Kd s/(Tf s + 1), Tf = Kd/(N Kp), on e = r − y.
- *
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "PIDController-Output".
- */
-export interface PIDControllerOut {
-  kind: "pid";
-  Kp: number;
-  Ki: number;
-  Kd: number;
-  N: number;
-  /**
-   * anti-windup tracking time (s)
-   */
-  Tt: number | null;
-}
-/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "PRBSSignal-Output".
  */
@@ -626,30 +691,6 @@ export interface PlantDetail {
     [k: string]: number[];
   };
   description: string;
-}
-/**
- * The plant's predefined controller.
- *
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "PredefinedController-Output".
- */
-export interface PredefinedControllerOut {
-  kind: "predefined";
-}
-/**
- * u = K (x_ref − x̂): one gain per state.
- *
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "StateFeedbackController-Output".
- */
-export interface StateFeedbackControllerOut {
-  kind: "state_feedback";
-  /**
-   * @minItems 1
-   * @maxItems 64
-   */
-  K: [number, ...number[]];
-  estimate: "true_state" | "velocity_filters";
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

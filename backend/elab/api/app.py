@@ -5,13 +5,18 @@ from __future__ import annotations
 
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from pathlib import Path
 
 from pydantic import ValidationError
 from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
+from starlette.middleware import Middleware
+from starlette.middleware.gzip import GZipMiddleware
 from starlette.requests import Request
-from starlette.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
-from starlette.routing import BaseRoute, Route, WebSocketRoute
+from starlette.responses import (FileResponse, HTMLResponse, JSONResponse, RedirectResponse,
+                                 Response)
+from starlette.routing import BaseRoute, Mount, Route, WebSocketRoute
+from starlette.staticfiles import StaticFiles
 
 from elab.api import plants, runs  # noqa: F401  (registers their endpoints)
 from elab.api.http import ENDPOINTS, error_response
@@ -23,6 +28,10 @@ from elab.runs.manager import RunManager
 from elab.runs.store import Store
 
 API = "/api/v1"
+#: The built browser app (``make install`` runs the frontend build into it).
+STATIC = Path(__file__).parent / "static"
+#: The app's own pages: each is answered with index.html and routed in the browser.
+APP_PAGES = ("/", "/plants/{rest:path}", "/runs/{rest:path}")
 
 
 def create_app(settings: Settings | None = None) -> Starlette:
@@ -51,18 +60,31 @@ def create_app(settings: Settings | None = None) -> Starlette:
     async def docs(request: Request) -> Response:
         return HTMLResponse(page)
 
-    async def home(request: Request) -> Response:
-        return RedirectResponse(API + "/docs")
-
     routes: list[BaseRoute] = [Route(API + e.path, e.handler, methods=[e.method])
                                for e in ENDPOINTS]
     routes += [WebSocketRoute(API + "/runs/{run_id}/stream", stream),
-               Route(API + "/openapi.json", openapi), Route(API + "/docs", docs),
-               Route("/", home)]
-    app = Starlette(routes=routes, lifespan=lifespan, exception_handlers={
+               Route(API + "/openapi.json", openapi), Route(API + "/docs", docs)]
+    routes += _app_routes(STATIC)
+    app = Starlette(routes=routes, lifespan=lifespan, middleware=[
+        Middleware(GZipMiddleware, minimum_size=4096)], exception_handlers={
         ElabError: _error, ValidationError: _error, HTTPException: _http_error})
     app.state.settings = settings
     return app
+
+
+def _app_routes(static: Path) -> list[BaseRoute]:
+    """The browser app's pages and assets; without a build, / shows the API reference."""
+    index = static / "index.html"
+    if not index.is_file():
+        async def reference(request: Request) -> Response:
+            return RedirectResponse(API + "/docs")
+        return [Route("/", reference)]
+
+    async def page(request: Request) -> Response:
+        return FileResponse(index, headers={"cache-control": "no-cache"})
+
+    assets = StaticFiles(directory=static / "assets", check_dir=False)
+    return [Mount("/assets", assets), *(Route(path, page) for path in APP_PAGES)]
 
 
 async def _error(request: Request, exc: Exception) -> Response:

@@ -40,7 +40,8 @@ def _model(tp: Any) -> type[BaseModel]:
     return _ROOTS[id(tp)]
 
 
-_UNION_NAMES = {id(s.ServerMessage): "ServerMessage", id(s.ClientMessage): "ClientMessage"}
+_UNION_NAMES = {id(s.ServerMessage): "ServerMessage", id(s.ClientMessage): "ClientMessage",
+                id(s.Controller): "Controller", id(s.Signal): "Signal"}
 _ROOTS: dict[int, type[BaseModel]] = {}
 
 
@@ -109,7 +110,10 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.PlantSummary, "serialization"), (s.PlantDetail, "serialization"),
     (s.AnalysisInfo, "serialization"), (s.BodeList, "serialization"),
     (s.StepOut, "serialization"), (s.DesignOut, "serialization"), (s.ErrorBody, "serialization"),
-    (s.ServerMessage, "serialization")]
+    (s.ServerMessage, "serialization"),
+    # the unions by name, as clients build them and as the server describes them
+    (s.Controller, "validation"), (s.Controller, "serialization"),
+    (s.Signal, "validation"), (s.Signal, "serialization")]
 
 
 def wire_schema() -> dict[str, Any]:

@@ -1,0 +1,92 @@
+// REST calls to /api/v1, typed by the generated wire protocol. Every failure becomes an
+// ApiError carrying the server's field errors, so a form can show each next to its field.
+import type {
+  AnalysisInfo,
+  BodeList,
+  DesignOut,
+  ErrorDetail,
+  LQRRequest,
+  ParamsApplied,
+  ParamsUpdate,
+  PlaceRequest,
+  PlantDetail,
+  PlantSummary,
+  RunCreate,
+  RunInfo,
+  RunList,
+  StepOut,
+  StepRequest,
+} from "./protocol.gen";
+
+export const API = "/api/v1";
+
+export class ApiError extends Error {
+  constructor(
+    readonly status: number,
+    readonly detail: ErrorDetail,
+  ) {
+    super(detail.message);
+    this.name = "ApiError";
+  }
+
+  /** Field → message, for every field the server named ("controller.K.2", ...). */
+  fieldMessages(): Map<string, string> {
+    const out = new Map<string, string>();
+    for (const e of this.detail.errors) out.set(e.field, e.message);
+    if (this.detail.field && !out.has(this.detail.field)) out.set(this.detail.field, this.detail.message);
+    return out;
+  }
+}
+
+async function call<T>(method: string, path: string, body?: unknown): Promise<T> {
+  let response: Response;
+  try {
+    response = await fetch(API + path, {
+      method,
+      headers: body === undefined ? {} : { "content-type": "application/json" },
+      body: body === undefined ? undefined : JSON.stringify(body),
+    });
+  } catch (err) {
+    throw new ApiError(0, { code: "unavailable", message: `the lab server is not reachable (${String(err)})`, field: null, errors: [] });
+  }
+  const text = await response.text();
+  let data: unknown = null;
+  try {
+    data = text ? JSON.parse(text) : null;
+  } catch {
+    /* not JSON: reported below */
+  }
+  if (!response.ok) {
+    const detail = (data as { error?: ErrorDetail } | null)?.error;
+    throw new ApiError(response.status, detail ?? { code: "invalid", message: `${response.status} ${response.statusText}: ${text.slice(0, 200)}`, field: null, errors: [] });
+  }
+  return data as T;
+}
+
+export const api = {
+  plants: () => call<PlantSummary[]>("GET", "/plants"),
+  plant: (id: string) => call<PlantDetail>("GET", `/plants/${encodeURIComponent(id)}`),
+  analysis: (id: string) => call<AnalysisInfo>("GET", `/plants/${encodeURIComponent(id)}/analysis`),
+  bode: (id: string) => call<BodeList>("GET", `/plants/${encodeURIComponent(id)}/bode`),
+  step: (id: string, req: StepRequest) => call<StepOut>("POST", `/plants/${encodeURIComponent(id)}/step`, req),
+  lqr: (id: string, req: LQRRequest) => call<DesignOut>("POST", `/plants/${encodeURIComponent(id)}/design/lqr`, req),
+  place: (id: string, req: PlaceRequest) => call<DesignOut>("POST", `/plants/${encodeURIComponent(id)}/design/place`, req),
+  runs: (query: { plant?: string; limit?: number; offset?: number } = {}) => {
+    const q = new URLSearchParams();
+    for (const [k, v] of Object.entries(query)) if (v !== undefined) q.set(k, String(v));
+    return call<RunList>("GET", `/runs${q.size ? "?" + q.toString() : ""}`);
+  },
+  run: (id: string) => call<RunInfo>("GET", `/runs/${encodeURIComponent(id)}`),
+  createRun: (req: RunCreate) => call<RunInfo>("POST", "/runs", req),
+  stop: (id: string) => call<RunInfo>("POST", `/runs/${encodeURIComponent(id)}/stop`),
+  pause: (id: string) => call<RunInfo>("POST", `/runs/${encodeURIComponent(id)}/pause`),
+  resume: (id: string) => call<RunInfo>("POST", `/runs/${encodeURIComponent(id)}/resume`),
+  params: (id: string, req: ParamsUpdate) => call<ParamsApplied>("POST", `/runs/${encodeURIComponent(id)}/params`, req),
+};
+
+/** The download address of a run's recording. */
+export function dataUrl(run: RunInfo, format: "csv" | "json" | "mat", channels?: string[]): string {
+  const q = new URLSearchParams({ format });
+  if (channels?.length) q.set("channels", channels.join(","));
+  return `${run.data_url}?${q.toString()}`;
+}

@@ -1,0 +1,63 @@
+// A small element builder: h("div.card", {onclick}, child, ...).
+
+type Child = Node | string | number | null | undefined | false;
+type Attrs = Record<string, string | number | boolean | EventListener | null | undefined>;
+
+function isAttrs(x: unknown): x is Attrs {
+  return typeof x === "object" && x !== null && !(x instanceof Node);
+}
+
+/** An element; the first argument after the tag may be its attributes, the rest children. */
+export function h<K extends keyof HTMLElementTagNameMap>(tag: K | `${K}.${string}` | `${K}#${string}`, ...rest: (Attrs | Child)[]): HTMLElementTagNameMap[K] {
+  const [name, ...classes] = tag.split(".");
+  const [tagName, id] = name.split("#");
+  const el = document.createElement(tagName as K);
+  if (id) el.id = id;
+  if (classes.length) el.className = classes.join(" ");
+  const attrs = isAttrs(rest[0]) ? (rest.shift() as Attrs) : {};
+  for (const [k, v] of Object.entries(attrs)) {
+    if (v === null || v === undefined || v === false) continue;
+    if (k.startsWith("on") && typeof v === "function") el.addEventListener(k.slice(2), v);
+    else if (k === "class") el.className = [el.className, String(v)].filter(Boolean).join(" ");
+    else if (v === true) el.setAttribute(k, "");
+    else el.setAttribute(k, String(v));
+  }
+  append(el, ...(rest as Child[]));
+  return el;
+}
+
+export function append(el: Element, ...children: Child[]): void {
+  for (const c of children) {
+    if (c === null || c === undefined || c === false) continue;
+    el.append(c instanceof Node ? c : String(c));
+  }
+}
+
+/** Replace an element's content. */
+export function fill(el: Element, ...children: Child[]): void {
+  el.replaceChildren();
+  append(el, ...children);
+}
+
+/** A link handled by the app's router (plain navigation when opened in a new tab). */
+export function link(href: string, ...children: Child[]): HTMLAnchorElement {
+  return h("a", { href, "data-link": true }, ...children);
+}
+
+/** Save text as a file. */
+export function saveText(filename: string, text: string, type = "text/csv"): void {
+  const url = URL.createObjectURL(new Blob([text], { type }));
+  const a = h("a", { href: url, download: filename });
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 1000);
+}
+
+/** Columns → CSV text with a header line. */
+export function csv(header: string[], columns: ArrayLike<number>[]): string {
+  const n = Math.max(0, ...columns.map((c) => c.length));
+  const lines = [header.join(",")];
+  for (let i = 0; i < n; i++) lines.push(columns.map((c) => (i < c.length ? String(c[i]) : "")).join(","));
+  return lines.join("\n") + "\n";
+}

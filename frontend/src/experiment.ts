@@ -1,0 +1,139 @@
+// The forms every experiment shares: controller gains and the reference or excitation
+// signal, with allowed ranges shown, values in display units (°, mm) and SI on the wire.
+import { FieldSet, NumberField, type NumberSpec } from "./forms";
+import { h } from "./dom";
+import type { Controller, ControllerOut, PlantDetail, Signal, SignalOut } from "./protocol.gen";
+import { display } from "./units";
+
+export const GAIN_LIMIT = 1e6;
+export const MAX_DURATION = 3600;
+
+/** Gains of the plant's predefined controller (state feedback or PID) as fields. */
+export class ControllerForm {
+  readonly fields = new FieldSet();
+  readonly root: HTMLElement;
+
+  constructor(
+    readonly plant: PlantDetail,
+    readonly initial: ControllerOut = plant.predefined,
+    onChange?: () => void,
+  ) {
+    const grid = h("div.grid");
+    const gain = (spec: Omit<NumberSpec, "min" | "max">) =>
+      grid.append(this.fields.add(new NumberField({ min: -GAIN_LIMIT, max: GAIN_LIMIT, step: "any", ...spec }, onChange)).root);
+    if (initial.kind === "state_feedback") {
+      const u = plant.inputs[0]?.unit ?? "V";
+      initial.K.forEach((k, i) => {
+        const st = plant.states[i];
+        gain({ field: `controller.K.${i}`, label: `K${i + 1} · ${st?.label ?? `x${i + 1}`}`, unit: `${u}/${st?.unit ?? "1"}`, value: k });
+      });
+    } else if (initial.kind === "pid") {
+      gain({ field: "controller.Kp", label: "Kp (proportional)", value: initial.Kp });
+      gain({ field: "controller.Ki", label: "Ki (integral)", unit: "1/s", value: initial.Ki });
+      gain({ field: "controller.Kd", label: "Kd (derivative)", unit: "s", value: initial.Kd });
+    }
+    this.root = h("fieldset.controller", h("legend", this.legend()), grid);
+  }
+
+  private legend(): string {
+    const c = this.initial;
+    if (c.kind === "state_feedback") return "State feedback u = K (x_ref − x̂)";
+    if (c.kind === "pid") return "PID controller on e = r − y";
+    return "Controller";
+  }
+
+  /** The controller to send, or null (each invalid field says why). */
+  value(): Controller | null {
+    const v = this.fields.values();
+    if (!v) return null;
+    const c = this.initial;
+    if (c.kind === "state_feedback") return { kind: "state_feedback", K: c.K.map((_, i) => v.get(`controller.K.${i}`)!) as [number, ...number[]], estimate: c.estimate };
+    if (c.kind === "pid") return { kind: "pid", Kp: v.get("controller.Kp")!, Ki: v.get("controller.Ki")!, Kd: v.get("controller.Kd")!, N: c.N, Tt: c.Tt };
+    return { kind: "predefined" };
+  }
+
+  setGains(K: number[]): void {
+    K.forEach((k, i) => {
+      const f = this.fields.get(`controller.K.${i}`);
+      if (f) f.value = Number(k.toPrecision(6));
+    });
+  }
+}
+
+export type SignalKind = "step" | "square" | "sine" | "prbs";
+
+const SIGNAL_LABEL: Record<SignalKind, string> = { step: "step", square: "square wave", sine: "sine", prbs: "PRBS (pseudo-random binary)" };
+
+/** A signal (reference or excitation) with its kind chosen from `kinds`. */
+export class SignalForm {
+  readonly root: HTMLElement;
+  readonly fields = new FieldSet();
+  readonly kind: HTMLSelectElement;
+  private readonly body = h("div.grid");
+  private readonly scale: number;
+  private readonly unit: string;
+
+  constructor(
+    readonly prefix: "signal" | "excitation",
+    readonly legend: string,
+    readonly kinds: SignalKind[],
+    /** SI unit of the signal (the reference output's, or the input's for excitation) */
+    siUnit: string,
+    readonly initial: SignalOut | null,
+    private readonly onChange?: () => void,
+  ) {
+    const d = display(siUnit);
+    this.scale = d.scale;
+    this.unit = d.unit;
+    this.kind = h("select", { id: `${prefix}-kind`, name: `${prefix}.kind`, onchange: () => this.build() }, ...kinds.map((k) => h("option", { value: k }, SIGNAL_LABEL[k])));
+    if (initial && (kinds as string[]).includes(initial.kind)) this.kind.value = initial.kind;
+    this.root = h("fieldset.signal", h("legend", legend), h("div.field", h("label", { for: `${prefix}-kind` }, "Signal"), this.kind), this.body);
+    this.build();
+  }
+
+  private amplitudeLimit(): number {
+    return this.unit === "°" ? 360 : 1e4;
+  }
+
+  private build(): void {
+    this.fields.fields.clear();
+    this.body.replaceChildren();
+    const kind = this.kind.value as SignalKind;
+    const init = this.initial && this.initial.kind === kind ? this.initial : null;
+    const p = this.prefix;
+    const add = (spec: NumberSpec) => this.body.append(this.fields.add(new NumberField(spec, this.onChange)).root);
+    const amp = init && "amplitude" in init ? init.amplitude * this.scale : this.unit === "°" ? 30 : 1;
+    const lim = this.amplitudeLimit();
+    add({ field: `${p}.amplitude`, label: "Amplitude", unit: this.unit, value: Number(amp.toPrecision(6)), min: -lim, max: lim });
+    if (kind === "step") add({ field: `${p}.t0`, label: "Step time", unit: "s", value: init?.kind === "step" ? init.t0 : 0, min: 0, max: MAX_DURATION });
+    if (kind === "square") add({ field: `${p}.period`, label: "Period", unit: "s", value: init?.kind === "square" ? init.period : 4, min: 0, minExclusive: true, max: MAX_DURATION });
+    if (kind === "sine") add({ field: `${p}.frequency`, label: "Frequency", unit: "Hz", value: init?.kind === "sine" ? init.frequency : 0.5, min: 0, minExclusive: true, max: 500 });
+    if (kind === "prbs") {
+      add({ field: `${p}.band`, label: "Band (fraction of Nyquist)", value: init?.kind === "prbs" ? init.band : 0.05, min: 0, minExclusive: true, max: 1 });
+      add({ field: `${p}.order`, label: "Register length", value: init?.kind === "prbs" ? init.order : 10, min: 3, max: 20, integer: true, hint: "allowed: a whole number 3 … 20 (period 2ⁿ − 1 bits)" });
+    }
+    this.onChange?.();
+  }
+
+  value(): Signal | null {
+    const v = this.fields.values();
+    if (!v) return null;
+    const p = this.prefix;
+    const amplitude = v.get(`${p}.amplitude`)! / this.scale;
+    switch (this.kind.value as SignalKind) {
+      case "step":
+        return { kind: "step", amplitude, t0: v.get(`${p}.t0`)! };
+      case "square":
+        return { kind: "square", amplitude, period: v.get(`${p}.period`)! };
+      case "sine":
+        return { kind: "sine", amplitude, frequency: v.get(`${p}.frequency`)! };
+      case "prbs":
+        return { kind: "prbs", amplitude, band: v.get(`${p}.band`)!, order: v.get(`${p}.order`)! };
+    }
+  }
+}
+
+/** The run length field. */
+export function durationField(value: number, onChange?: () => void): NumberField {
+  return new NumberField({ field: "duration", label: "Duration", unit: "s", value, min: 0, minExclusive: true, max: MAX_DURATION }, onChange);
+}

@@ -1,0 +1,45 @@
+// E-Lab in the browser: the routes, the shell (header, classroom mode) and the views.
+import "katex/dist/katex.min.css";
+import "./style.css";
+import { h, link } from "./dom";
+import { Router } from "./router";
+import { analysisPage } from "./views/analysis";
+import { designPage } from "./views/design";
+import { home } from "./views/home";
+import { identificationPage } from "./views/identification";
+import { plantPage } from "./views/plant";
+import { runPage } from "./views/run";
+
+const CLASSROOM = "elab.classroom";
+
+function shell(): HTMLElement {
+  const toggle = h("button.link", { type: "button", "aria-pressed": "false", title: "Large fonts for a projector" }, "Classroom mode");
+  const set = (on: boolean) => {
+    document.body.classList.toggle("classroom", on);
+    toggle.setAttribute("aria-pressed", String(on));
+    localStorage.setItem(CLASSROOM, on ? "1" : "0");
+    window.dispatchEvent(new Event("resize")); // plots redraw with the new font size
+  };
+  toggle.addEventListener("click", () => set(!document.body.classList.contains("classroom")));
+  set(localStorage.getItem(CLASSROOM) === "1");
+  const main = h("main#main", { tabindex: "-1" });
+  document.body.append(
+    h("a.skip", { href: "#main" }, "Skip to content"),
+    h("div.topbar", link("/", h("span.logo", "E-Lab")), h("nav", link("/", "Experiments"), h("a", { href: "/api/v1/docs" }, "API")), toggle),
+    main,
+  );
+  return main;
+}
+
+const main = shell();
+const router = new Router(main, (root) => {
+  root.append(h("header.page", h("h1", "Page not found"), h("p", `Nothing lives at ${location.pathname}. `, link("/", "Go to the start page"), ".")));
+});
+router
+  .add("/", home)
+  .add("/plants/:id", plantPage)
+  .add("/plants/:id/analysis", analysisPage)
+  .add("/plants/:id/identification", identificationPage)
+  .add("/plants/:id/design", designPage)
+  .add("/runs/:id", runPage);
+void router.render();

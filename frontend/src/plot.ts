@@ -1,0 +1,197 @@
+// The only module that imports plotly.js: the live plot of a run and the static charts
+// (Bode, step, poles). Views hand it typed arrays and titles, never plotly objects.
+import Plotly from "plotly.js-dist-min";
+import { decimate, type SampleRing } from "./series";
+
+const COLORS = ["#2563eb", "#dc2626", "#059669", "#d97706", "#7c3aed", "#0891b2", "#be185d", "#4b5563"];
+
+function fontSize(): number {
+  return document.body.classList.contains("classroom") ? 18 : 13;
+}
+
+function baseLayout(): Partial<Plotly.Layout> {
+  return {
+    font: { family: "system-ui, sans-serif", size: fontSize(), color: "#1f2937" },
+    paper_bgcolor: "rgba(0,0,0,0)",
+    plot_bgcolor: "#ffffff",
+    margin: { l: 64, r: 16, t: 24, b: 48 },
+    legend: { orientation: "h", y: 1.02, yanchor: "bottom", x: 0 },
+    hovermode: "x unified",
+  };
+}
+
+const CONFIG: Partial<Plotly.Config> = { responsive: true, displaylogo: false, scrollZoom: false };
+
+export interface LiveTrace {
+  /** channel name in the ring */
+  channel: string;
+  label: string;
+  /** 1: upper axes (outputs, reference), 2: lower axes (control) */
+  axis: 1 | 2;
+  /** displayed = scale · value */
+  scale: number;
+  dash?: "solid" | "dash" | "dot";
+}
+
+export interface LivePlotOptions {
+  Ts: number;
+  /** rolling window in seconds; null shows everything the ring holds */
+  window: number | null;
+  yTitles: [string, string];
+}
+
+/**
+ * A live plot of a run: every animation frame at most one redraw, of the window's samples
+ * decimated to two points per pixel column per trace.
+ */
+export class LivePlot {
+  private pending = false;
+  private marks: number[] = [];
+  private draws = 0;
+  private readonly resize = new ResizeObserver(() => this.dirty());
+
+  constructor(
+    readonly div: HTMLElement,
+    private readonly ring: SampleRing,
+    private traces: LiveTrace[],
+    private options: LivePlotOptions,
+  ) {
+    this.resize.observe(div);
+  }
+
+  /** Redraw at the next animation frame (many calls, one draw). */
+  dirty(): void {
+    if (this.pending) return;
+    this.pending = true;
+    requestAnimationFrame(() => {
+      this.pending = false;
+      this.draw();
+    });
+  }
+
+  setWindow(seconds: number | null): void {
+    this.options = { ...this.options, window: seconds };
+    this.dirty();
+  }
+
+  setTraces(traces: LiveTrace[]): void {
+    this.traces = traces;
+    this.dirty();
+  }
+
+  /** Sample indices of live parameter changes, drawn as vertical lines. */
+  setMarks(ks: number[]): void {
+    this.marks = ks;
+    this.dirty();
+  }
+
+  get drawCount(): number {
+    return this.draws;
+  }
+
+  draw(): void {
+    const { Ts, window } = this.options;
+    const end = this.ring.end;
+    const span = window === null ? this.ring.size : Math.round(window / Ts);
+    const k0 = Math.max(this.ring.start, end - span);
+    // min/max per 2-pixel column: ≤ 1 point per pixel per trace, drawn as SVG (no WebGL
+    // needed, so it also runs in software-rendered browsers and on old projector PCs)
+    const columns = Math.max(50, Math.floor((this.div.clientWidth - 80) / 2));
+    const data: Partial<Plotly.PlotData>[] = this.traces.map((tr, i) => {
+      const d = decimate(this.ring, tr.channel, k0, end, columns);
+      const x = new Float64Array(d.length);
+      const y = new Float32Array(d.length);
+      for (let j = 0; j < d.length; j++) {
+        x[j] = d.k[j] * Ts;
+        y[j] = d.y[j] * tr.scale;
+      }
+      return {
+        type: "scatter" as const,
+        mode: "lines" as const,
+        name: tr.label,
+        x: x as unknown as number[],
+        y: y as unknown as number[],
+        yaxis: tr.axis === 1 ? "y" : "y2",
+        line: { color: COLORS[i % COLORS.length], width: 1.5, dash: tr.dash ?? "solid" },
+      };
+    });
+    const t1 = Math.max(end, 1) * Ts;
+    const t0 = window === null ? k0 * Ts : Math.max(0, t1 - window);
+    const layout: Partial<Plotly.Layout> = {
+      ...baseLayout(),
+      height: Math.max(320, this.div.clientHeight || 420),
+      xaxis: { title: { text: "time t (s)" }, range: [t0, Math.max(t1, t0 + (window ?? 1))], showgrid: true, anchor: "y2" },
+      yaxis: { title: { text: this.options.yTitles[0] }, domain: [0.38, 1], zeroline: true },
+      yaxis2: { title: { text: this.options.yTitles[1] }, domain: [0, 0.28], anchor: "x", zeroline: true },
+      shapes: this.marks.map((k) => ({
+        type: "line" as const,
+        xref: "x" as const,
+        yref: "paper" as const,
+        x0: k * Ts,
+        x1: k * Ts,
+        y0: 0,
+        y1: 1,
+        line: { color: "#9ca3af", dash: "dot" as const, width: 1 },
+      })),
+      datarevision: ++this.draws,
+      uirevision: "live",
+    };
+    void Plotly.react(this.div, data as Plotly.Data[], layout, CONFIG);
+  }
+
+  destroy(): void {
+    this.resize.disconnect();
+    Plotly.purge(this.div);
+  }
+}
+
+export interface Series {
+  x: ArrayLike<number>;
+  y: ArrayLike<number>;
+  name: string;
+  /** which y axis (1 upper, 2 lower when the chart has two) */
+  axis?: 1 | 2;
+  dash?: "solid" | "dash" | "dot";
+  mode?: "lines" | "markers";
+}
+
+export interface ChartOptions {
+  xTitle: string;
+  yTitles: [string] | [string, string];
+  logX?: boolean;
+  height?: number;
+  /** equal scales on both axes (pole maps) */
+  square?: boolean;
+}
+
+/** A static chart: one or two stacked y axes sharing x. */
+export function chart(div: HTMLElement, series: Series[], opts: ChartOptions): void {
+  const two = opts.yTitles.length === 2;
+  const data: Partial<Plotly.PlotData>[] = series.map((s, i) => ({
+    type: "scatter",
+    mode: s.mode ?? "lines",
+    name: s.name,
+    x: Array.from(s.x),
+    y: Array.from(s.y),
+    yaxis: s.axis === 2 ? "y2" : "y",
+    line: { color: COLORS[i % COLORS.length], width: 1.8, dash: s.dash ?? "solid" },
+    marker: { color: COLORS[i % COLORS.length], size: 9, symbol: "x" },
+  }));
+  const layout: Partial<Plotly.Layout> = {
+    ...baseLayout(),
+    height: opts.height ?? (two ? 460 : 340),
+    xaxis: { title: { text: opts.xTitle }, type: opts.logX ? "log" : "linear", showgrid: true, zeroline: !opts.logX },
+    yaxis: two
+      ? { title: { text: opts.yTitles[0] }, domain: [0.55, 1] }
+      : { title: { text: opts.yTitles[0] }, ...(opts.square ? { scaleanchor: "x", scaleratio: 1 } : {}) },
+  };
+  if (two) {
+    layout.yaxis2 = { title: { text: opts.yTitles[1] }, domain: [0, 0.45], anchor: "x" };
+    layout.xaxis = { ...layout.xaxis, anchor: "y2" };
+  }
+  void Plotly.react(div, data as Plotly.Data[], layout, CONFIG);
+}
+
+export function purge(div: HTMLElement): void {
+  Plotly.purge(div);
+}

@@ -1,0 +1,201 @@
+// A run as the user sees it: status, the live plot, controls and downloads. Used by the
+// experiment views (for the run they start) and the run page (spectators, replays).
+import { api, ApiError, dataUrl } from "./api";
+import { csv, h, fill, saveText } from "./dom";
+import { LivePlot, type LiveTrace } from "./plot";
+import type { PlantDetail, RunInfo } from "./protocol.gen";
+import { SampleRing } from "./series";
+import { RunStream } from "./stream";
+import { display, fmt } from "./units";
+
+const ENDED = new Set(["finished", "stopped", "failed", "interrupted"]);
+/** Samples kept per channel in the page (10 min at 1 kHz); older ones scroll out. */
+const MAX_RING = 600_000;
+const WINDOW_S = 10;
+
+export interface RunPanelOptions {
+  /** outputs to plot (default: every output of the plant) */
+  outputs?: string[];
+  /** show pause / resume / stop */
+  controls?: boolean;
+  onState?(state: string): void;
+}
+
+export class RunPanel {
+  readonly root: HTMLElement;
+  readonly ring: SampleRing;
+  readonly plot: LivePlot;
+  state: string;
+  private readonly stream: RunStream;
+  private readonly statusEl = h("span.badge");
+  private readonly progressEl = h("span.progress");
+  private readonly connEl = h("span.conn", { "aria-live": "polite" });
+  private readonly messageEl = h("p.error", { role: "alert" });
+  private readonly buttons: Record<"pause" | "resume" | "stop", HTMLButtonElement>;
+  private readonly windowSel: HTMLSelectElement;
+  private marks: number[] = [];
+
+  constructor(
+    public run: RunInfo,
+    plant: PlantDetail,
+    private readonly options: RunPanelOptions = {},
+  ) {
+    this.state = run.status;
+    const names = run.channels.map((c) => c.name);
+    this.ring = new SampleRing(names, Math.max(1, Math.min(run.n_planned || 1, MAX_RING)));
+    const plotDiv = h("div.live-plot", { "data-testid": "live-plot", "aria-label": "live plot of the run" });
+    this.plot = new LivePlot(plotDiv, this.ring, this.traces(plant, options.outputs), {
+      Ts: run.Ts,
+      window: ENDED.has(run.status) ? null : WINDOW_S,
+      yTitles: this.yTitles(plant),
+    });
+    this.marks = run.param_changes.map((c) => c.k);
+    this.plot.setMarks(this.marks);
+
+    const btn = (label: string, action: () => Promise<RunInfo>) =>
+      h("button", { type: "button", onclick: () => void this.command(action) }, label);
+    this.buttons = {
+      pause: btn("Pause", () => api.pause(run.id)),
+      resume: btn("Resume", () => api.resume(run.id)),
+      stop: btn("Stop", () => api.stop(run.id)),
+    };
+    this.windowSel = h(
+      "select",
+      { "aria-label": "time window", onchange: () => this.plot.setWindow(this.windowSel.value === "all" ? null : Number(this.windowSel.value)) },
+      h("option", { value: "10" }, "last 10 s"),
+      h("option", { value: "30" }, "last 30 s"),
+      h("option", { value: "all" }, "whole run"),
+    );
+    this.windowSel.value = ENDED.has(run.status) ? "all" : "10";
+    const share = `${location.origin}/runs/${run.id}`;
+    this.root = h(
+      "section.run-panel",
+      { "data-run": run.id },
+      h(
+        "div.run-bar",
+        h("span", "Run ", h("a", { href: `/runs/${run.id}`, "data-link": true, class: "mono" }, run.id)),
+        this.statusEl,
+        this.progressEl,
+        this.connEl,
+      ),
+      plotDiv,
+      h(
+        "div.toolbar",
+        options.controls === false ? null : h("span.group", this.buttons.pause, this.buttons.resume, this.buttons.stop),
+        h("label.inline", "Window ", this.windowSel),
+        h(
+          "span.group.downloads",
+          "Download: ",
+          h("a", { href: dataUrl(run, "csv"), download: `${run.id}.csv`, "data-testid": "download-csv" }, "CSV"),
+          h("a", { href: dataUrl(run, "json"), download: `${run.id}.json` }, "JSON"),
+          h("a", { href: dataUrl(run, "mat"), download: `${run.id}.mat` }, "MATLAB .mat"),
+          h("button", { type: "button", class: "link", onclick: () => this.savePlotData() }, "plot data"),
+        ),
+        h("button", { type: "button", class: "link", onclick: () => void navigator.clipboard?.writeText(share), title: share }, "Copy share link"),
+      ),
+      this.messageEl,
+    );
+    this.stream = new RunStream(run.stream_url, {
+      hello: (info) => {
+        this.run = info;
+        this.setState(info.status);
+      },
+      samples: (k0, n, cols) => {
+        this.ring.push(k0, n, cols);
+        this.progress();
+        this.plot.dirty();
+      },
+      status: (s) => this.setState(s.state, s.error ?? null),
+      params: (p) => {
+        this.marks = [...this.marks, p.k];
+        this.plot.setMarks(this.marks);
+      },
+      error: (e) => fill(this.messageEl, e.message),
+      connection: (state, detail) => fill(this.connEl, state === "open" ? "" : detail ?? state),
+      complete: () => {
+        this.windowSel.value = "all"; // the whole recording is here: show it
+        this.plot.setWindow(null);
+        this.progress();
+      },
+    }, { fromSeq: this.firstSeq(run) }).open();
+    this.setState(run.status);
+  }
+
+  /** Where a late joiner starts: the last window of a live run, all of an ended one. */
+  private firstSeq(run: RunInfo): number {
+    if (ENDED.has(run.status)) return 0;
+    const back = Math.round(WINDOW_S / run.Ts);
+    return Math.floor(Math.max(0, run.n_samples - back) / run.frame_samples);
+  }
+
+  private traces(plant: PlantDetail, outputs?: string[]): LiveTrace[] {
+    const chosen = outputs?.length ? outputs : plant.outputs.map((o) => o.name);
+    const have = new Set(this.run.channels.map((c) => c.name));
+    const unit = (name: string) => this.run.channels.find((c) => c.name === name)?.unit ?? "";
+    const traces: LiveTrace[] = [];
+    if (have.has("r")) traces.push({ channel: "r", label: "reference r", axis: 1, scale: display(unit("r")).scale, dash: "dash" });
+    for (const o of plant.outputs)
+      if (chosen.includes(o.name) && have.has(o.name)) traces.push({ channel: o.name, label: o.label, axis: 1, scale: display(o.unit).scale });
+    if (have.has("u")) traces.push({ channel: "u", label: "control u", axis: 2, scale: 1 });
+    return traces;
+  }
+
+  private yTitles(plant: PlantDetail): [string, string] {
+    const units = [...new Set(plant.outputs.map((o) => display(o.unit).unit))];
+    return [`outputs (${units.join(", ")})`, `u (${plant.inputs[0]?.unit ?? "V"})`];
+  }
+
+  setOutputs(plant: PlantDetail, outputs: string[]): void {
+    this.plot.setTraces(this.traces(plant, outputs));
+  }
+
+  private setState(state: string, error: string | null = null): void {
+    this.state = state;
+    fill(this.statusEl, state);
+    this.statusEl.dataset.state = state;
+    const ended = ENDED.has(state);
+    this.buttons.pause.disabled = state !== "running";
+    this.buttons.resume.disabled = state !== "paused";
+    this.buttons.stop.disabled = ended;
+    if (error) fill(this.messageEl, error);
+    this.options.onState?.(state);
+    this.progress();
+  }
+
+  private progress(): void {
+    const t = this.ring.end * this.run.Ts;
+    const total = this.run.n_planned * this.run.Ts;
+    fill(this.progressEl, `t = ${t.toFixed(2)} s of ${fmt(total)} s · ${this.ring.end.toLocaleString("en")} samples`);
+    this.progressEl.dataset.samples = String(this.ring.end);
+  }
+
+  private async command(action: () => Promise<RunInfo>): Promise<void> {
+    fill(this.messageEl);
+    try {
+      const info = await action();
+      this.setState(info.status);
+    } catch (err) {
+      fill(this.messageEl, err instanceof ApiError ? err.message : String(err));
+    }
+  }
+
+  /** The samples held in the page (what the plot can show), as CSV in SI units. */
+  private savePlotData(): void {
+    const k0 = this.ring.start;
+    const n = this.ring.size;
+    const t = new Float64Array(n);
+    for (let i = 0; i < n; i++) t[i] = (k0 + i) * this.run.Ts;
+    const cols = this.run.channels.map((c) => {
+      const out = new Float32Array(n);
+      for (let i = 0; i < n; i++) out[i] = this.ring.at(c.name, k0 + i);
+      return out;
+    });
+    const header = ["t (s)", ...this.run.channels.map((c) => `${c.name} (${c.unit})`)];
+    saveText(`${this.run.id}-plot.csv`, csv(header, [t, ...cols]));
+  }
+
+  destroy(): void {
+    this.stream.close();
+    this.plot.destroy();
+  }
+}

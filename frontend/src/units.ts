@@ -1,0 +1,27 @@
+// SI inside, degrees at the edge: how a channel or field is shown to the user.
+
+export interface Display {
+  unit: string;
+  /** displayed = scale · SI value */
+  scale: number;
+}
+
+const DISPLAY: Record<string, Display> = {
+  rad: { unit: "°", scale: 180 / Math.PI },
+  "rad/s": { unit: "°/s", scale: 180 / Math.PI },
+  m: { unit: "mm", scale: 1000 },
+  "m/s": { unit: "mm/s", scale: 1000 },
+};
+
+export function display(siUnit: string): Display {
+  return DISPLAY[siUnit] ?? { unit: siUnit, scale: 1 };
+}
+
+/** A number for people: 4 significant digits, no exponent for ordinary magnitudes. */
+export function fmt(x: number | null | undefined, digits = 4): string {
+  if (x === null || x === undefined || !Number.isFinite(x)) return "—";
+  if (x === 0) return "0";
+  const a = Math.abs(x);
+  if (a >= 1e-3 && a < 1e6) return String(Number(x.toPrecision(digits)));
+  return x.toExponential(digits - 1);
+}

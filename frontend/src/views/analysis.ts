@@ -1,0 +1,251 @@
+// System analysis: a closed-loop run with the predefined controller's gains (tunable
+// live), and the open-loop panels: eigenvalues, controllability/observability, transfer
+// functions, Bode, open- and closed-loop step.
+import { api, ApiError } from "../api";
+import { fill, h } from "../dom";
+import { ControllerForm, durationField, SignalForm } from "../experiment";
+import { FieldSet, type NumberField } from "../forms";
+import { tex } from "../markdown";
+import { chart, purge } from "../plot";
+import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, StepOut } from "../protocol.gen";
+import { RunPanel } from "../runpanel";
+import { display, fmt } from "../units";
+import { downloadButton, failure, loading, pageHeader, plantDetail, plantTabs, showApiError } from "./common";
+
+export async function analysisPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
+  root.append(loading());
+  let plant: PlantDetail;
+  try {
+    plant = await plantDetail(params.id);
+  } catch (err) {
+    root.replaceChildren(failure(err));
+    return () => undefined;
+  }
+  const view = new AnalysisView(plant);
+  root.replaceChildren(pageHeader(`${plant.name}: system analysis`, [[`/plants/${plant.id}`, plant.name]]), plantTabs(plant, `/plants/${plant.id}/analysis`), view.root);
+  void view.loadPanels();
+  return () => view.destroy();
+}
+
+class AnalysisView {
+  readonly root: HTMLElement;
+  private readonly controller: ControllerForm;
+  private readonly signal: SignalForm;
+  private readonly duration: NumberField;
+  private readonly runFields = new FieldSet();
+  private readonly outputs: HTMLSelectElement;
+  private readonly startBtn: HTMLButtonElement;
+  private readonly applyBtn: HTMLButtonElement;
+  private readonly formMsg = h("p.error", { role: "alert", "data-testid": "form-error" });
+  private readonly applied = h("p.note", { "aria-live": "polite", "data-testid": "applied" });
+  private readonly runArea = h("div.run-area");
+  private readonly panels = h("div.panels");
+  private run: RunPanel | null = null;
+  private readonly plots: HTMLElement[] = [];
+
+  constructor(readonly plant: PlantDetail) {
+    const refUnit = plant.outputs.find((o) => o.name === plant.reference_output)?.unit ?? "";
+    this.controller = new ControllerForm(plant, plant.predefined);
+    this.signal = new SignalForm("signal", `Reference for ${plant.reference_output}`, ["square", "step", "sine"], refUnit, plant.default_signal);
+    this.duration = this.runFields.add(durationField(plant.default_duration));
+    this.outputs = h(
+      "select",
+      { id: "outputs", onchange: () => this.run?.setOutputs(plant, this.chosenOutputs()) },
+      h("option", { value: "" }, "all outputs"),
+      ...plant.outputs.map((o) => h("option", { value: o.name }, `${o.label} only`)),
+    );
+    this.startBtn = h("button.primary", { type: "submit" }, "Start");
+    this.applyBtn = h("button", { type: "button", disabled: true, onclick: () => void this.apply() }, "Apply gains to the running run");
+    const form = h(
+      "form.run-form.panel",
+      { novalidate: true, "aria-label": "run settings", onsubmit: (ev: Event) => (ev.preventDefault(), void this.start()) },
+      h("h2", "Closed-loop run"),
+      this.controller.root,
+      this.signal.root,
+      h("fieldset", h("legend", "Run"), h("div.grid", this.duration.root, h("div.field", h("label", { for: "outputs" }, "Plot"), this.outputs))),
+      h("div.actions", this.startBtn, this.applyBtn),
+      this.formMsg,
+      this.applied,
+    );
+    this.runArea.append(h("div.panel.empty", h("p", "Press Start: the closed loop runs in real time and its response draws here as it goes. Change a gain while it runs and apply it; the change is recorded at its sample.")));
+    this.root = h("div", h("div.split", form, this.runArea), this.panels);
+  }
+
+  private chosenOutputs(): string[] {
+    return this.outputs.value ? [this.outputs.value] : this.plant.outputs.map((o) => o.name);
+  }
+
+  private controllerValue(): Controller | null {
+    return this.controller.value();
+  }
+
+  private async start(): Promise<void> {
+    fill(this.formMsg);
+    fill(this.applied);
+    const controller = this.controllerValue();
+    const signal = this.signal.value();
+    const duration = this.duration.check();
+    if (!controller || !signal || duration === null) {
+      fill(this.formMsg, "Please correct the marked fields; nothing was sent.");
+      return;
+    }
+    const req: RunCreate = { plant: this.plant.id, experiment: "analysis", controller, signal, duration, pace: "realtime" };
+    this.startBtn.disabled = true;
+    try {
+      const info = await api.createRun(req);
+      this.run?.destroy();
+      this.run = new RunPanel(info, this.plant, { outputs: this.chosenOutputs(), onState: (s) => this.onState(s) });
+      fill(this.runArea, this.run.root);
+      history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
+    } catch (err) {
+      showApiError(err, [this.controller.fields, this.signal.fields, this.runFields], this.formMsg);
+    } finally {
+      this.startBtn.disabled = false;
+    }
+  }
+
+  private onState(state: string): void {
+    const live = state === "running" || state === "paused";
+    this.applyBtn.disabled = !live;
+    this.startBtn.textContent = live ? "Start a new run" : "Start";
+  }
+
+  private async apply(): Promise<void> {
+    if (!this.run) return;
+    fill(this.formMsg);
+    const controller = this.controllerValue();
+    if (!controller) {
+      fill(this.formMsg, "Please correct the marked fields; nothing was sent.");
+      return;
+    }
+    try {
+      const r = await api.params(this.run.run.id, { controller });
+      fill(this.applied, `New gains applied from sample k = ${r.k} (t = ${r.t.toFixed(3)} s).`);
+    } catch (err) {
+      showApiError(err, [this.controller.fields], this.formMsg);
+    }
+  }
+
+  async loadPanels(): Promise<void> {
+    const p = this.plant;
+    const eig = h("section.panel", h("h2", "Eigenvalues and stability"), loading());
+    const ranks = h("section.panel", h("h2", "Controllability and observability"), loading());
+    const tfs = h("section.panel", h("h2", "Transfer functions"), loading());
+    const bode = h("section.panel.wide", h("h2", "Bode diagram (open loop)"), loading());
+    const steps = h("section.panel.wide", h("h2", "Step responses"), loading());
+    this.panels.append(eig, ranks, tfs, bode, steps);
+    try {
+      const a = await api.analysis(p.id);
+      this.eigenPanel(eig, a);
+      this.rankPanel(ranks, a);
+      this.tfPanel(tfs, a);
+    } catch (err) {
+      for (const el of [eig, ranks, tfs]) fill(el, failure(err));
+    }
+    try {
+      this.bodePanel(bode, await api.bode(p.id));
+    } catch (err) {
+      fill(bode, failure(err));
+    }
+    await this.stepPanel(steps);
+  }
+
+  private plotDiv(name: string): HTMLElement {
+    const div = h("div.chart", { "data-testid": name });
+    this.plots.push(div);
+    return div;
+  }
+
+  private eigenPanel(el: HTMLElement, a: AnalysisInfo): void {
+    const div = this.plotDiv("eigenvalues");
+    fill(
+      el,
+      h("h2", "Eigenvalues and stability"),
+      h("p.verdict", { "data-verdict": a.verdict }, h("strong", a.verdict), ": ", a.reason),
+      h("ul.mono", ...a.eigenvalues.map((e) => h("li", `${fmt(e.re)}${e.im ? ` ${e.im < 0 ? "−" : "+"} ${fmt(Math.abs(e.im))}j` : ""}`))),
+      div,
+      downloadButton("eigenvalues.csv", ["re (1/s)", "im (rad/s)"], [a.eigenvalues.map((e) => e.re), a.eigenvalues.map((e) => e.im)]),
+    );
+    chart(div, [{ x: a.eigenvalues.map((e) => e.re), y: a.eigenvalues.map((e) => e.im), name: "open-loop poles", mode: "markers" }], { xTitle: "Re (1/s)", yTitles: ["Im (rad/s)"], height: 300 });
+  }
+
+  private rankPanel(el: HTMLElement, a: AnalysisInfo): void {
+    const row = (name: string, r: AnalysisInfo["controllability"]) =>
+      h("tr", h("th", { scope: "row" }, name), h("td", `${r.rank} of ${r.n}`), h("td", r.full ? "yes" : "no"), h("td", r.condition_number === null ? "∞" : fmt(r.condition_number)), h("td.mono", r.singular_values.map((v) => fmt(v)).join(", ")));
+    fill(
+      el,
+      h("h2", "Controllability and observability"),
+      h("table", h("thead", h("tr", h("th", ""), h("th", "rank"), h("th", "full"), h("th", "condition number"), h("th", "singular values"))), h("tbody", row("controllability [B AB …]", a.controllability), row("observability [C; CA; …]", a.observability))),
+    );
+  }
+
+  private tfPanel(el: HTMLElement, a: AnalysisInfo): void {
+    const items = a.transfer_functions.map((t) => {
+      const m = h("div.math");
+      m.innerHTML = tex(t.latex, true);
+      return m;
+    });
+    fill(el, h("h2", "Transfer functions"), ...items);
+  }
+
+  private bodePanel(el: HTMLElement, b: BodeList): void {
+    const div = this.plotDiv("bode");
+    const series = b.bode.flatMap((o) => [
+      { x: o.omega, y: o.mag_db, name: `|G| ${o.output}`, axis: 1 as const },
+      { x: o.omega, y: o.phase_deg, name: `∠G ${o.output}`, axis: 2 as const, dash: "dash" as const },
+    ]);
+    const cols = b.bode.flatMap((o) => [o.mag_db, o.phase_deg]);
+    fill(
+      el,
+      h("h2", `Bode diagram (open loop, from ${b.input})`),
+      div,
+      downloadButton("bode.csv", ["omega (rad/s)", ...b.bode.flatMap((o) => [`${o.output} magnitude (dB)`, `${o.output} phase (deg)`])], [b.bode[0]?.omega ?? [], ...cols]),
+    );
+    chart(div, series, { xTitle: "frequency ω (rad/s)", yTitles: ["magnitude (dB)", "phase (°)"], logX: true });
+  }
+
+  private async stepPanel(el: HTMLElement): Promise<void> {
+    const p = this.plant;
+    const openDiv = this.plotDiv("step-open");
+    const closedDiv = this.plotDiv("step-closed");
+    const info = h("p.note");
+    const update = h("button", { type: "button", onclick: () => void closed() }, "Update with the gains in the form");
+    fill(el, h("h2", "Step responses"), h("div.two", h("div", h("h3", "Open loop (unit step of u)"), openDiv), h("div", h("h3", "Closed loop (step of the reference)"), closedDiv, info, update)));
+    const draw = (div: HTMLElement, s: StepOut, name: string) => {
+      const series = Object.entries(s.outputs).map(([o, y]) => {
+        const unit = p.outputs.find((x) => x.name === o)?.unit ?? "";
+        const d = display(unit);
+        return { x: s.t, y: y.map((v) => v * d.scale), name: `${o} (${d.unit})`, axis: 1 as const };
+      });
+      chart(div, [...series, { x: s.t, y: s.u, name: "u (V)", axis: 2 }], { xTitle: "time t (s)", yTitles: ["outputs", "u (V)"] });
+      div.after(downloadButton(`${name}.csv`, ["t (s)", ...Object.keys(s.outputs).map((o) => `${o} (SI)`), "u (V)"], [s.t, ...Object.values(s.outputs), s.u]));
+    };
+    try {
+      draw(openDiv, await api.step(p.id, {}), "step-open");
+    } catch (err) {
+      fill(openDiv, failure(err));
+    }
+    const closed = async () => {
+      const controller = this.controllerValue();
+      if (!controller) {
+        fill(info, "Please correct the marked gains first.");
+        return;
+      }
+      try {
+        const s = await api.step(p.id, { controller });
+        closedDiv.nextElementSibling?.matches("button.download") && closedDiv.nextElementSibling.remove();
+        draw(closedDiv, s, "step-closed");
+        const i = s.info;
+        fill(info, `Closed-loop poles: ${s.verdict}. `, i ? `Rise time ${fmt(i.rise_time)} s, 2 % settling ${fmt(i.settling_time)} s, overshoot ${fmt(i.overshoot)} %.` : "");
+      } catch (err) {
+        fill(info, err instanceof ApiError ? err.message : String(err));
+      }
+    };
+    await closed();
+  }
+
+  destroy(): void {
+    this.run?.destroy();
+    for (const d of this.plots) purge(d);
+  }
+}

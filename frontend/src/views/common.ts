@@ -1,0 +1,71 @@
+// Pieces every view uses: page header, loading and error states, the plant cache.
+import { api, ApiError } from "../api";
+import { csv, fill, h, link, saveText } from "../dom";
+import type { FieldSet } from "../forms";
+import type { PlantDetail } from "../protocol.gen";
+
+const plants = new Map<string, Promise<PlantDetail>>();
+
+/** A plant's detail, fetched once per page load. */
+export function plantDetail(id: string): Promise<PlantDetail> {
+  let p = plants.get(id);
+  if (!p) {
+    p = api.plant(id);
+    p.catch(() => plants.delete(id));
+    plants.set(id, p);
+  }
+  return p;
+}
+
+export const EXPERIMENTS: Record<string, { title: string; blurb: string }> = {
+  analysis: { title: "System analysis", blurb: "Eigenvalues, stability, transfer functions, Bode; a closed-loop run with gains you tune live." },
+  identification: { title: "Identification", blurb: "Excite with PRBS, sine or step; record the response and download it for identification." },
+  design: { title: "Controller design", blurb: "Design state feedback by LQR or pole placement, compare with the predefined controller, run it." },
+};
+
+export function pageHeader(title: string, crumbs: [string, string][] = [], ...extra: (Node | string)[]): HTMLElement {
+  const nav = h("nav.crumbs", { "aria-label": "breadcrumbs" }, link("/", "E-Lab"));
+  for (const [href, text] of crumbs) nav.append(" / ", link(href, text));
+  return h("header.page", nav, h("h1", title), ...extra);
+}
+
+export function failure(err: unknown): HTMLElement {
+  const msg = err instanceof ApiError ? `${err.message}` : String(err);
+  return h("div.panel.failure", { role: "alert" }, h("strong", "Could not load this page: "), msg, " ", link("/", "Back to the start page"));
+}
+
+export function loading(text = "Loading…"): HTMLElement {
+  return h("p.loading", { "aria-busy": "true" }, text);
+}
+
+/** Tabs between a plant's pages. */
+export function plantTabs(plant: PlantDetail, current: string): HTMLElement {
+  const tabs: [string, string][] = [[`/plants/${plant.id}`, "About"], ...plant.experiments.map((e): [string, string] => [`/plants/${plant.id}/${e}`, EXPERIMENTS[e]?.title ?? e])];
+  return h(
+    "nav.tabs",
+    { "aria-label": `${plant.name} pages` },
+    ...tabs.map(([href, text]) => {
+      const a = link(href, text);
+      if (href === current) a.setAttribute("aria-current", "page");
+      return a;
+    }),
+  );
+}
+
+/** Show an API error next to the fields it names (the rest under the form). */
+export function showApiError(err: unknown, sets: FieldSet[], out: HTMLElement): void {
+  for (const s of sets) s.clearErrors();
+  if (!(err instanceof ApiError)) {
+    fill(out, String(err));
+    return;
+  }
+  let rest = err.fieldMessages();
+  for (const s of sets) rest = s.showErrors(rest);
+  const unclaimed = [...rest].map(([f, m]) => (m.startsWith(f) ? m : `${f}: ${m}`));
+  fill(out, unclaimed.length ? unclaimed.join("; ") : err.detail.errors.length ? "Please correct the marked fields; nothing was started." : err.message);
+}
+
+/** A button that saves a plot's data as CSV. */
+export function downloadButton(filename: string, header: string[], columns: ArrayLike<number>[]): HTMLButtonElement {
+  return h("button.download.link", { type: "button", onclick: () => saveText(filename, csv(header, columns)) }, `Download data (${filename})`);
+}

@@ -1,0 +1,129 @@
+// Identification runs: excite the plant (PRBS, sine or step) in closed loop with the
+// predefined controller — or in open loop — record the response live, download it.
+import { api } from "../api";
+import { fill, h } from "../dom";
+import { durationField, SignalForm } from "../experiment";
+import { FieldSet } from "../forms";
+import type { PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
+import { RunPanel } from "../runpanel";
+import { fmt } from "../units";
+import { failure, loading, pageHeader, plantDetail, plantTabs, showApiError } from "./common";
+
+export async function identificationPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
+  root.append(loading());
+  let plant: PlantDetail;
+  try {
+    plant = await plantDetail(params.id);
+  } catch (err) {
+    root.replaceChildren(failure(err));
+    return () => undefined;
+  }
+  const view = new IdentificationView(plant);
+  root.replaceChildren(pageHeader(`${plant.name}: identification`, [[`/plants/${plant.id}`, plant.name]]), plantTabs(plant, `/plants/${plant.id}/identification`), view.root);
+  return () => view.destroy();
+}
+
+type Loop = "closed-input" | "closed-reference" | "open";
+
+class IdentificationView {
+  readonly root: HTMLElement;
+  private excitation!: SignalForm;
+  private readonly runFields = new FieldSet();
+  private readonly loop: HTMLSelectElement;
+  private readonly excitationSlot = h("div");
+  private readonly formMsg = h("p.error", { role: "alert", "data-testid": "form-error" });
+  private readonly runArea = h("div.run-area");
+  private readonly handover = h("section.panel.handover", { hidden: true });
+  private run: RunPanel | null = null;
+
+  constructor(readonly plant: PlantDetail) {
+    this.loop = h(
+      "select",
+      { id: "loop", onchange: () => this.buildExcitation() },
+      h("option", { value: "closed-input" }, "closed loop, excitation added to the control signal u"),
+      h("option", { value: "closed-reference" }, "closed loop, excitation added to the reference"),
+      h("option", { value: "open" }, "open loop: the excitation is the plant input"),
+    );
+    const duration = this.runFields.add(durationField(30));
+    this.buildExcitation();
+    const form = h(
+      "form.run-form.panel",
+      { novalidate: true, "aria-label": "identification experiment", onsubmit: (ev: Event) => (ev.preventDefault(), void this.start()) },
+      h("h2", "Experiment"),
+      h("fieldset", h("legend", "Loop"), h("div.field", h("label", { for: "loop" }, "Configuration"), this.loop), h("small.hint", `The predefined controller (${plant.predefined_design}) keeps the plant near its operating point; open loop suits stable plants only.`)),
+      this.excitationSlot,
+      h("fieldset", h("legend", "Length"), h("div.grid", duration.root)),
+      h("div.actions", h("button.primary", { type: "submit" }, "Start")),
+      this.formMsg,
+    );
+    this.runArea.append(h("div.panel.empty", h("p", "Press Start: the excitation and the response draw here live; the recording downloads as CSV, JSON or MATLAB .mat.")));
+    this.root = h("div", h("div.split", form, this.runArea), this.handover);
+  }
+
+  private buildExcitation(): void {
+    const loop = this.loop.value as Loop;
+    const p = this.plant;
+    const unit = loop === "closed-reference" ? (p.outputs.find((o) => o.name === p.reference_output)?.unit ?? "") : (p.inputs[0]?.unit ?? "V");
+    const initial = loop === "closed-reference" ? { kind: "prbs" as const, amplitude: (5 * Math.PI) / 180, order: 10, band: 0.05, offset: 0 } : { kind: "prbs" as const, amplitude: 1, order: 10, band: 0.05, offset: 0 };
+    this.excitation = new SignalForm("excitation", loop === "open" ? "Input signal" : "Excitation", ["prbs", "sine", "step"], unit, initial);
+    fill(this.excitationSlot, this.excitation.root);
+  }
+
+  private request(): RunCreate | null {
+    const excitation = this.excitation.value();
+    const v = this.runFields.values();
+    if (!excitation || !v) return null;
+    const base = { plant: this.plant.id, experiment: "identification" as const, duration: v.get("duration")!, pace: "realtime" as const };
+    const loop = this.loop.value as Loop;
+    if (loop === "open") return { ...base, controller: { kind: "open_loop" }, signal: excitation };
+    return { ...base, controller: { kind: "predefined" }, signal: { kind: "step", amplitude: 0 }, excitation, excitation_at: loop === "closed-input" ? "input" : "reference" };
+  }
+
+  private async start(): Promise<void> {
+    fill(this.formMsg);
+    const req = this.request();
+    if (!req) {
+      fill(this.formMsg, "Please correct the marked fields; nothing was sent.");
+      return;
+    }
+    try {
+      const info = await api.createRun(req);
+      this.run?.destroy();
+      this.run = new RunPanel(info, this.plant, { onState: (s) => this.onState(s) });
+      fill(this.runArea, this.run.root);
+      this.handover.hidden = true;
+    } catch (err) {
+      showApiError(err, [this.excitation.fields, this.runFields], this.formMsg);
+    }
+  }
+
+  private onState(state: string): void {
+    if (!this.run || state === "running" || state === "paused" || state === "created") return;
+    void api.run(this.run.run.id).then((info) => this.showHandover(info));
+  }
+
+  /** What the identification analysis takes over: the data set and where to get it. */
+  private showHandover(run: RunInfo): void {
+    const p = this.plant;
+    this.handover.hidden = false;
+    fill(
+      this.handover,
+      h("h2", "Data set"),
+      h(
+        "table.params",
+        h(
+          "tbody",
+          h("tr", h("th", { scope: "row" }, "Samples"), h("td", `${run.n_samples.toLocaleString("en")} at Ts = ${fmt(run.Ts * 1000)} ms (${fmt(run.n_samples * run.Ts)} s), status ${run.status}`)),
+          h("tr", h("th", { scope: "row" }, "Input"), h("td", `u (${p.inputs[0]?.unit ?? "V"}): the plant input, excitation included`)),
+          h("tr", h("th", { scope: "row" }, "Outputs"), h("td", p.outputs.map((o) => `${o.name} (${o.unit})`).join(", "))),
+          h("tr", h("th", { scope: "row" }, "Excitation"), h("td.mono", JSON.stringify(run.request.excitation ?? run.request.signal))),
+        ),
+      ),
+      h("p", "Downloads: ", h("a", { href: `${run.data_url}?format=csv&channels=u,${p.outputs.map((o) => o.name).join(",")}`, download: `${run.id}-io.csv` }, "input and outputs (CSV)"), " · ", h("a", { href: `${run.data_url}?format=mat`, download: `${run.id}.mat` }, "everything (.mat)")),
+    );
+  }
+
+  destroy(): void {
+    this.run?.destroy();
+  }
+}

@@ -1,0 +1,172 @@
+"""The lab in the browser, as a student and a spectator use it (issue 4's acceptance)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+from pathlib import Path
+
+import httpx
+import pytest
+from playwright.sync_api import Browser, Page, expect
+
+from tests.api.server import Server
+
+SAMPLES = "() => Number(document.querySelector('.progress')?.dataset.samples ?? 0)"
+PLOT_END = """() => { const d = document.querySelector('[data-testid=live-plot]').data;
+  return d ? Math.max(...d.map(t => t.x.length ? t.x[t.x.length - 1] : 0)) : 0; }"""
+
+
+def samples(page: Page) -> int:
+    return int(page.evaluate(SAMPLES))
+
+
+def wait_samples(page: Page, at_least: int, timeout: float = 20_000) -> None:
+    page.wait_for_function(f"() => ({SAMPLES})() >= {at_least}", timeout=timeout)
+
+
+def run_id(page: Page) -> str:
+    return str(page.get_attribute(".run-panel", "data-run"))
+
+
+def test_home_lists_every_plant_and_experiment(page: Page, server: Server, shots: Path) -> None:
+    page.goto("/")
+    cards = page.locator("article.card")
+    expect(cards).to_have_count(3)
+    names = {c.get_attribute("data-plant") for c in cards.all()}
+    assert names == {"flexible_link", "double_pendulum", "belt_conveyor"}
+    for card in cards.all():
+        expect(card.locator("ul.experiments a")).to_have_count(3)
+    page.screenshot(path=shots / "home.png", full_page=True)
+    page.get_by_role("link", name="Rotary flexible link").click()
+    expect(page).to_have_url(re.compile(r"/plants/flexible_link$"))
+    expect(page.locator(".description .katex").first).to_be_visible()  # equations rendered
+    page.screenshot(path=shots / "plant.png", full_page=True)
+
+
+def test_analysis_run_live_gain_change_stop_download_and_spectator(
+        page: Page, browser: Browser, server: Server, shots: Path) -> None:
+    page.goto("/")
+    page.locator("[data-plant=flexible_link]").get_by_role("link", name="System analysis").click()
+    expect(page.get_by_role("heading", name="Rotary flexible link: system analysis")).to_be_visible()
+    # the form is pre-filled with the predefined gains and the default ±30° square wave
+    expect(page.locator("#f-controller-K-1")).to_have_value("-93.5614")
+    expect(page.locator("#f-signal-amplitude")).to_have_value("30")
+    expect(page.locator("[data-verdict]")).to_contain_text("marginally stable")
+
+    page.locator("#f-duration").fill("60")  # long enough to be stopped by hand
+    page.get_by_role("button", name="Start").click()
+    wait_samples(page, 1000)
+    first = page.evaluate(PLOT_END)
+    wait_samples(page, samples(page) + 500)
+    page.wait_for_function(f"() => ({PLOT_END})() > {first}")  # the plot advances
+    rid = run_id(page)
+
+    spectator = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server.url,
+                                    accept_downloads=True).new_page()
+    spectator.goto(f"/runs/{rid}")
+    wait_samples(spectator, 1)
+
+    page.locator("#f-controller-K-0").fill("30")
+    page.get_by_role("button", name="Apply gains to the running run").click()
+    note = page.get_by_test_id("applied")
+    expect(note).to_contain_text("applied from sample k =")
+    k = int(re.search(r"k = (\d+)", note.inner_text()).group(1))  # type: ignore[union-attr]
+    wait_samples(page, k + 300)
+    page.screenshot(path=shots / "analysis.png", full_page=True)
+    page.get_by_role("button", name="Stop").click()
+    expect(page.locator(".run-panel .badge")).to_have_text("stopped")
+
+    info = httpx.get(f"{server.url}/api/v1/runs/{rid}").json()
+    assert info["status"] == "stopped"
+    assert [c["k"] for c in info["param_changes"]] == [k]
+    assert info["param_changes"][0]["params"]["controller"]["K"][0] == 30
+    n = info["n_samples"]
+    wait_samples(page, n)
+    assert samples(page) == n
+
+    with page.expect_download() as dl:
+        page.get_by_test_id("download-csv").click()
+    text = Path(dl.value.path()).read_text()
+    assert text == httpx.get(f"{server.url}/api/v1/runs/{rid}/data?format=csv").text
+    head = [line for line in text.splitlines() if line.startswith("#")]
+    assert any("flexible_link" in line for line in head)
+    rows = list(csv.reader(io.StringIO("\n".join(line for line in text.splitlines()
+                                                  if not line.startswith("#")))))
+    assert len(rows) == n + 1  # the column header and every sample
+    assert rows[0][0].startswith("t")
+
+    # the spectator followed the same run and holds the same samples
+    wait_samples(spectator, n)
+    expect(spectator.locator(".run-panel .badge")).to_have_text("stopped")
+    spectator.screenshot(path=shots / "run.png", full_page=True)
+    mine = plot_data(page)
+    theirs = plot_data(spectator)
+    assert mine == theirs
+    assert len(mine.splitlines()) == n + 1
+    spectator.context.close()
+
+
+def plot_data(page: Page) -> str:
+    with page.expect_download() as dl:
+        page.get_by_role("button", name="plot data").click()
+    return Path(dl.value.path()).read_text()
+
+
+def test_invalid_input_shows_a_message_and_sends_nothing(page: Page) -> None:
+    page.goto("/plants/flexible_link/analysis")
+    posts: list[str] = []
+    page.on("request", lambda r: posts.append(r.url) if r.method == "POST" else None)
+    gain = page.locator("#f-controller-K-1")
+    gain.fill("abc")
+    expect(page.locator(".field.invalid .error")).to_contain_text('"abc" is not a number')
+    page.locator("#f-duration").fill("-5")
+    expect(page.locator(".field.invalid")).to_have_count(2)
+    page.get_by_role("button", name="Start").click()
+    expect(page.get_by_test_id("form-error")).to_contain_text("nothing was sent")
+    page.wait_for_timeout(500)
+    assert [u for u in posts if u.endswith("/runs")] == []
+
+
+def test_server_errors_show_next_to_their_field(page: Page) -> None:
+    page.goto("/plants/flexible_link/analysis")
+    page.locator("#f-duration").fill("4000")  # the form allows ≤ 3600: refused locally
+    expect(page.locator("#f-duration-error")).to_contain_text("allowed: a number > 0 and ≤ 3600")
+
+
+def test_identification_run_and_data_set(page: Page, server: Server, shots: Path) -> None:
+    page.goto("/plants/flexible_link/identification")
+    expect(page.locator("#excitation-kind")).to_have_value("prbs")
+    page.locator("#f-duration").fill("2")
+    page.get_by_role("button", name="Start").click()
+    expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=20_000)
+    expect(page.locator(".handover")).to_contain_text("2,000 at Ts = 1 ms")
+    rid = run_id(page)
+    req = httpx.get(f"{server.url}/api/v1/runs/{rid}").json()["request"]
+    assert req["experiment"] == "identification"
+    assert req["excitation"]["kind"] == "prbs" and req["excitation_at"] == "input"
+    page.screenshot(path=shots / "identification.png", full_page=True)
+
+
+def test_design_lqr_compare_and_run(page: Page, server: Server, shots: Path) -> None:
+    page.goto("/plants/flexible_link/design")
+    page.get_by_role("button", name="Design").click()
+    gain = page.get_by_test_id("gain")
+    expect(gain).to_contain_text("K = [")
+    ref = httpx.post(f"{server.url}/api/v1/plants/flexible_link/design/lqr",
+                     json={"Q": [400, 1e4, 3, 2], "R": 1}).json()["K"]
+    shown = [float(v) for v in re.findall(r"-?[\d.]+(?:e-?\d+)?", gain.inner_text())]
+    assert shown == pytest.approx(ref, rel=1e-5)
+    expect(page.get_by_test_id("design-step").locator(".main-svg").first).to_be_visible()
+    page.locator("#f-duration").fill("1")
+    page.get_by_role("button", name="Run with this K").click()
+    expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=20_000)
+    page.screenshot(path=shots / "design.png", full_page=True)
+
+
+def test_unknown_pages_and_runs_say_so(page: Page) -> None:
+    page.goto("/runs/r-doesnotexist")
+    expect(page.locator(".failure")).to_contain_text("unknown run")
+    page.goto("/plants/nope")
+    expect(page.locator(".failure")).to_contain_text("nope")
