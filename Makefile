@@ -8,7 +8,8 @@ APP    := backend/elab/api/static/index.html
 APP_SRC := $(shell find frontend/src frontend/index.html frontend/vite.config.ts \
                         frontend/tsconfig.json -type f 2>/dev/null)
 
-.PHONY: install run test lint typecheck unit frontend-test chromium bench docs protocol clean
+.PHONY: install run test lint typecheck unit frontend-test chromium bench docs protocol \
+        screenshots clean
 
 install: $(STAMP) $(NODE_STAMP) $(APP)
 
@@ -54,6 +55,10 @@ bench: install
 
 docs: install
 	$(PY) scripts/seed_reproduction.py > docs/seed-reproduction.md
+
+# Every view of the app as the end-to-end tests see it.
+screenshots: install chromium
+	ELAB_SCREENSHOTS=docs/screenshots $(PY) -m pytest tests/e2e -q
 
 # The wire schema from the pydantic models, then the app's TypeScript types from it.
 protocol: install

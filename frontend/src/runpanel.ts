@@ -111,7 +111,10 @@ export class RunPanel {
         this.plot.setMarks(this.marks);
       },
       error: (e) => fill(this.messageEl, e.message),
-      connection: (state, detail) => fill(this.connEl, state === "open" ? "" : detail ?? state),
+      connection: (state, detail) => {
+        fill(this.connEl, state === "open" ? "" : detail ?? state);
+        if (state === "reconnecting") this.root.dataset.reconnects = String(Number(this.root.dataset.reconnects ?? 0) + 1);
+      },
       complete: () => {
         this.windowSel.value = "all"; // the whole recording is here: show it
         this.plot.setWindow(null);

@@ -8,10 +8,12 @@ import re
 from pathlib import Path
 
 import httpx
+import numpy as np
 import pytest
 from playwright.sync_api import Browser, Page, expect
 
 from tests.api.server import Server
+from tests.e2e.proxy import BlipProxy
 
 SAMPLES = "() => Number(document.querySelector('.progress')?.dataset.samples ?? 0)"
 PLOT_END = """() => { const d = document.querySelector('[data-testid=live-plot]').data;
@@ -170,3 +172,33 @@ def test_unknown_pages_and_runs_say_so(page: Page) -> None:
     expect(page.locator(".failure")).to_contain_text("unknown run")
     page.goto("/plants/nope")
     expect(page.locator(".failure")).to_contain_text("nope")
+
+
+def test_reconnects_after_a_network_blip_without_losing_samples(browser: Browser,
+                                                                server: Server) -> None:
+    proxy = BlipProxy(server.port)
+    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=proxy.url,
+                                  accept_downloads=True)
+    try:
+        page = context.new_page()
+        page.goto("/plants/flexible_link/analysis")
+        page.locator("#f-duration").fill("6")
+        page.get_by_role("button", name="Start").click()
+        wait_samples(page, 1000)
+        assert proxy.blip() >= 1  # the websocket drops; the run goes on being recorded
+        expect(page.locator(".run-panel[data-reconnects]")).to_have_count(1, timeout=10_000)
+        expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=30_000)
+        rid = run_id(page)
+        n = httpx.get(f"{server.url}/api/v1/runs/{rid}").json()["n_samples"]
+        assert n == 6000
+        wait_samples(page, n)
+        got = plot_data(page).splitlines()
+        assert len(got) == n + 1
+        # every sample, in order, equal (as float32) to the recording
+        rec = httpx.get(f"{server.url}/api/v1/runs/{rid}/data?format=json&channels=theta").json()
+        col = got[0].split(",").index("theta (rad)")
+        mine = np.array([float(line.split(",")[col]) for line in got[1:]], dtype=np.float32)
+        assert np.array_equal(mine, np.asarray(rec["data"]["theta"], dtype=np.float32))
+    finally:
+        context.close()
+        proxy.close()
