@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import threading
 
@@ -44,10 +45,8 @@ class BlipProxy:
         except OSError:
             pass
         for s in (src, dst):
-            try:
+            with contextlib.suppress(OSError):
                 s.shutdown(socket.SHUT_RDWR)
-            except OSError:
-                pass
 
     def blip(self) -> int:
         """Cut every open connection (as a network failure would); returns how many."""
@@ -55,10 +54,9 @@ class BlipProxy:
             pairs, self._pairs = self._pairs, []
         for pair in pairs:
             for s in pair:
-                try:  # shutdown wakes the pump threads blocked in recv; the peers see EOF
+                # shutdown wakes the pump threads blocked in recv; the peers see EOF
+                with contextlib.suppress(OSError):
                     s.shutdown(socket.SHUT_RDWR)
-                except OSError:
-                    pass
                 s.close()
         return len(pairs)
 

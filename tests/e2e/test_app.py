@@ -51,7 +51,8 @@ def test_analysis_run_live_gain_change_stop_download_and_spectator(
         page: Page, browser: Browser, server: Server, shots: Path) -> None:
     page.goto("/")
     page.locator("[data-plant=flexible_link]").get_by_role("link", name="System analysis").click()
-    expect(page.get_by_role("heading", name="Rotary flexible link: system analysis")).to_be_visible()
+    heading = page.get_by_role("heading", name="Rotary flexible link: system analysis")
+    expect(heading).to_be_visible()
     # the form is pre-filled with the predefined gains and the default ±30° square wave
     expect(page.locator("#f-controller-K-1")).to_have_value("-93.5614")
     expect(page.locator("#f-signal-amplitude")).to_have_value("30")

@@ -102,8 +102,9 @@ class Batch:
             self._a["exo"][s, :, : exo.shape[1]] = exo
             self._exo_off[s] = 0
         R, X, Y = self._dims[:3]
-        if self._out.shape[1] < n or self._out.shape[0] < R:
-            self._out = np.zeros((R, max(n, self._out.shape[1]), 2 + Y + X))
+        width = 2 + Y + X  # grows when a run with more outputs or states joins
+        if self._out.shape[1] < n or self._out.shape[0] < R or self._out.shape[2] != width:
+            self._out = np.zeros((R, max(n, self._out.shape[1]), width))
         a = self._a
         advance(active, n, a["Ad"], a["Bd"], a["C"], a["Ac"], a["Bc"], a["Cc"], a["Dc"], a["Lw"],
                 self._use_state, a["u_lim"], a["quantum"], a["x"], a["xc"], a["exo"],

@@ -116,6 +116,36 @@ def test_batch_of_mixed_plants_equals_runs_alone() -> None:
         np.testing.assert_array_equal(Samples.concatenate(got[s]).y, alone.y)
 
 
+def test_a_larger_plant_joining_a_running_batch_changes_nothing() -> None:
+    # a live server: a flexible link steps alone, then a pendulum (more outputs and
+    # states) and a belt join; the block widens and every run stays bit-exact
+    specs = [_default_spec(pid, noise_seed=2)
+             for pid in ("flexible_link", "double_pendulum", "belt_conveyor")]
+    batch = Batch(capacity=4, block=500)  # room for all: only the width grows
+    got: dict[int, list[Samples]] = {}
+    for spec in specs:
+        got[batch.add(compile_run(spec))] = []
+        for _ in range(2):
+            block = batch.advance(500)
+            for s in got:
+                ys, xs = batch.columns(s)
+                p = spec_of(specs, s).plant
+                assert block[s, :, ys].shape == (500, p.ny)
+                assert block[s, :, xs].shape == (500, p.nx)
+                np.testing.assert_array_equal(block[s, :, ys], batch.samples(s).y)
+                got[s].append(batch.samples(s))
+    for s, chunks in got.items():
+        spec, mine = spec_of(specs, s), Samples.concatenate(chunks)
+        n = mine.y.shape[0]
+        alone = simulate(RunSpec(**{**spec.__dict__, "duration": (n + 10) * spec.plant.Ts}))
+        np.testing.assert_array_equal(mine.y, alone.y[:n])
+        np.testing.assert_array_equal(mine.x, alone.x[:n])
+
+
+def spec_of(specs: list[RunSpec], slot: int) -> RunSpec:
+    return specs[slot]
+
+
 def test_quantisation_puts_outputs_on_the_encoder_grid() -> None:
     res = simulate(_default_spec("flexible_link", quantize=True))
     q = FLEX.sensors.quantum[0]
