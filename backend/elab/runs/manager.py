@@ -103,7 +103,7 @@ class RunManager:
             raise InvalidInput("duration", spec.duration,
                                f"a duration in (0, {self.max_duration:g}] s")
         run = compile_run(spec)
-        now = time.time()
+        now, origin = time.time(), time.monotonic()  # started_at: wall time of sample 0
         record = RunRecord(id=f"r-{secrets.token_hex(6)}", plant=spec.plant.id, mode=mode,
                            experiment=experiment, spec=request, status=RunState.RUNNING.value,
                            Ts=run.Ts, channels=channels_of(run), n_planned=run.n_samples,
@@ -113,7 +113,7 @@ class RunManager:
         self._live[record.id] = _Live(record, run, RunState.RUNNING)
         self._channels[record.id] = RunChannel(
             tuple(name for name, _ in record.channels), run.Ts, self._reader(record.id))
-        self.stepper.add(record.id, run, pace)
+        self.stepper.add(record.id, run, pace, t_origin=origin)
         return record
 
     async def pause(self, run_id: str) -> RunRecord:

@@ -10,6 +10,7 @@ releases the GIL, so stepping does not stall the web event loop.
 
 from __future__ import annotations
 
+import logging
 import math
 import queue
 import threading
@@ -25,6 +26,8 @@ from numpy.typing import NDArray
 from elab.sim.batch import Batch
 from elab.sim.engine import first_divergence
 from elab.sim.spec import CompiledRun
+
+log = logging.getLogger(__name__)
 
 Array = NDArray[np.float64]
 Pace = Literal["realtime", "fast"]
@@ -88,8 +91,10 @@ class Stepper:
         self._thread.join(timeout=5)
 
     # -- commands (any thread) -------------------------------------------------
-    def add(self, run_id: str, run: CompiledRun, pace: Pace) -> None:
-        self._commands.put(lambda: self._add(run_id, run, pace))
+    def add(self, run_id: str, run: CompiledRun, pace: Pace, t_origin: float | None = None) -> None:
+        """Step ``run`` from the next tick; sample 0 is due at ``t_origin`` (on this stepper's
+        clock; default: when the command is applied)."""
+        self._commands.put(lambda: self._add(run_id, run, pace, t_origin))
 
     def pause(self, run_id: str) -> Future[int]:
         return self._call(lambda: self._pause(run_id))
@@ -117,9 +122,10 @@ class Stepper:
         return fut
 
     # -- in the thread ---------------------------------------------------------
-    def _add(self, run_id: str, run: CompiledRun, pace: Pace) -> None:
+    def _add(self, run_id: str, run: CompiledRun, pace: Pace, t_origin: float | None) -> None:
         slot = self._batch.add(run)
-        self._runs[run_id] = _Live(run_id, run, pace, slot, self._clock())
+        origin = self._clock() if t_origin is None else t_origin
+        self._runs[run_id] = _Live(run_id, run, pace, slot, origin)
         self._refresh_columns()
 
     def _pause(self, run_id: str) -> int:
@@ -159,10 +165,19 @@ class Stepper:
         while not self._stop.is_set():
             while True:
                 try:
-                    self._commands.get_nowait()()
+                    command = self._commands.get_nowait()
                 except queue.Empty:
                     break
-            chunks, ended = self._step(self._clock())
+                try:
+                    command()
+                except Exception:  # a failed add: the run never starts; the others go on
+                    log.exception("stepper command failed")
+            try:
+                chunks, ended = self._step(self._clock())
+            except Exception as exc:  # a bug must not stop the thread and hang every run
+                log.exception("stepping failed; ending the live runs")
+                chunks, ended = [], [self._end(live, "failed", f"internal error: {exc!r}")
+                                     for live in list(self._runs.values())]
             if chunks or ended:
                 self._on_tick(chunks, ended)
             fast = any(r.pace == "fast" and r.paused_at is None for r in self._runs.values())
