@@ -203,3 +203,17 @@ def test_reconnects_after_a_network_blip_without_losing_samples(browser: Browser
     finally:
         context.close()
         proxy.close()
+
+
+@pytest.mark.parametrize("plant", ["double_pendulum", "belt_conveyor", "flexible_link"])
+def test_every_plant_runs_its_analysis_in_the_browser(page: Page, server: Server,
+                                                       plant: str) -> None:
+    # on one server, one after another: runs of different sizes share the stepper
+    page.goto(f"/plants/{plant}/analysis")
+    page.locator("#f-duration").fill("1")
+    page.get_by_role("button", name="Start").click()
+    expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=20_000)
+    info = httpx.get(f"{server.url}/api/v1/runs/{run_id(page)}").json()
+    assert info["n_samples"] == info["n_planned"] > 0
+    wait_samples(page, info["n_samples"])
+    expect(page.locator("[data-testid=bode] .main-svg").first).to_be_visible()
