@@ -2,6 +2,7 @@
 import "katex/dist/katex.min.css";
 import "./style.css";
 import { h, link } from "./dom";
+import { plotSettings } from "./plot";
 import { Router } from "./router";
 import { analysisPage } from "./views/analysis";
 import { designPage } from "./views/design";
@@ -9,6 +10,7 @@ import { home } from "./views/home";
 import { identificationPage } from "./views/identification";
 import { plantPage } from "./views/plant";
 import { runPage } from "./views/run";
+import { runsPage } from "./views/runs";
 
 const CLASSROOM = "elab.classroom";
 
@@ -25,7 +27,7 @@ function shell(): HTMLElement {
   const main = h("main#main", { tabindex: "-1" });
   document.body.append(
     h("a.skip", { href: "#main" }, "Skip to content"),
-    h("div.topbar", link("/", h("span.logo", "E-Lab")), h("nav", link("/", "Experiments"), h("a", { href: "/api/v1/docs" }, "API")), toggle),
+    h("div.topbar", link("/", h("span.logo", "E-Lab")), h("nav", link("/", "Experiments"), link("/runs", "Runs"), h("a", { href: "/api/v1/docs" }, "API")), toggle),
     main,
   );
   return main;
@@ -41,5 +43,9 @@ router
   .add("/plants/:id/analysis", analysisPage)
   .add("/plants/:id/identification", identificationPage)
   .add("/plants/:id/design", designPage)
+  .add("/runs", runsPage)
   .add("/runs/:id", runPage);
 void router.render();
+
+// debugging and benchmark knobs, for the console and tests/bench/liveplot.py
+(window as unknown as { elab: object }).elab = { plotSettings };

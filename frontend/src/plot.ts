@@ -22,6 +22,12 @@ function baseLayout(): Partial<Plotly.Layout> {
 
 const CONFIG: Partial<Plotly.Config> = { responsive: true, displaylogo: false, scrollZoom: false };
 
+/**
+ * A debugging and benchmark knob, exposed as `window.elab.plotSettings`: `decimate: false`
+ * makes live plots draw every sample of their window (tests/bench/liveplot.py's peer).
+ */
+export const plotSettings = { decimate: true };
+
 export interface LiveTrace {
   /** channel name in the ring */
   channel: string;
@@ -96,7 +102,7 @@ export class LivePlot {
     const k0 = Math.max(this.ring.start, end - span);
     // min/max per 2-pixel column: ≤ 1 point per pixel per trace, drawn as SVG (no WebGL
     // needed, so it also runs in software-rendered browsers and on old projector PCs)
-    const columns = Math.max(50, Math.floor((this.div.clientWidth - 80) / 2));
+    const columns = plotSettings.decimate ? Math.max(50, Math.floor((this.div.clientWidth - 80) / 2)) : Infinity;
     const data: Partial<Plotly.PlotData>[] = this.traces.map((tr, i) => {
       const d = decimate(this.ring, tr.channel, k0, end, columns);
       const x = new Float64Array(d.length);

@@ -91,7 +91,7 @@ export class RunPanel {
           h("a", { href: dataUrl(run, "mat"), download: `${run.id}.mat` }, "MATLAB .mat"),
           h("button", { type: "button", class: "link", onclick: () => this.savePlotData() }, "plot data"),
         ),
-        h("button", { type: "button", class: "link", onclick: () => void navigator.clipboard?.writeText(share), title: share }, "Copy share link"),
+        h("button", { type: "button", class: "link", onclick: (ev: Event) => void copy(share, ev.currentTarget as HTMLButtonElement), title: share }, "Copy share link"),
       ),
       this.messageEl,
     );
@@ -201,4 +201,16 @@ export class RunPanel {
     this.stream.close();
     this.plot.destroy();
   }
+}
+
+/** Copy text to the clipboard and say so on the button (or show the text to copy by hand). */
+async function copy(text: string, button: HTMLButtonElement): Promise<void> {
+  const label = button.textContent;
+  try {
+    await navigator.clipboard.writeText(text);
+    button.textContent = "Link copied";
+  } catch {
+    window.prompt("Copy this link:", text);
+  }
+  setTimeout(() => (button.textContent = label), 2000);
 }

@@ -217,3 +217,25 @@ def test_every_plant_runs_its_analysis_in_the_browser(page: Page, server: Server
     assert info["n_samples"] == info["n_planned"] > 0
     wait_samples(page, info["n_samples"])
     expect(page.locator("[data-testid=bode] .main-svg").first).to_be_visible()
+
+
+def test_runs_list_filters_by_plant_and_opens_a_run(page: Page, server: Server,
+                                                    shots: Path) -> None:
+    for plant in ("belt_conveyor", "flexible_link"):
+        r = httpx.post(f"{server.url}/api/v1/runs",
+                       json={"plant": plant, "duration": 0.5, "pace": "fast"})
+        assert r.status_code == 201
+    page.goto("/")
+    page.get_by_role("link", name="Runs", exact=True).click()
+    expect(page).to_have_url(re.compile(r"/runs$"))
+    expect(page.locator("table.runs tbody tr").first).to_be_visible()
+    page.locator("#plant-filter").select_option("belt_conveyor")
+    expect(page).to_have_url(re.compile(r"/runs\?plant=belt_conveyor$"))
+    rows = page.locator("table.runs tbody tr")
+    expect(rows.first).to_contain_text("belt_conveyor")
+    for text in rows.all_inner_texts():
+        assert "belt_conveyor" in text
+    page.screenshot(path=shots / "runs.png", full_page=True)
+    rows.first.get_by_role("link").click()
+    expect(page).to_have_url(re.compile(r"/runs/r-[0-9a-f]+$"))
+    expect(page.locator(".run-panel .badge")).to_have_text("finished")

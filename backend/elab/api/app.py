@@ -30,7 +30,7 @@ API = "/api/v1"
 #: The built browser app (``make install`` runs the frontend build into it).
 STATIC = Path(__file__).parent / "static"
 #: The app's own pages: each is answered with index.html and routed in the browser.
-APP_PAGES = ("/", "/plants/{rest:path}", "/runs/{rest:path}")
+APP_PAGES = ("/", "/plants/{rest:path}", "/runs", "/runs/{rest:path}")
 
 
 def create_app(settings: Settings | None = None) -> Starlette:

@@ -7,12 +7,12 @@ import { ControllerForm, durationField, SignalForm } from "../experiment";
 import { FieldSet, type NumberField } from "../forms";
 import { tex } from "../markdown";
 import { chart, purge } from "../plot";
-import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, StepOut } from "../protocol.gen";
+import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, RunInfo, StepOut } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
 import { display, fmt } from "../units";
 import { downloadButton, failure, loading, pageHeader, plantDetail, plantTabs, showApiError } from "./common";
 
-export async function analysisPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
+export async function analysisPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
   root.append(loading());
   let plant: PlantDetail;
   try {
@@ -23,6 +23,8 @@ export async function analysisPage(root: HTMLElement, params: Record<string, str
   }
   const view = new AnalysisView(plant);
   root.replaceChildren(pageHeader(`${plant.name}: system analysis`, [[`/plants/${plant.id}`, plant.name]]), plantTabs(plant, `/plants/${plant.id}/analysis`), view.root);
+  const again = query.get("run");
+  if (again) void view.show(again); // a reload keeps the run on screen
   void view.loadPanels();
   return () => view.destroy();
 }
@@ -92,16 +94,30 @@ class AnalysisView {
     const req: RunCreate = { plant: this.plant.id, experiment: "analysis", controller, signal, duration, pace: "realtime" };
     this.startBtn.disabled = true;
     try {
-      const info = await api.createRun(req);
-      this.run?.destroy();
-      this.run = new RunPanel(info, this.plant, { outputs: this.chosenOutputs(), onState: (s) => this.onState(s) });
-      fill(this.runArea, this.run.root);
-      history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
+      this.attach(await api.createRun(req));
     } catch (err) {
       showApiError(err, [this.controller.fields, this.signal.fields, this.runFields], this.formMsg);
     } finally {
       this.startBtn.disabled = false;
     }
+  }
+
+  /** Follow an existing run of this plant (from the page's ?run= address). */
+  async show(runId: string): Promise<void> {
+    try {
+      const info = await api.run(runId);
+      if (info.plant !== this.plant.id) return;
+      this.attach(info);
+    } catch (err) {
+      fill(this.formMsg, err instanceof ApiError ? err.message : String(err));
+    }
+  }
+
+  private attach(info: RunInfo): void {
+    this.run?.destroy();
+    this.run = new RunPanel(info, this.plant, { outputs: this.chosenOutputs(), onState: (s) => this.onState(s) });
+    fill(this.runArea, this.run.root);
+    history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
   }
 
   private onState(state: string): void {

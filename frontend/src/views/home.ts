@@ -33,7 +33,7 @@ export async function home(root: HTMLElement): Promise<void> {
   }
   try {
     const list = await api.runs({ limit: 10 });
-    fill(recent, list.runs.length ? runTable(list.runs) : h("p.muted", "No runs yet: start one from an experiment above."));
+    fill(recent, list.runs.length ? runTable(list.runs) : h("p.muted", "No runs yet: start one from an experiment above."), list.total > list.runs.length ? h("p", link("/runs", `All ${list.total} runs`)) : null);
   } catch (err) {
     fill(recent, failure(err));
   }
