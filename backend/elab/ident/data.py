@@ -1,0 +1,157 @@
+"""Identification data sets: input/output samples with a sample time, names and units.
+
+Conventions follow MATLAB's ``iddata`` (Ljung 1999, ch. 14): ``y`` is ``(N, ny)``,
+``u`` is ``(N, nu)``, sample ``t`` is at ``t·Ts``; :meth:`IdData.detrend` removes the
+mean by default (MATLAB's ``detrend(iddata)``), or a straight line.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from elab.errors import InvalidInput
+
+Array = NDArray[np.float64]
+MAX_SAMPLES = 2_000_000
+
+
+def _columns(name: str, values: ArrayLike) -> Array:
+    try:
+        a = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInput(name, values, "an array of numbers") from None
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.shape[1] == 0:
+        raise InvalidInput(name, f"shape {a.shape}", "N samples × channels (N ≥ 2)")
+    bad = np.argwhere(~np.isfinite(a))
+    if bad.size:
+        i, j = bad[0]
+        raise InvalidInput(f"{name}[{i}, {j}]", float(a[i, j]), "finite numbers (no NaN or inf)")
+    return a
+
+
+@dataclass(frozen=True)
+class IdData:
+    """``N`` samples of outputs ``y`` ``(N, ny)`` and inputs ``u`` ``(N, nu)`` at ``Ts``."""
+
+    y: Array
+    u: Array
+    Ts: float
+    output_names: tuple[str, ...] = ()
+    input_names: tuple[str, ...] = ()
+    output_units: tuple[str, ...] = ()
+    input_units: tuple[str, ...] = ()
+    #: index of the first sample in the experiment the data came from
+    k0: int = 0
+    trend: Literal["none", "mean", "linear"] = field(default="none")
+
+    def __post_init__(self) -> None:
+        y, u = _columns("y", self.y), _columns("u", self.u)
+        if y.shape[0] != u.shape[0]:
+            raise InvalidInput("u", f"{u.shape[0]} samples",
+                               f"as many samples as y ({y.shape[0]})")
+        if y.shape[0] < 2:
+            raise InvalidInput("y", f"{y.shape[0]} samples", "at least 2 samples")
+        if y.shape[0] > MAX_SAMPLES:
+            raise InvalidInput("y", f"{y.shape[0]} samples", f"at most {MAX_SAMPLES:,} samples")
+        Ts = self.Ts
+        if not isinstance(Ts, int | float) or not np.isfinite(Ts) or Ts <= 0:
+            raise InvalidInput("Ts", Ts, "a sample time > 0 s")
+        y.flags.writeable = False
+        u.flags.writeable = False
+        object.__setattr__(self, "y", y)
+        object.__setattr__(self, "u", u)
+        object.__setattr__(self, "Ts", float(Ts))
+        for attr, n, stem in (("output_names", y.shape[1], "y"), ("input_names", u.shape[1], "u"),
+                              ("output_units", y.shape[1], ""), ("input_units", u.shape[1], "")):
+            given = tuple(getattr(self, attr))
+            if not given:
+                given = tuple(f"{stem}{i + 1}" if stem else "" for i in range(n))
+            if len(given) != n:
+                raise InvalidInput(attr, list(given), f"{n} entries (one per channel)")
+            object.__setattr__(self, attr, given)
+
+    @property
+    def N(self) -> int:
+        return int(self.y.shape[0])
+
+    @property
+    def ny(self) -> int:
+        return int(self.y.shape[1])
+
+    @property
+    def nu(self) -> int:
+        return int(self.u.shape[1])
+
+    @property
+    def t(self) -> Array:
+        return (self.k0 + np.arange(self.N, dtype=np.float64)) * self.Ts
+
+    def __getitem__(self, index: slice) -> IdData:
+        """Samples ``index`` (a slice), e.g. ``data[:500]``."""
+        if not isinstance(index, slice):
+            raise InvalidInput("index", index, "a slice of samples")
+        start, _, step = index.indices(self.N)
+        if step != 1:
+            raise InvalidInput("index", index, "a contiguous slice (step 1)")
+        return replace(self, y=self.y[index], u=self.u[index], k0=self.k0 + start)
+
+    def detrend(self, kind: Literal["mean", "linear"] = "mean") -> IdData:
+        """Remove each channel's mean (default, as MATLAB) or its least-squares line."""
+        if kind not in ("mean", "linear"):
+            raise InvalidInput("detrend", kind, "'mean' or 'linear'")
+        return replace(self, y=_detrend(self.y, kind), u=_detrend(self.u, kind), trend=kind)
+
+    def split(self, at: int | float = 0.5) -> tuple[IdData, IdData]:
+        """Estimation and validation parts: the first ``at`` samples (an int) or the first
+        fraction ``at`` (a float in (0, 1)), and the rest."""
+        n = at if isinstance(at, int) and not isinstance(at, bool) else None
+        if n is None:
+            if not isinstance(at, float) or not 0 < at < 1:
+                raise InvalidInput("split", at, "a sample count or a fraction in (0, 1)")
+            n = round(at * self.N)
+        if not 2 <= n <= self.N - 2:
+            raise InvalidInput("split", at, f"leaving at least 2 samples on each side of "
+                                            f"{self.N}")
+        return self[:n], self[n:]
+
+
+def iddata(y: ArrayLike, u: ArrayLike, Ts: float, **names: tuple[str, ...]) -> IdData:
+    """An :class:`IdData` from arrays (1-D for one channel)."""
+    return IdData(np.asarray(y, dtype=float), np.asarray(u, dtype=float), Ts, **names)  # type: ignore[arg-type]
+
+
+def _detrend(a: Array, kind: str) -> Array:
+    if kind == "mean":
+        return np.asarray(a - a.mean(axis=0), dtype=np.float64)
+    t = np.arange(a.shape[0], dtype=float)
+    T = np.column_stack([np.ones_like(t), t])
+    coef, *_ = np.linalg.lstsq(T, a, rcond=None)
+    return np.asarray(a - T @ coef, dtype=np.float64)
+
+
+def require_exciting(u: Array, order: int, field: str = "u") -> None:
+    """Raise unless every input is persistently exciting of ``order``.
+
+    Checked on the data: the matrix of ``order`` successive lags of the input must have
+    full column rank (Ljung 1999, sec. 13.2). A constant input has rank one, so it cannot
+    identify more than a gain, and after the mean is removed it has rank zero.
+    """
+    if order <= 0:
+        return
+    for j in range(u.shape[1]):
+        x = u[:, j]
+        n = min(order, x.shape[0] - 1)
+        lags = np.lib.stride_tricks.sliding_window_view(x, n)
+        s = np.linalg.svd(lags, compute_uv=False)
+        if s[0] == 0 or s[-1] <= 1e-9 * s[0]:
+            what = "constant" if np.ptp(x) == 0 else f"not persistently exciting of order {order}"
+            raise InvalidInput(f"{field}[{j}]" if u.shape[1] > 1 else field,
+                               f"an input that is {what}",
+                               f"an input that excites the system: persistently exciting of "
+                               f"order ≥ {order} (e.g. PRBS, a chirp or white noise)")

@@ -1,0 +1,127 @@
+"""The one form every identified model takes: a discrete innovations state space
+
+    x(t+1) = A x(t) + B u(t) + K e(t)
+    y(t)   = C x(t) + D u(t) + e(t),        E e eᵀ = Λ
+
+(Ljung 1999, sec. 4.3). ARX, ARMAX, OE and subspace models each convert to it, so
+simulation, k-step prediction, comparison, residual analysis and the hand-over to the
+design tools (python-control) are written once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import control as ct
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.errors import InvalidInput
+from elab.ident.data import IdData
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class LinearModel:
+    """A discrete-time model in innovations form at sample time ``Ts``."""
+
+    A: Array
+    B: Array
+    C: Array
+    D: Array
+    K: Array
+    Ts: float
+    #: covariance Λ of the innovations e (ny × ny)
+    noise_variance: Array
+    #: "arx", "armax", "oe", "n4sid", ...
+    kind: str = "linear"
+    #: the structure, e.g. {"na": 2, "nb": 2, "nk": 3} or {"n": 4}
+    orders: dict[str, Any] = field(default_factory=dict)
+    #: the model's own parameters for display (polynomials, ...), JSON-friendly
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        A = np.atleast_2d(np.asarray(self.A, dtype=float))
+        n = A.shape[0]
+        B = np.asarray(self.B, dtype=float).reshape(n, -1)
+        C = np.asarray(self.C, dtype=float).reshape(-1, n)
+        ny, nu = C.shape[0], B.shape[1]
+        D = np.asarray(self.D, dtype=float).reshape(ny, nu)
+        K = np.asarray(self.K, dtype=float).reshape(n, ny)
+        lam = np.asarray(self.noise_variance, dtype=float).reshape(ny, ny)
+        for name, v in (("A", A), ("B", B), ("C", C), ("D", D), ("K", K)):
+            object.__setattr__(self, name, v)
+        object.__setattr__(self, "noise_variance", lam)
+
+    @property
+    def n(self) -> int:
+        return int(self.A.shape[0])
+
+    @property
+    def ny(self) -> int:
+        return int(self.C.shape[0])
+
+    @property
+    def nu(self) -> int:
+        return int(self.B.shape[1])
+
+    @property
+    def poles(self) -> NDArray[np.complex128]:
+        return np.linalg.eigvals(self.A) if self.n else np.zeros(0, dtype=complex)
+
+    def simulate(self, u: Array, x0: Array | None = None) -> Array:
+        """Outputs for inputs ``u`` ``(N, nu)`` from state ``x0`` (default 0), no noise."""
+        u = self._inputs(u)
+        x = np.zeros(self.n) if x0 is None else np.asarray(x0, dtype=float).reshape(self.n)
+        y = np.empty((u.shape[0], self.ny))
+        A, B, C, D = self.A, self.B, self.C, self.D
+        for t in range(u.shape[0]):
+            y[t] = C @ x + D @ u[t]
+            x = A @ x + B @ u[t]
+        return y
+
+    def predict(self, data: IdData, horizon: int = 1, x0: Array | None = None) -> Array:
+        """``horizon``-step-ahead predictions ŷ(t | t − horizon) of ``data.y``.
+
+        The one-step predictor runs the Kalman form x̂(t+1) = A x̂ + B u + K (y − C x̂ − D u);
+        longer horizons continue from x̂(t − horizon + 1 | t − horizon) with inputs only.
+        """
+        if horizon < 1:
+            raise InvalidInput("horizon", horizon, "an integer ≥ 1")
+        u, y = self._inputs(data.u), data.y
+        N = u.shape[0]
+        xh = np.empty((N, self.n))
+        x = np.zeros(self.n) if x0 is None else np.asarray(x0, dtype=float).reshape(self.n)
+        A, B, C, D, K = self.A, self.B, self.C, self.D, self.K
+        for t in range(N):
+            xh[t] = x
+            x = A @ x + B @ u[t] + K @ (y[t] - C @ x - D @ u[t])
+        if horizon == 1:
+            return xh @ C.T + u @ D.T
+        # x(t | t−h): start from x̂(t−h+1 | t−h) and apply h − 1 noise-free steps
+        h = horizon
+        X = np.zeros((N, self.n))
+        X[h - 1:] = xh[: N - h + 1]
+        for j in range(h - 1):
+            idx = np.arange(h - 1, N)
+            X[idx] = X[idx] @ A.T + u[idx - (h - 1) + j] @ B.T
+        yh = X @ C.T + u @ D.T
+        yh[: h - 1] = xh[: h - 1] @ C.T + u[: h - 1] @ D.T  # too early: one step ahead
+        return yh
+
+    def to_control(self) -> ct.StateSpace:
+        """The deterministic part (u → y) as a python-control discrete state space."""
+        return ct.ss(self.A, self.B, self.C, self.D, self.Ts)
+
+    def to_tf(self) -> ct.TransferFunction:
+        return ct.ss2tf(self.to_control())
+
+    def _inputs(self, u: Array) -> Array:
+        u = np.asarray(u, dtype=float)
+        if u.ndim == 1:
+            u = u[:, None]
+        if u.ndim != 2 or u.shape[1] != self.nu:
+            raise InvalidInput("u", f"shape {u.shape}", f"N × {self.nu} inputs")
+        return u
