@@ -69,7 +69,7 @@ class LinearModel:
 
     @property
     def poles(self) -> NDArray[np.complex128]:
-        return np.linalg.eigvals(self.A) if self.n else np.zeros(0, dtype=complex)
+        return np.asarray(np.linalg.eigvals(self.A), dtype=np.complex128)
 
     def simulate(self, u: Array, x0: Array | None = None) -> Array:
         """Outputs for inputs ``u`` ``(N, nu)`` from state ``x0`` (default 0), no noise."""
