@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Browser, Page, sync_playwright
 
+from tests.api.conftest import server  # noqa: F401  (a live server per test module)
 from tests.api.server import Server
 
 CHROMIUM = "/usr/bin/chromium"
@@ -28,15 +29,8 @@ def browser() -> Iterator[Browser]:
         b.close()
 
 
-@pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    srv = Server(tmp_path_factory.mktemp("data")).start()
-    yield srv
-    srv.stop()
-
-
 @pytest.fixture
-def page(browser: Browser, server: Server) -> Iterator[Page]:
+def page(browser: Browser, server: Server) -> Iterator[Page]:  # noqa: F811
     context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server.url,
                                   accept_downloads=True)
     pg = context.new_page()

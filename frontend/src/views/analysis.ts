@@ -10,23 +10,16 @@ import { chart, purge } from "../plot";
 import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, RunInfo, StepOut } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
 import { display, fmt } from "../units";
-import { downloadButton, failure, loading, pageHeader, plantDetail, plantTabs, showApiError } from "./common";
+import { downloadButton, experimentPage, failure, loading, showApiError } from "./common";
 
-export async function analysisPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
-  root.append(loading());
-  let plant: PlantDetail;
-  try {
-    plant = await plantDetail(params.id);
-  } catch (err) {
-    root.replaceChildren(failure(err));
-    return () => undefined;
-  }
-  const view = new AnalysisView(plant);
-  root.replaceChildren(pageHeader(`${plant.name}: system analysis`, [[`/plants/${plant.id}`, plant.name]]), plantTabs(plant, `/plants/${plant.id}/analysis`), view.root);
-  const again = query.get("run");
-  if (again) void view.show(again); // a reload keeps the run on screen
-  void view.loadPanels();
-  return () => view.destroy();
+export function analysisPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
+  return experimentPage(root, params.id, "analysis", (plant) => {
+    const view = new AnalysisView(plant);
+    const again = query.get("run");
+    if (again) void view.show(again); // a reload keeps the run on screen
+    void view.loadPanels();
+    return { content: view.root, cleanup: () => view.destroy() };
+  });
 }
 
 class AnalysisView {

@@ -38,6 +38,23 @@ export function loading(text = "Loading…"): HTMLElement {
   return h("p.loading", { "aria-busy": "true" }, text);
 }
 
+/** A plant's experiment page: the plant is loaded, then `build` makes the content below the
+ * header and tabs and returns its cleanup; a failure to load shows instead. */
+export async function experimentPage(root: HTMLElement, plantId: string, experiment: string, build: (plant: PlantDetail) => { content: HTMLElement; cleanup: () => void }): Promise<() => void> {
+  root.append(loading());
+  let plant: PlantDetail;
+  try {
+    plant = await plantDetail(plantId);
+  } catch (err) {
+    root.replaceChildren(failure(err));
+    return () => undefined;
+  }
+  const { content, cleanup } = build(plant);
+  const title = EXPERIMENTS[experiment]?.title.toLowerCase() ?? experiment;
+  root.replaceChildren(pageHeader(`${plant.name}: ${title}`, [[`/plants/${plant.id}`, plant.name]]), plantTabs(plant, `/plants/${plant.id}/${experiment}`), content);
+  return cleanup;
+}
+
 /** Tabs between a plant's pages. */
 export function plantTabs(plant: PlantDetail, current: string): HTMLElement {
   const tabs: [string, string][] = [[`/plants/${plant.id}`, "About"], ...plant.experiments.map((e): [string, string] => [`/plants/${plant.id}/${e}`, EXPERIMENTS[e]?.title ?? e])];

@@ -8,20 +8,13 @@ import { chart, purge } from "../plot";
 import type { DesignOut, PlaceRequest, PlantDetail, StepOut } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
 import { display, fmt } from "../units";
-import { downloadButton, failure, loading, pageHeader, plantDetail, plantTabs, showApiError } from "./common";
+import { downloadButton, experimentPage, failure, loading, showApiError } from "./common";
 
-export async function designPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
-  root.append(loading());
-  let plant: PlantDetail;
-  try {
-    plant = await plantDetail(params.id);
-  } catch (err) {
-    root.replaceChildren(failure(err));
-    return () => undefined;
-  }
-  const view = new DesignView(plant);
-  root.replaceChildren(pageHeader(`${plant.name}: controller design`, [[`/plants/${plant.id}`, plant.name]]), plantTabs(plant, `/plants/${plant.id}/design`), view.root);
-  return () => view.destroy();
+export function designPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
+  return experimentPage(root, params.id, "design", (plant) => {
+    const view = new DesignView(plant);
+    return { content: view.root, cleanup: () => view.destroy() };
+  });
 }
 
 class DesignView {

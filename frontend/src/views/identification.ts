@@ -7,20 +7,13 @@ import { FieldSet } from "../forms";
 import type { PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
 import { fmt } from "../units";
-import { failure, loading, pageHeader, plantDetail, plantTabs, showApiError } from "./common";
+import { experimentPage, showApiError } from "./common";
 
-export async function identificationPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
-  root.append(loading());
-  let plant: PlantDetail;
-  try {
-    plant = await plantDetail(params.id);
-  } catch (err) {
-    root.replaceChildren(failure(err));
-    return () => undefined;
-  }
-  const view = new IdentificationView(plant);
-  root.replaceChildren(pageHeader(`${plant.name}: identification`, [[`/plants/${plant.id}`, plant.name]]), plantTabs(plant, `/plants/${plant.id}/identification`), view.root);
-  return () => view.destroy();
+export function identificationPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
+  return experimentPage(root, params.id, "identification", (plant) => {
+    const view = new IdentificationView(plant);
+    return { content: view.root, cleanup: () => view.destroy() };
+  });
 }
 
 type Loop = "closed-input" | "closed-reference" | "open";

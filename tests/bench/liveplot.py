@@ -1,0 +1,134 @@
+"""Issue 4's benchmark: the live plot of a real-time run in headless Chromium.
+
+A real ``elab serve`` runs the flexible link (4 channels: r, theta, alpha, u at Ts = 1 ms)
+from the analysis page; once the plot's 10 s window is full, it is watched for 10 s:
+draws per second (plotly emits ``plotly_afterplot`` after each of ``LivePlot``'s draws),
+main-thread busy fraction (Chrome DevTools Protocol ``Performance.getMetrics``:
+ΔTaskDuration / Δwall) and points in view. The peer, in a second run of the same browser,
+is the same plot drawing every sample (``window.elab.plotSettings.decimate = false``).
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from playwright.sync_api import Browser, Page, sync_playwright
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+from tests.api.server import Server  # noqa: E402
+
+CHROMIUM = "/usr/bin/chromium"
+ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+APP = ROOT / "backend" / "elab" / "api" / "static" / "index.html"
+WINDOW_SAMPLES = 10_000  # the 10 s window at Ts = 1 ms
+SECONDS = 10  # measured, in 1 s buckets
+DURATION = 30.0  # of each run (s): the window fills, then the measurement, with margin
+
+# record the time of every draw of the live plot (page clock, ms)
+LISTEN = ("(div) => { window.benchDraws = [];"
+          " div.on('plotly_afterplot', () => window.benchDraws.push(performance.now()));"
+          " return performance.now(); }")
+POINTS = "(div) => div.data.reduce((n, trace) => n + trace.x.length, 0)"
+
+
+@dataclass(frozen=True)
+class PlotFigures:
+    fps: float  # median over 1 s buckets
+    busy: float  # fraction of wall time the renderer's main thread ran tasks
+    points: int  # in view at the end, summed over the traces
+
+
+def _task_seconds(metrics: dict[str, list[dict[str, float]]]) -> tuple[float, float]:
+    m = {x["name"]: x["value"] for x in metrics["metrics"]}
+    return m["TaskDuration"], m["Timestamp"]
+
+
+def _measure(page: Page, base_url: str, decimate: bool) -> PlotFigures:
+    page.goto(base_url + "/plants/flexible_link/analysis")
+    page.evaluate(f"window.elab.plotSettings.decimate = {str(decimate).lower()}")
+    page.locator("#f-duration").fill(str(DURATION))
+    page.get_by_role("button", name="Start").click()
+    page.wait_for_function("(n) => Number(document.querySelector('.run-panel .progress')"
+                           "?.dataset.samples) >= n", arg=WINDOW_SAMPLES, polling=250,
+                           timeout=60_000)
+    plot = page.locator(".run-panel [data-testid=live-plot]")
+    cdp = page.context.new_cdp_session(page)
+    cdp.send("Performance.enable")
+    t0 = plot.evaluate(LISTEN)
+    task0, wall0 = _task_seconds(cdp.send("Performance.getMetrics"))
+    page.wait_for_timeout(SECONDS * 1000)
+    task1, wall1 = _task_seconds(cdp.send("Performance.getMetrics"))
+    draws: list[float] = page.evaluate("window.benchDraws")
+    buckets = [0] * SECONDS
+    for t in draws:
+        if (i := int((t - t0) / 1000)) < SECONDS:
+            buckets[i] += 1
+    return PlotFigures(statistics.median(buckets), (task1 - task0) / (wall1 - wall0),
+                       plot.evaluate(POINTS))
+
+
+def _run(browser: Browser, base_url: str, decimate: bool) -> PlotFigures:
+    context = browser.new_context(viewport={"width": 1280, "height": 800})
+    errors: list[str] = []
+    try:
+        page = context.new_page()
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        figures = _measure(page, base_url, decimate)
+    finally:
+        context.close()
+    if errors:
+        raise RuntimeError(f"errors in the page: {errors}")
+    return figures
+
+
+def bench_live_plot() -> str:
+    """The markdown section of docs/benchmarks.md for issue 4's live plot goal."""
+    if not APP.exists():
+        raise RuntimeError(f"the app is not built ({APP} is missing): make install builds it")
+    load0 = os.getloadavg()[0]
+    with tempfile.TemporaryDirectory() as data:
+        server = Server(Path(data)).start()
+        try:
+            with sync_playwright() as p:
+                browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+                try:
+                    dec = _run(browser, server.url, decimate=True)
+                    raw = _run(browser, server.url, decimate=False)
+                finally:
+                    browser.close()
+        finally:
+            server.stop()
+    load1 = os.getloadavg()[0]
+    ratio = f"{dec.fps / raw.fps:.1f}×" if raw.fps else "∞ (the peer drew in few seconds)"
+    return f"""### Live plot in the browser (issue 4)
+
+The flexible link's 4 channels (r, θ, α, u) at 1 kHz, live from a real-time run over the
+websocket, in the plot's 10 s window, in headless Chromium with software rendering
+(`--disable-gpu`), viewport 1280×800, on {os.cpu_count()} shared cores (load average
+{load0:.1f} before, {load1:.1f} after). Measured for {SECONDS} s once the window is full;
+frames per second is the median over 1 s buckets of the plot's draws, main-thread busy is
+Chrome's `TaskDuration` over wall time. Peer: the same plot drawing every sample
+(`window.elab.plotSettings.decimate = false`), measured in the same way in a second run.
+
+| figure | value | goal |
+|---|---|---|
+| frames per second, decimated (min/max per 2-pixel column) | {dec.fps:.0f} | ≥ 30 |
+| main thread busy, decimated | {dec.busy * 100:.0f} % | ≤ 50 % |
+| points in view, decimated | {dec.points:,} | |
+| frames per second, every sample drawn (peer) | {raw.fps:.0f} | |
+| main thread busy, every sample drawn (peer) | {raw.busy * 100:.0f} % | |
+| points in view, every sample drawn (peer) | {raw.points:,} | |
+| frames per second, decimated ÷ peer | {ratio} | |
+"""
+
+
+if __name__ == "__main__":
+    print(bench_live_plot())
