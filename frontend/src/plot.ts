@@ -15,6 +15,7 @@ function baseLayout(): Partial<Plotly.Layout> {
     paper_bgcolor: "rgba(0,0,0,0)",
     plot_bgcolor: "#ffffff",
     margin: { l: 64, r: 16, t: 24, b: 48 },
+    showlegend: true,
     legend: { orientation: "h", y: 1.02, yanchor: "bottom", x: 0 },
     hovermode: "x unified",
   };
@@ -27,6 +28,14 @@ const CONFIG: Partial<Plotly.Config> = { responsive: true, displaylogo: false, s
  * makes live plots draw every sample of their window (tests/bench/liveplot.py's peer).
  */
 export const plotSettings = { decimate: true };
+
+/**
+ * The live plot draws at most every 25 ms: every other frame of a 60 Hz display, 30 frames
+ * per second, which looks smooth and leaves the main thread more than half its time
+ * (docs/benchmarks.md). Samples arrive about 50 times a second; none is lost by skipping a
+ * draw, the next one shows them.
+ */
+const MIN_FRAME_MS = 25;
 
 export interface LiveTrace {
   /** channel name in the ring */
@@ -54,6 +63,10 @@ export class LivePlot {
   private pending = false;
   private marks: number[] = [];
   private draws = 0;
+  private lastDraw = -Infinity;
+  /** what the last full plot was made of; while it holds, draws take the fast path */
+  private layoutKey = "";
+  private yRanges: ([number, number] | null)[] = [null, null];
   private readonly resize = new ResizeObserver(() => this.dirty());
 
   constructor(
@@ -65,18 +78,26 @@ export class LivePlot {
     this.resize.observe(div);
   }
 
-  /** Redraw at the next animation frame (many calls, one draw). */
+  /** Redraw at the next animation frame that is at least MIN_FRAME_MS after the last draw
+   * (many calls, one draw). */
   dirty(): void {
     if (this.pending) return;
     this.pending = true;
-    requestAnimationFrame(() => {
+    const frame = (now: number) => {
+      if (now - this.lastDraw < MIN_FRAME_MS) {
+        requestAnimationFrame(frame);
+        return;
+      }
       this.pending = false;
+      this.lastDraw = now;
       this.draw();
-    });
+    };
+    requestAnimationFrame(frame);
   }
 
   setWindow(seconds: number | null): void {
     this.options = { ...this.options, window: seconds };
+    this.yRanges = [null, null];
     this.dirty();
   }
 
@@ -103,32 +124,54 @@ export class LivePlot {
     // min/max per 2-pixel column: ≤ 1 point per pixel per trace, drawn as SVG (no WebGL
     // needed, so it also runs in software-rendered browsers and on old projector PCs)
     const columns = plotSettings.decimate ? Math.max(50, Math.floor((this.div.clientWidth - 80) / 2)) : Infinity;
-    const data: Partial<Plotly.PlotData>[] = this.traces.map((tr, i) => {
+    const bounds = [new Bounds(), new Bounds()];
+    const series = this.traces.map((tr) => {
       const d = decimate(this.ring, tr.channel, k0, end, columns);
       const x = new Float64Array(d.length);
       const y = new Float32Array(d.length);
+      const b = bounds[tr.axis - 1];
       for (let j = 0; j < d.length; j++) {
         x[j] = d.k[j] * Ts;
         y[j] = d.y[j] * tr.scale;
+        b.add(y[j]);
       }
-      return {
-        type: "scatter" as const,
-        mode: "lines" as const,
-        name: tr.label,
-        x: x as unknown as number[],
-        y: y as unknown as number[],
-        yaxis: tr.axis === 1 ? "y" : "y2",
-        line: { color: COLORS[i % COLORS.length], width: 1.5, dash: tr.dash ?? "solid" },
-      };
+      return { x: x as unknown as number[], y: y as unknown as number[] };
     });
+    // the time axis moves in steps of a tenth of the window: between steps only the traces
+    // are redrawn (ticks and grid cost more than the lines)
     const t1 = Math.max(end, 1) * Ts;
-    const t0 = window === null ? k0 * Ts : Math.max(0, t1 - window);
+    const step = (window ?? 1) / 10;
+    const right = window === null ? t1 : Math.max(window, Math.ceil(t1 / step) * step);
+    const xRange = window === null ? [k0 * Ts, Math.max(t1, k0 * Ts + 1)] : [right - window, right];
+    const yRanges = bounds.map((b, i) => (this.yRanges[i] = b.range(this.yRanges[i])));
+    this.draws++;
+    // a full plot when anything but the data changed (plotly leaves empty traces out of the
+    // legend, so the first draw with samples is a full one too)
+    const key = JSON.stringify([this.traces, this.marks, this.options, this.div.clientWidth, this.div.clientHeight, fontSize(), end > 0]);
+    if (key === this.layoutKey) {
+      // the fast path: new points and ranges, no full replot (axes, legend, shapes stay)
+      void Plotly.animate(
+        this.div,
+        { data: series, traces: series.map((_, i) => i), layout: { xaxis: { range: xRange }, yaxis: { range: yRanges[0] }, yaxis2: { range: yRanges[1] } } },
+        { transition: { duration: 0 }, frame: { duration: 0, redraw: false }, mode: "immediate" },
+      ).then(() => this.div.dispatchEvent(new Event("elab:draw")));
+      return;
+    }
+    this.layoutKey = key;
+    const data: Partial<Plotly.PlotData>[] = this.traces.map((tr, i) => ({
+      type: "scatter" as const,
+      mode: "lines" as const,
+      name: tr.label,
+      ...series[i],
+      yaxis: tr.axis === 1 ? "y" : "y2",
+      line: { color: COLORS[i % COLORS.length], width: 1.5, dash: tr.dash ?? "solid" },
+    }));
     const layout: Partial<Plotly.Layout> = {
       ...baseLayout(),
       height: Math.max(320, this.div.clientHeight || 420),
-      xaxis: { title: { text: "time t (s)" }, range: [t0, Math.max(t1, t0 + (window ?? 1))], showgrid: true, anchor: "y2" },
-      yaxis: { title: { text: this.options.yTitles[0] }, domain: [0.38, 1], zeroline: true },
-      yaxis2: { title: { text: this.options.yTitles[1] }, domain: [0, 0.28], anchor: "x", zeroline: true },
+      xaxis: { title: { text: "time t (s)" }, range: xRange, showgrid: true, anchor: "y2" },
+      yaxis: { title: { text: this.options.yTitles[0] }, domain: [0.38, 1], zeroline: true, range: yRanges[0] },
+      yaxis2: { title: { text: this.options.yTitles[1] }, domain: [0, 0.28], anchor: "x", zeroline: true, range: yRanges[1] },
       shapes: this.marks.map((k) => ({
         type: "line" as const,
         xref: "x" as const,
@@ -139,15 +182,40 @@ export class LivePlot {
         y1: 1,
         line: { color: "#9ca3af", dash: "dot" as const, width: 1 },
       })),
-      datarevision: ++this.draws,
       uirevision: "live",
     };
-    void Plotly.react(this.div, data as Plotly.Data[], layout, CONFIG);
+    // a rolling window is redrawn many times a second: no hover, zoom or mode bar then (they
+    // cost on every draw and a zoom would be undone by the next frame); the whole run is
+    // interactive
+    const config = window === null ? CONFIG : { ...CONFIG, displayModeBar: false };
+    if (window !== null) Object.assign(layout, { hovermode: false, dragmode: false });
+    void Plotly.react(this.div, data as Plotly.Data[], layout, config).then(() => this.div.dispatchEvent(new Event("elab:draw")));
   }
 
   destroy(): void {
     this.resize.disconnect();
     Plotly.purge(this.div);
+  }
+}
+
+/** The extent of a trace's values, and a y range that only moves when it must. */
+class Bounds {
+  lo = Infinity;
+  hi = -Infinity;
+
+  add(v: number): void {
+    if (v < this.lo) this.lo = v;
+    if (v > this.hi) this.hi = v;
+  }
+
+  /** Keep `current` while the data fill more than half of it and stay inside; else refit
+   * with 8 % margins, so the axis neither jitters nor clips. */
+  range(current: [number, number] | null): [number, number] {
+    if (this.lo > this.hi) return current ?? [-1, 1];
+    const span = Math.max(this.hi - this.lo, 1e-9 * Math.max(1, Math.abs(this.hi)));
+    if (current && this.lo >= current[0] && this.hi <= current[1] && span > 0.5 * (current[1] - current[0])) return current;
+    const pad = this.hi > this.lo ? 0.08 * span : Math.max(1, Math.abs(this.hi) * 0.1);
+    return [this.lo - pad, this.hi + pad];
   }
 }
 

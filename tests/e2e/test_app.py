@@ -64,6 +64,9 @@ def test_analysis_run_live_gain_change_stop_download_and_spectator(
     first = page.evaluate(PLOT_END)
     wait_samples(page, samples(page) + 500)
     page.wait_for_function(f"() => ({PLOT_END})() > {first}")  # the plot advances
+    legend = page.locator("[data-testid=live-plot] .legend")
+    for label in ("reference r", "servo angle θ", "link deflection α", "control u"):
+        expect(legend).to_contain_text(label)
     rid = run_id(page)
 
     spectator = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server.url,
