@@ -123,7 +123,7 @@ class IdData:
 
 def iddata(y: ArrayLike, u: ArrayLike, Ts: float, **names: tuple[str, ...]) -> IdData:
     """An :class:`IdData` from arrays (1-D for one channel)."""
-    return IdData(np.asarray(y, dtype=float), np.asarray(u, dtype=float), Ts, **names)  # type: ignore[arg-type]
+    return IdData(y, u, Ts, **names)  # type: ignore[arg-type]  # IdData converts and checks
 
 
 def _detrend(a: Array, kind: str) -> Array:
