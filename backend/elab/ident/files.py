@@ -1,0 +1,191 @@
+"""Data sets from files: E-Lab's own CSV and JSON downloads, or plain numeric tables
+(comma- or whitespace-separated, as MATLAB's and DaISy's ``.dat`` files).
+
+A table is named columns with units and a sample time. CSV: optional ``#`` header lines
+(E-Lab writes ``# sample time: 0.001 s`` and ``# units: t [s], u [V], …``), then a row of
+column names (or none: the columns are ``c1, c2, …``), then one row of numbers per
+sample. JSON: E-Lab's download (``Ts``, ``channels``, ``data``) or ``{"Ts": …, "u": […],
+"y": […]}`` with any column names. The sample time comes from the file, else from a
+``t`` column with even steps, else it must be given.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.errors import InvalidInput
+from elab.ident.data import MAX_SAMPLES, IdData
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Table:
+    """Named columns of equal length, with units and (if known) the sample time."""
+
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    data: Array  # (N, columns)
+    Ts: float | None
+
+    def column(self, name: str, field: str) -> Array:
+        if name not in self.names:
+            raise InvalidInput(field, name, f"one of the columns: {', '.join(self.names)}")
+        return self.data[:, self.names.index(name)]
+
+    def dataset(self, inputs: list[str], outputs: list[str], Ts: float | None = None) -> IdData:
+        """The identification data: ``inputs`` and ``outputs`` by column name."""
+        if not inputs:
+            raise InvalidInput("input", inputs, "at least one input column")
+        if not outputs:
+            raise InvalidInput("output", outputs, "at least one output column")
+        ts = Ts if Ts is not None else self.Ts
+        if ts is None:
+            raise InvalidInput("Ts", None, "a sample time: the file has none (no '# sample "
+                                           "time' line and no evenly spaced 't' column)")
+        u = np.column_stack([self.column(n, "input") for n in inputs])
+        y = np.column_stack([self.column(n, "output") for n in outputs])
+        unit = dict(zip(self.names, self.units, strict=True))
+        return IdData(y, u, ts, output_names=tuple(outputs), input_names=tuple(inputs),
+                      output_units=tuple(unit[n] for n in outputs),
+                      input_units=tuple(unit[n] for n in inputs))
+
+
+def read_csv(text: str) -> Table:
+    lines = text.splitlines()
+    header = [ln[1:].strip() for ln in lines if ln.startswith("#")]
+    body = [ln for ln in lines if ln.strip() and not ln.startswith("#")]
+    if not body:
+        raise InvalidInput("data", "no rows", "CSV with one row of numbers per sample")
+    rows = [_cells(ln) for ln in body]
+    names: list[str]
+    if _numeric(rows[0]):
+        names = [f"c{i + 1}" for i in range(len(rows[0]))]
+    else:
+        names = [n.strip() for n in rows[0]]
+        rows = rows[1:]
+    if len(rows) < 2:
+        raise InvalidInput("data", f"{len(rows)} rows", "at least 2 samples")
+    if len(rows) > MAX_SAMPLES:
+        raise InvalidInput("data", f"{len(rows):,} rows", f"at most {MAX_SAMPLES:,} samples")
+    data = np.empty((len(rows), len(names)))
+    for i, row in enumerate(rows):
+        if len(row) != len(names):
+            raise InvalidInput(f"data row {i + 1}", f"{len(row)} values",
+                               f"{len(names)} values, one per column ({', '.join(names)})")
+        try:
+            data[i] = [float(v) for v in row]
+        except ValueError:
+            raise InvalidInput(f"data row {i + 1}", ",".join(row)[:60], "numbers") from None
+    units = _units(header, names)
+    Ts = _header_Ts(header)
+    return _table(names, units, data, Ts)
+
+
+def read_json(text: str | bytes) -> Table:
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InvalidInput("data", f"invalid JSON ({exc.msg} at {exc.pos})", "JSON") from None
+    if not isinstance(doc, dict):
+        raise InvalidInput("data", type(doc).__name__, "a JSON object")
+    Ts = doc.get("Ts")
+    if "data" in doc and isinstance(doc["data"], dict):  # E-Lab's own download
+        cols: dict[str, Any] = doc["data"]
+        units = {c.get("name"): c.get("unit", "") for c in doc.get("channels", [])
+                 if isinstance(c, dict)}
+        if "t" in doc:
+            cols = {"t": doc["t"], **cols}
+            units["t"] = "s"
+    else:
+        cols = {k: v for k, v in doc.items() if k not in ("Ts", "units")}
+        units = doc.get("units") or {}
+    names = [str(k) for k in cols]
+    arrays = []
+    for name in names:
+        try:
+            a = np.asarray(cols[name], dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InvalidInput(f"data.{name}", str(cols[name])[:60], "a list of numbers") from None
+        if a.ndim != 1:
+            raise InvalidInput(f"data.{name}", f"shape {a.shape}", "a flat list of numbers")
+        arrays.append(a)
+    if not arrays:
+        raise InvalidInput("data", "no columns", "at least one input and one output column")
+    lengths = {a.shape[0] for a in arrays}
+    if len(lengths) != 1:
+        raise InvalidInput("data", f"columns of lengths {sorted(lengths)}", "equal lengths")
+    if Ts is not None and (not isinstance(Ts, int | float) or isinstance(Ts, bool)):
+        raise InvalidInput("Ts", Ts, "a number of seconds")
+    return _table(names, [str(units.get(n, "")) for n in names], np.column_stack(arrays),
+                  None if Ts is None else float(Ts))
+
+
+def _table(names: list[str], units: list[str], data: Array, Ts: float | None) -> Table:
+    if len(set(names)) != len(names):
+        raise InvalidInput("columns", names, "distinct column names")
+    if Ts is None and "t" in names:
+        t = data[:, names.index("t")]
+        steps = np.diff(t)
+        if steps.size and steps[0] > 0 and np.allclose(steps, steps[0], rtol=1e-6, atol=0):
+            Ts = float(steps[0])
+    if Ts is not None and not (np.isfinite(Ts) and Ts > 0):
+        raise InvalidInput("Ts", Ts, "a sample time > 0 s")
+    return Table(tuple(names), tuple(units), data, Ts)
+
+
+def _cells(line: str) -> list[str]:
+    """The values of one line: comma-separated (quotes allowed), else whitespace-separated
+    (tab or space, as MATLAB's and DaISy's ``.dat`` files); trailing empty cells dropped."""
+    cells = next(csv.reader([line])) if "," in line else line.split()
+    cells = [c.strip() for c in cells]
+    while cells and not cells[-1]:
+        cells.pop()
+    return cells
+
+
+def _numeric(row: list[str]) -> bool:
+    try:
+        [float(v) for v in row]
+    except ValueError:
+        return False
+    return True
+
+
+def _header_Ts(header: list[str]) -> float | None:
+    for line in header:
+        m = re.match(r"sample time:\s*([0-9.eE+-]+)\s*s", line)
+        if m:
+            return float(m.group(1))
+    return None
+
+
+def _units(header: list[str], names: list[str]) -> list[str]:
+    for line in header:
+        if line.startswith("units:"):
+            found = dict(re.findall(r"([^,\s]+) \[([^\]]*)\]", line[len("units:"):]))
+            return [found.get(n, "") for n in names]
+    return ["" for _ in names]
+
+
+def read_table(raw: bytes, fmt: str) -> Table:
+    """A table from an uploaded file's bytes (``fmt``: ``csv`` or ``json``)."""
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InvalidInput("data", "bytes that are not UTF-8 text",
+                           "a CSV or JSON text file") from None
+    if fmt == "csv":
+        return read_csv(text)
+    if fmt == "json":
+        return read_json(text)
+    raise InvalidInput("format", fmt, "csv or json")
+
+

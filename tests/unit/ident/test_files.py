@@ -1,0 +1,91 @@
+"""Identification data from files: E-Lab's downloads, plain tables, and bad files."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from elab.errors import InvalidInput
+from elab.ident.files import read_table
+
+DRYER = Path(__file__).resolve().parents[4] / "shared" / "reference" / "ident" / "dryer.dat"
+ELAB_CSV = """# run: r-1
+# plant: flexible_link
+# sample time: 0.001 s
+# units: t [s], r [rad], u [V], theta [rad], alpha [rad]
+t,r,u,theta,alpha
+0.0,0.5,10.0,0.0,0.0
+0.001,0.5,9.5,0.0003,-0.0003
+0.002,0.5,9.0,0.0012,-0.0012
+"""
+
+
+def test_elab_csv_gives_names_units_and_sample_time() -> None:
+    t = read_table(ELAB_CSV.encode(), "csv")
+    assert t.names == ("t", "r", "u", "theta", "alpha")
+    assert t.units == ("s", "rad", "V", "rad", "rad")
+    assert t.Ts == 0.001
+    z = t.dataset(["u"], ["theta", "alpha"])
+    assert (z.N, z.nu, z.ny, z.output_units) == (3, 1, 2, ("rad", "rad"))
+    assert_allclose(z.u[:, 0], [10.0, 9.5, 9.0])
+
+
+def test_elab_json_download_and_a_plain_json_table() -> None:
+    doc = {"header": {"run": "r-1"}, "Ts": 0.08, "k0": 0,
+           "channels": [{"name": "u", "unit": "V"}, {"name": "y", "unit": "V"}],
+           "t": [0, 0.08, 0.16], "data": {"u": [1, 2, 3], "y": [4, 5, 6]}}
+    t = read_table(json.dumps(doc).encode(), "json")
+    assert (t.names, t.units, t.Ts) == (("t", "u", "y"), ("s", "V", "V"), 0.08)
+    plain = read_table(b'{"Ts": 0.5, "u": [1, 2, 3], "y": [1, 4, 9]}', "json")
+    assert plain.dataset(["u"], ["y"]).Ts == 0.5
+
+
+def test_a_whitespace_table_like_daisy_dryer_needs_a_sample_time() -> None:
+    raw = DRYER.read_bytes()
+    t = read_table(raw, "csv")
+    assert t.names == ("c1", "c2") and t.data.shape == (1000, 2) and t.Ts is None
+    with pytest.raises(InvalidInput, match="sample time") as err:
+        t.dataset(["c1"], ["c2"])
+    assert err.value.field == "Ts"
+    z = t.dataset(["c1"], ["c2"], Ts=0.08)
+    assert_allclose(np.unique(z.u), [3.41, 6.41])
+
+
+def test_the_sample_time_comes_from_an_even_t_column() -> None:
+    t = read_table(b"t,u,y\n0,1,2\n0.5,1,3\n1.0,2,3\n", "csv")
+    assert t.Ts == 0.5
+    uneven = read_table(b"t,u,y\n0,1,2\n0.5,1,3\n1.2,2,3\n", "csv")
+    assert uneven.Ts is None
+
+
+@pytest.mark.parametrize("raw, fmt, field, message", [
+    (b"", "csv", "data", "no rows"),
+    (b"u,y\n1,2\n", "csv", "data", "1 rows"),
+    (b"u,y\n1,2\n3\n", "csv", "data row 2", "1 values"),
+    (b"u,y\n1,2\n3,abc\n", "csv", "data row 2", "3,abc"),
+    (b"u,u\n1,2\n3,4\n", "csv", "columns", "distinct"),
+    (b"\xff\xfe", "csv", "data", "UTF-8"),
+    (b"[1, 2]", "json", "data", "JSON object"),
+    (b"{nope", "json", "data", "invalid JSON"),
+    (b'{"u": [1, 2], "y": [1]}', "json", "data", "equal lengths"),
+    (b'{"u": [1, "a"], "y": [1, 2]}', "json", "data.u", "numbers"),
+    (b'{"Ts": -1, "u": [1, 2], "y": [1, 2]}', "json", "Ts", "> 0"),
+    (b"u,y\n1,2\n3,4\n", "xlsx", "format", "csv or json"),
+])
+def test_bad_files_name_what_is_wrong(raw: bytes, fmt: str, field: str, message: str) -> None:
+    with pytest.raises(InvalidInput) as err:
+        read_table(raw, fmt)
+    assert err.value.field == field
+    assert message in str(err.value)
+
+
+def test_unknown_columns_and_nan_are_refused() -> None:
+    t = read_table(b"u,y\n1,2\n3,nan\n", "csv")
+    with pytest.raises(InvalidInput, match="one of the columns: u, y"):
+        t.dataset(["volts"], ["y"], Ts=1.0)
+    with pytest.raises(InvalidInput, match="finite"):
+        t.dataset(["u"], ["y"], Ts=1.0)
