@@ -13,7 +13,7 @@ from elab.errors import InvalidInput
 from elab.ident import IdData, iddata, require_exciting
 from elab.ident.models import LinearModel
 
-DRYER = Path(__file__).resolve().parents[4] / "shared" / "reference" / "ident" / "dryer.dat"
+DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat"
 
 
 def test_the_dryer_data_split_and_detrended_as_matlab() -> None:

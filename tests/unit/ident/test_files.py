@@ -12,7 +12,7 @@ from numpy.testing import assert_allclose
 from elab.errors import InvalidInput
 from elab.ident.files import read_table
 
-DRYER = Path(__file__).resolve().parents[4] / "shared" / "reference" / "ident" / "dryer.dat"
+DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat"
 ELAB_CSV = """# run: r-1
 # plant: flexible_link
 # sample time: 0.001 s
