@@ -50,7 +50,7 @@ frontend-test: install
 
 test: lint typecheck frontend-test unit
 
-bench: install
+bench: install chromium
 	$(PY) tests/bench/run.py
 
 docs: install

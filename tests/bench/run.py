@@ -6,9 +6,11 @@ Figures are ratios against named peers measured in the same run (these shared
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
 import platform
+import re
 import resource
 import statistics
 import sys
@@ -89,15 +91,9 @@ def bench_concurrent(runs: int = 300, chunk: int = 20, seconds: float = 20.0) ->
     return {"runs": runs, "chunk": chunk, "batched_core": batched, "per_run_core": per_run}
 
 
-def render(w: dict[str, float], c: dict[str, float]) -> str:
-    now = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
-    return f"""# Benchmarks
-
-Written by `make bench` (`tests/bench/run.py`) on {now}; {platform.processor() or platform.machine()},
-{os.cpu_count()} cores, Python {platform.python_version()}, NumPy {np.__version__},
-python-control {ct.__version__}. Shared 2-core machines: compare the ratios, not the absolutes.
-
-## Simulation engine (issue 2)
+def engine_section() -> str:
+    w, c = bench_whole_run(), bench_concurrent()
+    return f"""## Simulation engine (issue 2)
 
 ### Whole run: flexible link, predefined LQR with velocity filters, ±10 V saturation, 10 s at 1 kHz
 
@@ -122,13 +118,48 @@ Each run: predefined LQR with velocity filters, quantised encoders, seeded senso
 """
 
 
-def main() -> None:
-    w = bench_whole_run()
-    c = bench_concurrent()
-    text = render(w, c)
-    out = ROOT / "docs" / "benchmarks.md"
-    out.write_text(text, encoding="utf-8")
-    print(text)
+def live_plot_section() -> str:
+    from tests.bench.liveplot import bench_live_plot
+    return "## Browser app (issue 4)\n\n" + bench_live_plot()
+
+
+#: name → function returning the section's markdown, in document order
+SECTIONS: dict[str, Callable[[], str]] = {"engine": engine_section, "liveplot": live_plot_section}
+OUT = ROOT / "docs" / "benchmarks.md"
+
+
+def header() -> str:
+    now = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    return f"""# Benchmarks
+
+Written by `make bench` (`tests/bench/run.py`; one section: `--only NAME`, names
+{", ".join(SECTIONS)}); last run {now}; {platform.processor() or platform.machine()},
+{os.cpu_count()} cores, Python {platform.python_version()}, NumPy {np.__version__},
+python-control {ct.__version__}. Shared 2-core machines: compare the ratios, not the
+absolutes; each section says when and under what load it was measured.
+"""
+
+
+def _blocks(text: str) -> dict[str, str]:
+    found = re.findall(r"<!-- bench:(\w+) -->\n(.*?)<!-- /bench:\1 -->\n", text, re.S)
+    return dict(found)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--only", action="append", choices=list(SECTIONS),
+                        help="run only this section (repeatable); the others keep their figures")
+    args = parser.parse_args(argv)
+    blocks = _blocks(OUT.read_text(encoding="utf-8")) if OUT.exists() else {}
+    for name in args.only or list(SECTIONS):
+        print(f"running {name} ...", flush=True)
+        when = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+        blocks[name] = SECTIONS[name]().rstrip() + f"\n\n_Measured {when}, load average " \
+            f"{os.getloadavg()[0]:.1f} at the end._\n\n"
+    body = "".join(f"<!-- bench:{n} -->\n{blocks[n]}<!-- /bench:{n} -->\n"
+                   for n in SECTIONS if n in blocks)
+    OUT.write_text(header() + "\n" + body, encoding="utf-8")
+    print(OUT.read_text(encoding="utf-8"))
 
 
 if __name__ == "__main__":
