@@ -79,9 +79,10 @@ class Recorder:
     def flush(self) -> None:
         """Commit every pending chunk in one transaction."""
         with self._flushing:
-            with self._lock:
-                batch = [(rid, c0, d) for rid, t in self._tails.items() for c0, d in t.chunks
-                         if d.shape[0]]
+            with self._lock:  # one row per run per flush: its pending chunks joined
+                batch = [(rid, t.chunks[0][0], _joined([d for _, d in t.chunks]))
+                         for rid, t in self._tails.items() if t.chunks]
+                batch = [item for item in batch if item[2].shape[0]]
                 counts = {rid: len(t.chunks) for rid, t in self._tails.items()}
             if batch:
                 self.store.append_many(batch)
@@ -96,3 +97,7 @@ class Recorder:
     def _loop(self) -> None:
         while not self._stop.wait(self.interval):
             self.flush()
+
+
+def _joined(parts: list[Array]) -> Array:
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)

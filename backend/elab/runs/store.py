@@ -185,9 +185,10 @@ class Store:
 
     def append_many(self, items: list[tuple[str, int, Array]]) -> None:
         """Store several chunks (of any runs, in order) in one transaction: all or none."""
+        sizes: dict[str, tuple[int, int]] = {}
         with self._transaction() as conn:
             for run_id, k0, data in items:
-                n_stored, nch = _size(conn, run_id)
+                n_stored, nch = sizes.get(run_id) or _size(conn, run_id)
                 if k0 != n_stored:
                     raise InvalidInput("k0", k0, f"{n_stored}, the next sample of run {run_id!r}"
                                        f" (chunks are consecutive; expected {n_stored})")
@@ -195,11 +196,13 @@ class Store:
                     raise DimensionError("data", data.shape,
                                          f"shape (n, {nch}), one column per channel of {run_id}")
                 n = data.shape[0]
+                sizes[run_id] = (k0 + n, nch)
                 if n == 0:
                     continue
                 conn.execute("INSERT INTO chunks (run_id, k0, n, data) VALUES (?, ?, ?, ?)",
                              (run_id, k0, n, np.ascontiguousarray(data, dtype="<f8").data))
-                conn.execute("UPDATE runs SET n_stored = ? WHERE id = ?", (k0 + n, run_id))
+            conn.executemany("UPDATE runs SET n_stored = ? WHERE id = ?",
+                             [(n, run_id) for run_id, (n, _) in sizes.items()])
 
     def read(self, run_id: str, k0: int = 0, k1: int | None = None) -> Array:
         """Rows ``[k0, min(k1, n_stored))`` as a new ``(n, nch)`` array (``n`` may be 0)."""
