@@ -13,14 +13,16 @@ from elab.errors import InvalidInput
 class Settings:
     """``ELAB_DATA`` (default ``./data``): where the SQLite file lives;
     ``ELAB_MAX_LIVE_RUNS`` (400), ``ELAB_MAX_DURATION`` (3600 s), ``ELAB_MAX_BODY``
-    (1 MiB), ``ELAB_WATCHER_FRAMES`` (100 frames ≈ 2 s queued per watcher)."""
+    (1 MiB), ``ELAB_MAX_UPLOAD`` (16 MiB: identification data), ``ELAB_WATCHER_FRAMES``
+    (100 frames ≈ 2 s queued per watcher)."""
 
     data_dir: Path = Path("data")
     max_live: int = 400
     max_duration: float = 3600.0
     max_body: int = 1 << 20
+    max_upload: int = 16 << 20
     watcher_frames: int = 100
-    tick: float = 0.01
+    tick: float = 0.02  # the stepper's period: one 20 ms frame per run per tick
     flush_interval: float = 0.25
 
     @property
@@ -34,6 +36,7 @@ class Settings:
                    max_live=_int(env, "ELAB_MAX_LIVE_RUNS", 400),
                    max_duration=float(_int(env, "ELAB_MAX_DURATION", 3600)),
                    max_body=_int(env, "ELAB_MAX_BODY", 1 << 20),
+                   max_upload=_int(env, "ELAB_MAX_UPLOAD", 16 << 20),
                    watcher_frames=_int(env, "ELAB_WATCHER_FRAMES", 100))
 
 

@@ -51,7 +51,7 @@ class RunManager:
     """All runs of one server process."""
 
     def __init__(self, store: Store, *, max_live: int = 400, max_duration: float = 3600.0,
-                 tick: float = 0.01, flush_interval: float = 0.25) -> None:
+                 tick: float = 0.02, flush_interval: float = 0.25) -> None:
         self.store = store
         self.max_live = max_live
         self.max_duration = max_duration
@@ -103,7 +103,11 @@ class RunManager:
             raise InvalidInput("duration", spec.duration,
                                f"a duration in (0, {self.max_duration:g}] s")
         run = compile_run(spec)
-        now, origin = time.time(), time.monotonic()  # started_at: wall time of sample 0
+        # sample 0 on the stepper's next tick, so each tick completes a frame;
+        # started_at: the wall time of sample 0
+        mono = time.monotonic()
+        origin = self.stepper.align(mono) if pace == "realtime" else mono
+        now = time.time() + (origin - mono)
         record = RunRecord(id=f"r-{secrets.token_hex(6)}", plant=spec.plant.id, mode=mode,
                            experiment=experiment, spec=request, status=RunState.RUNNING.value,
                            Ts=run.Ts, channels=channels_of(run), n_planned=run.n_samples,

@@ -88,6 +88,7 @@ class Store:
         self._checkpointer = Checkpointer(path)
         self._write_lock = threading.Lock()
         self._read_lock = threading.Lock()
+        self._channel_counts: dict[str, int] = {}  # run id → channels (used by the writer)
 
     def close(self) -> None:
         with self._write_lock, self._read_lock:
@@ -188,7 +189,7 @@ class Store:
         sizes: dict[str, tuple[int, int]] = {}
         with self._transaction() as conn:
             for run_id, k0, data in items:
-                n_stored, nch = sizes.get(run_id) or _size(conn, run_id)
+                n_stored, nch = sizes.get(run_id) or self._size(conn, run_id)
                 if k0 != n_stored:
                     raise InvalidInput("k0", k0, f"{n_stored}, the next sample of run {run_id!r}"
                                        f" (chunks are consecutive; expected {n_stored})")
@@ -203,6 +204,18 @@ class Store:
                              (run_id, k0, n, np.ascontiguousarray(data, dtype="<f8").data))
             conn.executemany("UPDATE runs SET n_stored = ? WHERE id = ?",
                              [(n, run_id) for run_id, (n, _) in sizes.items()])
+
+    def _size(self, conn: sqlite3.Connection, run_id: str) -> tuple[int, int]:
+        """``(n_stored, channels)``; a run's channels never change, so they are read once."""
+        nch = self._channel_counts.get(run_id)
+        if nch is None:
+            n_stored, nch = _size(conn, run_id)
+            self._channel_counts[run_id] = nch
+            return n_stored, nch
+        row = conn.execute("SELECT n_stored FROM runs WHERE id = ?", (run_id,)).fetchone()
+        if row is None:
+            raise NotFound("run", run_id)
+        return int(row[0]), nch
 
     def read(self, run_id: str, k0: int = 0, k1: int | None = None) -> Array:
         """Rows ``[k0, min(k1, n_stored))`` as a new ``(n, nch)`` array (``n`` may be 0)."""
