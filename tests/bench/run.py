@@ -118,13 +118,19 @@ Each run: predefined LQR with velocity filters, quantised encoders, seeded senso
 """
 
 
+def server_section() -> str:
+    from tests.bench.server import server_section as section
+    return section()
+
+
 def live_plot_section() -> str:
     from tests.bench.liveplot import bench_live_plot
     return "## Browser app (issue 4)\n\n" + bench_live_plot()
 
 
 #: name → function returning the section's markdown, in document order
-SECTIONS: dict[str, Callable[[], str]] = {"engine": engine_section, "liveplot": live_plot_section}
+SECTIONS: dict[str, Callable[[], str]] = {"engine": engine_section, "server": server_section,
+                                           "liveplot": live_plot_section}
 OUT = ROOT / "docs" / "benchmarks.md"
 
 
