@@ -1,0 +1,121 @@
+"""ARX estimation and order search against the published hair-dryer results and known
+systems; model validation (fit %)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import control as ct
+import numpy as np
+import pytest
+import scipy.signal
+from numpy.testing import assert_allclose
+
+from elab.errors import InvalidInput
+from elab.ident import IdData, iddata
+from elab.ident.polynomial import arx, arxstruc, from_polynomials, selstruc, struc
+from elab.ident.validation import compare, fit_percent
+from elab.plants import get_plant
+
+DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat"
+
+
+@pytest.fixture(scope="module")
+def dryer() -> tuple[IdData, IdData]:
+    raw = np.loadtxt(DRYER)
+    z = iddata(raw[:, 1], raw[:, 0], 0.08)
+    return z[:500].detrend(), z[500:].detrend()
+
+
+def test_dryer_delay_is_three(dryer: tuple[IdData, IdData]) -> None:
+    ze, zr = dryer
+    assert selstruc(arxstruc(ze, zr, struc([2], [2], range(1, 11))), 0)[2] == 3
+
+
+def test_dryer_best_structure_and_its_loss(dryer: tuple[IdData, IdData]) -> None:
+    ze, zr = dryer
+    V = arxstruc(ze, zr, struc(range(1, 11), range(1, 11), [3]))
+    assert selstruc(V, 0) == (4, 4, 3)
+    assert V[:, 3].min() == pytest.approx(0.0022583, rel=0.01)  # published (README)
+    assert V[:, 3].min() == pytest.approx(0.0022583315, rel=1e-6)  # and to its digits
+
+
+def test_dryer_arx_223_coefficients_and_fit(dryer: tuple[IdData, IdData]) -> None:
+    ze, zr = dryer
+    m = arx(ze, 2, 2, 3)
+    assert_allclose(m.parameters["A"], [1, -1.2765, 0.3967], atol=5e-4)
+    # B against an independent least squares written out here
+    y, u = ze.y[:, 0], ze.u[:, 0]
+    t = np.arange(4, 500)
+    Phi = np.column_stack([-y[t - 1], -y[t - 2], u[t - 3], u[t - 4]])
+    theta = np.linalg.lstsq(Phi, y[t], rcond=None)[0]
+    assert_allclose(m.parameters["B"], [0, 0, 0, *theta[2:]], atol=1e-12)
+    assert compare(m, zr).fit[0] == pytest.approx(89.55, abs=0.3)
+    assert compare(arx(ze, 4, 4, 3), zr).fit[0] == pytest.approx(89.91, abs=0.3)
+
+
+def test_polynomial_model_simulates_as_lfilter() -> None:
+    a, b, c = np.array([1, -1.5, 0.7]), np.array([0, 0.5, 0.3]), np.array([1, 0.4])
+    m = from_polynomials(a, b, c, 0.1, 1.0)
+    u = np.random.default_rng(3).standard_normal(300)
+    assert_allclose(m.simulate(u)[:, 0], scipy.signal.lfilter(b, a, u), atol=1e-12)
+
+
+def _plant_arx() -> tuple[np.ndarray, np.ndarray]:
+    """A(q), B(q) of the belt conveyor's motor (discretised at 50 ms: stable poles)."""
+    p = get_plant("belt_conveyor")
+    tf = ct.tf(ct.ss(p.A, p.B, p.C[:1], p.D[:1]))
+    d = ct.c2d(ct.minreal(tf, verbose=False), 0.05)
+    num, den = (np.ravel(x) for x in ct.tfdata(d))
+    num = np.r_[np.zeros(len(den) - len(num)), num]
+    return den / den[0], num / den[0]
+
+
+def test_noise_free_arx_recovers_the_true_poles() -> None:
+    a, b = _plant_arx()
+    u = np.random.default_rng(1).standard_normal(2000)
+    y = scipy.signal.lfilter(b, a, u)
+    na = len(a) - 1
+    m = arx(iddata(y, u, 0.05), na, na, 1)
+    true = np.sort_complex(np.roots(a))
+    assert_allclose(np.sort_complex(m.poles), true, atol=1e-6)
+
+
+def test_arx_is_unbiased_over_100_seeds_at_20_db() -> None:
+    a, b = np.array([1, -1.2, 0.5]), np.array([0, 1.0, 0.5])
+    rng = np.random.default_rng(7)
+    N, runs = 400, 100
+    u = rng.standard_normal(N)
+    clean = scipy.signal.lfilter(b, a, u)
+    sigma = clean.std() / 10  # 20 dB SNR
+    est = []
+    for _ in range(runs):  # ARX noise: e enters through 1/A, the structure arx assumes
+        y = clean + scipy.signal.lfilter([1], a, sigma * rng.standard_normal(N))
+        m = arx(iddata(y, u, 1.0), 2, 2, 1)
+        est.append(np.r_[m.parameters["A"][1:], m.parameters["B"][1:]])
+    est = np.array(est)
+    se = est.std(axis=0, ddof=1) / np.sqrt(runs)
+    assert np.all(np.abs(est.mean(axis=0) - np.r_[a[1:], b[1:]]) < 2.5 * se)
+
+
+def test_fit_percent_and_initial_state(dryer: tuple[IdData, IdData]) -> None:
+    y = np.array([[1.0], [2.0], [3.0]])
+    assert fit_percent(y, y)[0] == 100
+    assert fit_percent(y, np.full_like(y, 2.0))[0] == pytest.approx(0)
+    ze, zr = dryer
+    m = arx(ze, 2, 2, 3)
+    assert compare(m, zr, x0="estimate").fit[0] > compare(m, zr).fit[0]
+    assert compare(m, zr, horizon=1).fit[0] > compare(m, zr, horizon=5).fit[0]
+
+
+def test_bad_requests_say_what_is_wrong(dryer: tuple[IdData, IdData]) -> None:
+    ze, _ = dryer
+    with pytest.raises(InvalidInput, match="constant"):
+        arx(iddata(np.arange(50.0), np.ones(50), 1.0), 2, 2, 1)
+    with pytest.raises(InvalidInput, match="more than"):
+        arx(ze[:10], 4, 4, 3)
+    with pytest.raises(InvalidInput) as err:
+        arx(ze, -1, 2, 1)
+    assert err.value.field == "na"
+    with pytest.raises(InvalidInput, match="aic"):
+        selstruc(arxstruc(ze, ze, struc([1], [1], [1])), "bic")  # type: ignore[arg-type]
