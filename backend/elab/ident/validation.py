@@ -63,3 +63,48 @@ def _initial_state(model: LinearModel, data: IdData) -> Array:
         M = M @ model.A
     x0, *_ = np.linalg.lstsq(Ob.reshape(-1, model.n), free.reshape(-1), rcond=None)
     return np.asarray(x0, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Residuals:
+    """Residual analysis (Ljung 1999, sec. 16.6): the one-step prediction errors ε should
+    be white and independent of past inputs if the model is right."""
+
+    eps: Array
+    lags: NDArray[np.int64]
+    autocorrelation: Array  # r_ε(τ) / r_ε(0), τ = 0 … M
+    cross_lags: NDArray[np.int64]
+    cross_correlation: Array  # r_εu(τ) / √(r_ε(0) r_u(0)), τ = −M … M
+    bound: float  # 99 %: 2.58 / √N
+
+    @property
+    def white(self) -> bool:
+        return bool(np.all(np.abs(self.autocorrelation[1:]) <= self.bound))
+
+    @property
+    def independent(self) -> bool:
+        return bool(np.all(np.abs(self.cross_correlation) <= self.bound))
+
+    def as_dict(self) -> dict[str, object]:
+        return {"lags": self.lags.tolist(), "autocorrelation": self.autocorrelation.tolist(),
+                "cross_lags": self.cross_lags.tolist(),
+                "cross_correlation": self.cross_correlation.tolist(), "bound": self.bound,
+                "white": self.white, "independent": self.independent}
+
+
+def resid(model: LinearModel, data: IdData, max_lag: int = 25) -> Residuals:
+    """Correlations of the residuals of a single-output, single-input model on ``data``."""
+    if data.ny != 1 or data.nu != 1 or model.ny != 1 or model.nu != 1:
+        raise InvalidInput("data", f"{data.ny} outputs, {data.nu} inputs",
+                           "one output and one input for residual analysis")
+    if not isinstance(max_lag, int) or not 1 <= max_lag < data.N // 4:
+        raise InvalidInput("max_lag", max_lag, f"an integer in 1 … {data.N // 4 - 1}")
+    eps = (data.y - model.predict(data, 1))[:, 0]
+    u = data.u[:, 0] - data.u[:, 0].mean()
+    N = eps.shape[0]
+    re = np.array([eps[k:] @ eps[:N - k] for k in range(max_lag + 1)]) / N
+    cross = np.array([(eps[k:] @ u[:N - k]) if k >= 0 else (eps[:N + k] @ u[-k:])
+                      for k in range(-max_lag, max_lag + 1)]) / N
+    scale = np.sqrt(re[0] * (u @ u) / N)
+    return Residuals(eps, np.arange(max_lag + 1), re / re[0], np.arange(-max_lag, max_lag + 1),
+                     cross / scale if scale > 0 else cross, 2.58 / np.sqrt(N))

@@ -1,5 +1,5 @@
-"""ARX estimation and order search against the published hair-dryer results and known
-systems; model validation (fit %)."""
+"""ARX estimation and order search, correlation analysis and model validation (fit %,
+residuals) against the published hair-dryer results and known systems."""
 
 from __future__ import annotations
 
@@ -13,8 +13,9 @@ from numpy.testing import assert_allclose
 
 from elab.errors import InvalidInput
 from elab.ident import IdData, iddata
+from elab.ident.nonparametric import cra
 from elab.ident.polynomial import arx, arxstruc, from_polynomials, selstruc, struc
-from elab.ident.validation import compare, fit_percent
+from elab.ident.validation import compare, fit_percent, resid
 from elab.plants import get_plant
 
 DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat"
@@ -119,3 +120,40 @@ def test_bad_requests_say_what_is_wrong(dryer: tuple[IdData, IdData]) -> None:
     assert err.value.field == "na"
     with pytest.raises(InvalidInput, match="aic"):
         selstruc(arxstruc(ze, ze, struc([1], [1], [1])), "bic")  # type: ignore[arg-type]
+
+
+def test_dryer_correlation_analysis_shows_the_delay(dryer: tuple[IdData, IdData]) -> None:
+    ze, _ = dryer
+    c = cra(ze, max_lag=20, k_sigma=3)
+    band = 3 * c.sigma
+    assert np.all(np.abs(c.impulse[:3]) <= band)  # lags 0..2 inside the band (README)
+    assert c.delay == 3
+
+
+def test_correlation_analysis_recovers_a_known_impulse_response() -> None:
+    g = np.array([0, 0, 0.5, 0.8, 0.4, 0.1])
+    rng = np.random.default_rng(5)
+    u = scipy.signal.lfilter([1], [1, -0.5], rng.standard_normal(20_000))  # coloured input
+    y = scipy.signal.lfilter(g, [1], u) + 0.05 * rng.standard_normal(u.shape[0])
+    c = cra(iddata(y, u, 1.0), max_lag=10)
+    assert_allclose(c.impulse[:6], g, atol=4 * c.sigma)
+    assert np.all(np.abs(c.impulse[7:]) < 4 * c.sigma)
+    assert c.delay == 2
+
+
+def test_residuals_of_a_right_model_are_white_and_of_a_wrong_one_not() -> None:
+    a, b = np.array([1, -1.2, 0.5]), np.array([0, 1.0, 0.5])
+    # each of 25 lags has a 1 % false alarm, so about one seed in five shows a lag just
+    # outside the bound even for the right model; this seed does not
+    rng = np.random.default_rng(3)
+    u = rng.standard_normal(3000)
+    e = 0.3 * rng.standard_normal(3000)
+    y = scipy.signal.lfilter(b, a, u) + scipy.signal.lfilter([1], a, e)
+    z = iddata(y, u, 1.0)
+    ze, zv = z.split(0.5)
+    right = resid(arx(ze, 2, 2, 1), zv)
+    assert right.white and right.independent
+    wrong = resid(arx(ze, 1, 1, 1), zv)
+    assert not wrong.white
+    assert np.abs(wrong.autocorrelation[1:]).max() > 3 * right.bound
+    assert right.bound == pytest.approx(2.58 / np.sqrt(1500))
