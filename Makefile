@@ -8,7 +8,7 @@ APP    := backend/elab/api/static/index.html
 APP_SRC := $(shell find frontend/src frontend/index.html frontend/vite.config.ts \
                         frontend/tsconfig.json -type f 2>/dev/null)
 
-.PHONY: install run test lint typecheck unit frontend-test chromium bench docs protocol \
+.PHONY: install run test lint typecheck unit frontend-test chromium test-debs bench docs protocol \
         screenshots clean
 
 install: $(STAMP) $(NODE_STAMP) $(APP)
@@ -27,10 +27,15 @@ $(NODE_STAMP): frontend/package.json frontend/package-lock.json
 $(APP): $(NODE_STAMP) $(APP_SRC)
 	cd frontend && npm run build --silent
 
-# The end-to-end tests drive Debian's Chromium.
-chromium:
-	@test -x /usr/bin/chromium || (apt-get update -qq && \
-	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium)
+# Debian packages the tests use: Chromium (end-to-end tests) and GNU Octave's control
+# package (an independent identification cross-check). Installed once, if missing.
+TEST_DEBS := chromium octave octave-control
+test-debs:
+	@missing=$$(for p in $(TEST_DEBS); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then apt-get update -qq && DEBIAN_FRONTEND=noninteractive \
+	  apt-get install -y -qq --no-install-recommends $$missing; fi
+
+chromium: test-debs
 
 # The lab server on http://127.0.0.1:8000 (data: $ELAB_DATA or ./data).
 run: install
@@ -42,7 +47,7 @@ lint: install
 typecheck: install
 	$(VENV)/bin/mypy
 
-unit: install chromium
+unit: install test-debs
 	$(PY) -m pytest
 
 frontend-test: install
