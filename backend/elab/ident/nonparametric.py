@@ -1,6 +1,7 @@
-"""Non-parametric estimates: correlation analysis (Ljung 1999, sec. 6.1), as MATLAB's
-``cra``.
+"""Non-parametric estimates (Ljung 1999, ch. 6): correlation analysis, as MATLAB's
+``cra``, and spectral analysis, as MATLAB's ``spa``.
 
+Correlation analysis.
 The input is prewhitened by its own AR model Aᵤ(q) u = w (order ``prewhiten_order``);
 filtering the output by the same Aᵤ keeps the system's impulse response g:
 y_f = G u_f + v_f with u_f = w white, so
@@ -80,3 +81,57 @@ def _ar(u: Array, order: int) -> Array:
     Phi = np.column_stack([-u[order - i:N - i] for i in range(1, order + 1)])
     theta, *_ = np.linalg.lstsq(Phi, u[order:], rcond=None)
     return np.asarray(np.r_[1.0, theta], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """Frequency response Ĝ(e^{iωTs}) and output-noise spectrum at ``omega`` (rad/s)."""
+
+    omega: Array
+    G: NDArray[np.complex128]
+    noise: Array
+    window: int
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"omega": self.omega.tolist(), "magnitude": np.abs(self.G).tolist(),
+                "phase_deg": np.degrees(np.unwrap(np.angle(self.G))).tolist(),
+                "noise_spectrum": self.noise.tolist(), "window": self.window}
+
+
+def spa(data: IdData, window: int | None = None, omega: Array | None = None) -> Spectrum:
+    """Blackman–Tukey spectral analysis (Ljung 1999, sec. 6.4), as MATLAB's ``spa``:
+
+        Φ̂_yu(ω) = Σ_{|τ| ≤ M} W_M(τ) R̂_yu(τ) e^{−iωτTs},  W_M(τ) = ½ (1 + cos(πτ/M)),
+        Ĝ = Φ̂_yu / Φ̂_u,   Φ̂_v = Ts (Φ̂_y − |Φ̂_yu|² / Φ̂_u),
+
+    with R̂_yu(τ) = (1/N) Σ y(t+τ) u(t), the lag window M = min(N/10, 30) by default and
+    MATLAB's grid ω = k π / (128 Ts), k = 1 … 128. The noise spectrum carries MATLAB's
+factor Ts (white noise of variance λ has Φ̂_v = λ Ts), so it integrates to the variance
+over (−π/Ts, π/Ts] divided by 2π.
+    """
+    if data.ny != 1 or data.nu != 1:
+        raise InvalidInput("data", f"{data.ny} outputs, {data.nu} inputs",
+                           "one output and one input for spectral analysis")
+    N = data.N
+    M = min(N // 10, 30) if window is None else window
+    if not isinstance(M, int) or not 2 <= M < N // 2:
+        raise InvalidInput("window", window, f"an integer lag window in 2 … {N // 2 - 1}")
+    require_exciting(data.u, 1)
+    w = np.arange(1, 129) * np.pi / 128 / data.Ts if omega is None else np.asarray(omega, float)
+    if w.ndim != 1 or w.size == 0 or np.any(w <= 0) or np.any(w > np.pi / data.Ts * (1 + 1e-12)):
+        raise InvalidInput("omega", "frequencies", f"in (0, π/Ts] = (0, {np.pi / data.Ts:g}] rad/s")
+    y, u = data.y[:, 0], data.u[:, 0]
+    tau = np.arange(-M, M + 1)
+    lag_window = 0.5 * (1 + np.cos(np.pi * tau / M))
+
+    def cov(a: Array, b: Array) -> Array:  # R_ab(τ) = (1/N) Σ a(t+τ) b(t)
+        return np.array([a[k:] @ b[:N - k] if k >= 0 else a[:N + k] @ b[-k:]
+                         for k in tau]) / N
+
+    E = np.exp(-1j * np.outer(w * data.Ts, tau))
+    phi_yu = E @ (lag_window * cov(y, u))
+    phi_u = (E @ (lag_window * cov(u, u))).real
+    phi_y = (E @ (lag_window * cov(y, y))).real
+    G = phi_yu / phi_u
+    noise = data.Ts * np.maximum(phi_y - np.abs(phi_yu) ** 2 / phi_u, 0.0)
+    return Spectrum(w, G, noise, M)

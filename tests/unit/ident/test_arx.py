@@ -13,7 +13,7 @@ from numpy.testing import assert_allclose
 
 from elab.errors import InvalidInput
 from elab.ident import IdData, iddata
-from elab.ident.nonparametric import cra
+from elab.ident.nonparametric import cra, spa
 from elab.ident.polynomial import arx, arxstruc, from_polynomials, selstruc, struc
 from elab.ident.validation import compare, fit_percent, resid
 from elab.plants import get_plant
@@ -157,3 +157,27 @@ def test_residuals_of_a_right_model_are_white_and_of_a_wrong_one_not() -> None:
     assert not wrong.white
     assert np.abs(wrong.autocorrelation[1:]).max() > 3 * right.bound
     assert right.bound == pytest.approx(2.58 / np.sqrt(1500))
+
+
+def test_spectral_analysis_matches_a_known_frequency_response() -> None:
+    a, b = np.array([1, -0.9]), np.array([0, 0.5])  # smooth low-pass: the window resolves it
+    rng = np.random.default_rng(9)
+    u = rng.standard_normal(100_000)
+    y = scipy.signal.lfilter(b, a, u) + 0.1 * rng.standard_normal(u.shape[0])
+    s = spa(iddata(y, u, 0.1), window=100)
+    _, true = scipy.signal.freqz(b, a, worN=s.omega * 0.1)
+    assert_allclose(s.G, true, rtol=0.1)
+    assert s.as_dict()["window"] == 100 and len(s.omega) == 128
+    assert s.omega[-1] == pytest.approx(np.pi / 0.1)
+    # white noise of variance λ = 0.01 has the flat spectrum λ·Ts (MATLAB's scaling)
+    assert_allclose(np.median(s.noise), 0.01 * 0.1, rtol=0.1)
+
+
+def test_spectral_analysis_default_window_and_bad_input(dryer: tuple[IdData, IdData]) -> None:
+    ze, _ = dryer
+    assert spa(ze).window == 30  # min(N/10, 30)
+    with pytest.raises(InvalidInput) as err:
+        spa(ze, window=1)
+    assert err.value.field == "window"
+    with pytest.raises(InvalidInput, match="rad/s"):
+        spa(ze, omega=np.array([100.0]))
