@@ -1,0 +1,209 @@
+"""Subspace identification of state-space models (MATLAB's ``n4sid``), by PO-MOESP
+(Verhaegen 1994; Van Overschee & De Moor 1996, ch. 4; Ljung 1999, sec. 10.6).
+
+With ``s`` block rows ("horizon"), j = N − 2s + 1 columns and the block Hankel matrices
+of past and future inputs and outputs (rows u(t)ᵀ … u(t+s−1)ᵀ),
+
+    [U_f; W_p; Y_f] = L Q,   W_p = [U_p; Y_p],   L lower block triangular (an LQ step),
+
+the block L₃₂ (future outputs against past data, with the future inputs projected out)
+is Γ_s X̂: its left singular vectors give the extended observability matrix
+Γ_s = [C; C A; …; C A^{s−1}] = U₁ Σ₁^{1/2}, and its singular values choose the order
+(these are the singular values SLICOT's IB01AD — and so GNU Octave's ``n4sid`` — report).
+A and C follow from the shift structure, Γ_s(first s−1 blocks) A = Γ_s(last s−1 blocks);
+should A come out unstable, the shifted block is padded with zeros (Chui & Maciejowski
+1996), which gives a stable A. B, D and x₀ are the least-squares fit of the simulated output
+y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) + D u(t) — linear in them, with the Markov
+parameters convolved with the inputs by FFT. The states X̂ = Γ_s⁺ L₃₂ L₂₂⁺ W_p give the
+residual covariances of the state equations, and the Kalman gain K solves the filter
+Riccati equation for them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+import scipy.signal
+from numpy.typing import NDArray
+
+from elab.errors import InvalidInput
+from elab.ident.data import IdData, require_exciting
+from elab.ident.models import LinearModel
+
+Array = NDArray[np.float64]
+MAX_HORIZON = 100
+
+
+@dataclass(frozen=True)
+class Subspace:
+    """The shared part of a subspace identification: everything but the order."""
+
+    data: IdData
+    horizon: int
+    singular_values: Array
+    U1: Array  # left singular vectors of L₃₂ (s·ny × s·ny)
+    L32: Array
+    states_basis: Array  # L₃₂ L₂₂⁺ W_p: Γ_s X̂ for the columns' times s … s+j−1
+
+    @property
+    def max_order(self) -> int:
+        """The largest order the horizon supports (n < s, as SLICOT requires)."""
+        return min(self.horizon - 1, int(np.sum(self.singular_values > 1e-12 *
+                                                self.singular_values[0])))
+
+
+def decompose(data: IdData, horizon: int | None = None) -> Subspace:
+    """The LQ factorisation and the SVD every order shares (``horizon`` s: default
+    SLICOT's, s = min(⌊(N+1) / (2 (nu+ny+1))⌋, 16) … at least 2)."""
+    N, nu, ny = data.N, data.nu, data.ny
+    s_cap = (N + 1) // (2 * (nu + ny + 1))
+    s = min(s_cap, 16) if horizon is None else horizon
+    if not isinstance(s, int) or isinstance(s, bool) or not 2 <= s <= min(s_cap, MAX_HORIZON):
+        raise InvalidInput("horizon", horizon, f"an integer in 2 … {min(s_cap, MAX_HORIZON)} "
+                                               f"for {N} samples ((N+1) / (2 (nu+ny+1)))")
+    require_exciting(data.u, 2 * s)
+    j = N - 2 * s + 1
+
+    def hankel(x: Array, start: int) -> Array:  # s block rows, j columns
+        return np.vstack([x[start + i:start + i + j].T for i in range(s)])
+
+    Up, Uf = hankel(data.u, 0), hankel(data.u, s)
+    Yp, Yf = hankel(data.y, 0), hankel(data.y, s)
+    Wp = np.vstack([Up, Yp])
+    H = np.vstack([Uf, Wp, Yf])
+    R = scipy.linalg.qr(H.T, mode="r", check_finite=False)[0]
+    L = R[: H.shape[0]].T  # H = L Q
+    a, b = s * nu, s * (nu + ny) + s * nu
+    L22, L32 = L[a:b, a:b], L[b:, a:b]
+    U1, sv, _ = np.linalg.svd(L32)
+    states_basis = L32 @ np.linalg.lstsq(L22, Wp, rcond=None)[0]
+    return Subspace(data, s, sv, U1, L32, states_basis)
+
+
+def n4sid(data: IdData, order: int | None = None, horizon: int | None = None,
+          orders: range | None = None, stable: bool = True,
+          sub: Subspace | None = None) -> LinearModel:
+    """The state-space model of ``order`` (or the best of ``orders`` by :func:`choose_order`;
+    default range 1 … 10) in innovations form, with its singular values in ``parameters``."""
+    sub = decompose(data, horizon) if sub is None else sub
+    if order is None:
+        order = choose_order(sub, orders or range(1, 11))[0]
+    if not isinstance(order, int) or isinstance(order, bool) or not 1 <= order <= sub.max_order:
+        raise InvalidInput("order", order, f"an integer in 1 … {sub.max_order} for horizon "
+                                           f"{sub.horizon} (order < horizon)")
+    A, C, unstable = _shift(sub, order, stable)
+    B, D, x0 = _input_matrices(data, A, C)
+    K, lam = _kalman_gain(sub, A, B, C, D)
+    return LinearModel(A, B, C, D, K, data.Ts, lam, kind="n4sid",
+                       orders={"n": order, "horizon": sub.horizon},
+                       parameters={"singular_values": sub.singular_values.tolist(),
+                                   "x0": x0.tolist(), "stabilised": unstable})
+
+
+def choose_order(sub: Subspace, orders: range) -> tuple[int, list[dict[str, Any]]]:
+    """The order of least MDL = log V + d log(N) / N over ``orders``, where V is the
+    mean squared simulation error on the data (x₀ estimated) and d = n (2 ny + nu) + ny nu
+    the free parameters (Ljung 1999, sec. 16.4); with every order's figures."""
+    data = sub.data
+    top = sub.max_order
+    valid = [n for n in orders if 1 <= n <= top]
+    if not valid:
+        raise InvalidInput("orders", f"{orders.start} … {orders.stop - 1}",
+                           f"orders in 1 … {top} for horizon {sub.horizon}")
+    rows = []
+    for n in valid:
+        A, C, _ = _shift(sub, n, True)
+        B, D, x0 = _input_matrices(data, A, C)
+        err = data.y - _simulate_fast(A, B, C, D, x0, data.u)
+        V = float(np.mean(err ** 2))
+        d = n * (2 * data.ny + data.nu) + data.ny * data.nu
+        rows.append({"order": n, "loss": V,
+                     "mdl": math.log(max(V, 1e-300)) + d * math.log(data.N) / data.N})
+    best = min(rows, key=lambda r: r["mdl"])
+    return int(best["order"]), rows
+
+
+def _shift(sub: Subspace, n: int, stable: bool) -> tuple[Array, Array, bool]:
+    ny = sub.data.ny
+    G = sub.U1[:, :n] * np.sqrt(sub.singular_values[:n])
+    C = G[:ny]
+    A = np.linalg.lstsq(G[:-ny], G[ny:], rcond=None)[0]
+    unstable = bool(np.max(np.abs(np.linalg.eigvals(A))) > 1 + 1e-9)
+    if stable and unstable:  # Chui & Maciejowski: A = Γ⁺ [Γ shifted; 0] is stable
+        A = np.linalg.lstsq(G, np.vstack([G[ny:], np.zeros((ny, n))]), rcond=None)[0]
+    return np.asarray(A, dtype=np.float64), C, unstable and stable
+
+
+def _markov(A: Array, C: Array, N: int) -> Array:
+    """C Aᵗ for t = 0 … N−1, shape (N, ny, n), in blocks of doubling length."""
+    ny, n = C.shape
+    out = np.empty((N, ny, n))
+    out[0] = C
+    filled, P = 1, A.copy()  # P = A^filled
+    while filled < N:
+        m = min(filled, N - filled)
+        out[filled:filled + m] = out[:m] @ P
+        filled += m
+        P = P @ P if filled < N else P
+    return out
+
+
+def _input_matrices(data: IdData, A: Array, C: Array) -> tuple[Array, Array, Array]:
+    """B, D and x₀ minimising ‖y − ŷ‖² of the simulation (a linear least squares)."""
+    N, nu, ny, n = data.N, data.nu, data.ny, A.shape[0]
+    h = _markov(A, C, N)  # (N, ny, n)
+    cols: list[Array] = [h.reshape(N * ny, n)]  # x₀
+    for k in range(nu):  # Σ_{k<t} C A^{t−1−k} e_i u(k): h delayed by one, convolved with u
+        conv = scipy.signal.fftconvolve(h, data.u[:, k][:, None, None], axes=0)[:N]
+        shifted = np.zeros_like(h)
+        shifted[1:] = conv[:-1]
+        cols.append(shifted.reshape(N * ny, n))
+    for k in range(nu):  # D: u_k appears in output i
+        cols.append(np.asarray(np.kron(data.u[:, k][:, None], np.eye(ny)), dtype=np.float64))
+    M = np.hstack(cols)
+    theta = np.asarray(np.linalg.lstsq(M, data.y.reshape(-1), rcond=None)[0], dtype=np.float64)
+    x0 = theta[:n]
+    B = theta[n:n + n * nu].reshape(nu, n).T
+    D = theta[n + n * nu:].reshape(nu, ny).T
+    return B, D, x0
+
+
+def _simulate_fast(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> Array:
+    N = u.shape[0]
+    h = _markov(A, C, N)
+    y = h @ x0 + u @ D.T
+    for k in range(u.shape[1]):
+        hb = h @ B[:, k]  # (N, ny) impulse response C A^t b_k
+        conv = scipy.signal.fftconvolve(hb, u[:, k][:, None], axes=0)[:N]
+        y[1:] += conv[:-1]
+    return np.asarray(y, dtype=np.float64)
+
+
+def _kalman_gain(sub: Subspace, A: Array, B: Array, C: Array,
+                 D: Array) -> tuple[Array, Array]:
+    """K of the steady-state Kalman filter for the covariances of the residuals of the
+    state equations on X̂ = Γ_s⁺ (Γ_s X̂), and the innovation covariance."""
+    data, s, n = sub.data, sub.horizon, A.shape[0]
+    ny = data.ny
+    G = sub.U1[:, :n] * np.sqrt(sub.singular_values[:n])
+    X = np.linalg.lstsq(G, sub.states_basis, rcond=None)[0]  # (n, j), times s … s+j−1
+    j = X.shape[1]
+    U, Y = data.u[s:s + j].T, data.y[s:s + j].T
+    W = X[:, 1:] - A @ X[:, :-1] - B @ U[:, :-1]
+    V = Y - C @ X - D @ U
+    V = V[:, :-1]
+    m = W.shape[1]
+    Q, S, Rv = W @ W.T / m, W @ V.T / m, V @ V.T / m
+    try:
+        P = scipy.linalg.solve_discrete_are(A.T, C.T, Q, Rv, s=S)
+        Re = C @ P @ C.T + Rv
+        K = (A @ P @ C.T + S) @ np.linalg.inv(Re)
+        if not np.all(np.isfinite(K)) or np.max(np.abs(np.linalg.eigvals(A - K @ C))) >= 1:
+            raise np.linalg.LinAlgError("unstable predictor")
+    except (np.linalg.LinAlgError, ValueError):
+        K, Re = np.zeros((n, ny)), Rv  # an output-error model: the predictor simulates
+    return K, Re

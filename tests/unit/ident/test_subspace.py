@@ -1,0 +1,114 @@
+"""Subspace identification (PO-MOESP) against the published hair-dryer results, known
+systems (every plant's discretised model, lightly damped systems) and its own guarantees."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import control as ct
+import numpy as np
+import pytest
+import scipy.signal
+from numpy.testing import assert_allclose
+
+from elab.errors import InvalidInput
+from elab.ident import IdData, iddata
+from elab.ident.subspace import choose_order, decompose, n4sid
+from elab.ident.validation import compare
+from elab.laws import StateFeedback
+from elab.plants import get_plant
+
+DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat"
+
+
+@pytest.fixture(scope="module")
+def dryer() -> tuple[IdData, IdData]:
+    raw = np.loadtxt(DRYER)
+    z = iddata(raw[:, 1], raw[:, 0], 0.08)
+    return z[:500].detrend(), z[500:].detrend()
+
+
+def test_dryer_singular_values_and_fits(dryer: tuple[IdData, IdData]) -> None:
+    ze, zr = dryer
+    sub = decompose(ze, 16)
+    # published (README), to their 3-4 significant digits
+    assert_allclose(sub.singular_values[:5], [39.13, 9.925, 2.132, 1.081, 0.416], rtol=1.5e-3)
+    assert compare(n4sid(ze, 4, sub=sub), zr).fit[0] >= 89  # published: 89.8 %
+    assert compare(n4sid(ze, 3, sub=sub), zr).fit[0] >= 89  # published: 89.5 %
+    order, rows = choose_order(sub, range(1, 11))
+    assert order in (3, 4)  # "order 3 or 4 suggested"
+    assert [r["order"] for r in rows] == list(range(1, 11))
+    assert rows[0]["loss"] > rows[3]["loss"]
+
+
+def _closed_loops() -> list[tuple[str, ct.StateSpace]]:
+    """Every plant, discretised at 10 ms, in closed loop with its predefined state feedback
+    where it has one (u = −K x + v; the open-loop pendulum would diverge), else open loop."""
+    out = []
+    for pid in ("flexible_link", "double_pendulum", "belt_conveyor"):
+        p = get_plant(pid)
+        A, B, C = (np.asarray(m, dtype=float) for m in (p.A, p.B, p.C))
+        if isinstance(p.predefined, StateFeedback):
+            A = A - B @ np.atleast_2d(p.predefined.K)
+        out.append((pid, ct.c2d(ct.ss(A, B, C, np.zeros((C.shape[0], B.shape[1]))), 0.01)))
+    return out
+
+
+@pytest.mark.parametrize(("pid", "sys"), _closed_loops(), ids=lambda v: v if isinstance(v, str)
+                         else "")
+def test_noise_free_subspace_recovers_every_plants_poles(pid: str, sys: ct.StateSpace) -> None:
+    u = np.random.default_rng(2).standard_normal(3000)
+    _, y = ct.forced_response(sys, U=u)
+    z = iddata(np.atleast_2d(y).T, u, 0.01)
+    m = n4sid(z, sys.nstates, horizon=sys.nstates + 4, stable=False)
+    assert_allclose(np.sort_complex(m.poles), np.sort_complex(sys.poles()), atol=1e-6)
+    assert compare(m, z).fit.min() > 99.9999
+
+
+def test_lightly_damped_system_validates_above_80_percent() -> None:
+    # two resonances, |z| = 0.997 and 0.995, 20 dB output noise
+    poles = [0.997 * np.exp(1j * 0.3), 0.995 * np.exp(1j * 0.9)]
+    a = np.real(np.poly(poles + [np.conj(p) for p in poles]))
+    b = np.array([0, 0.02, -0.01, 0.015, 0.005])
+    rng = np.random.default_rng(4)
+    u = rng.standard_normal(6000)
+    clean = scipy.signal.lfilter(b, a, u)
+    y = clean + clean.std() / 10 * rng.standard_normal(u.shape[0])
+    ze, zv = iddata(y, u, 1.0).split(0.5)
+    m = n4sid(ze, 4, horizon=20)
+    assert np.all(np.abs(m.poles) >= 0.99)
+    assert compare(m, zv, x0="estimate").fit[0] >= 80
+    assert_allclose(np.sort(np.abs(m.poles)), [0.995, 0.995, 0.997, 0.997], atol=2e-3)
+
+
+def test_unstable_estimates_are_stabilised_on_request() -> None:
+    a = np.real(np.poly([1.004, 0.5]))
+    u = np.random.default_rng(6).standard_normal(400)
+    z = iddata(scipy.signal.lfilter([0, 1, 0.3], a, u), u, 1.0)
+    free = n4sid(z, 2, horizon=6, stable=False)
+    assert np.max(np.abs(free.poles)) == pytest.approx(1.004, abs=1e-6)
+    tamed = n4sid(z, 2, horizon=6)
+    assert np.max(np.abs(tamed.poles)) <= 1 + 1e-9 and tamed.parameters["stabilised"]
+
+
+def test_kalman_gain_gives_a_better_one_step_predictor(dryer: tuple[IdData, IdData]) -> None:
+    ze, zr = dryer
+    m = n4sid(ze, 4, horizon=16)
+    assert np.any(m.K != 0)
+    assert np.max(np.abs(np.linalg.eigvals(m.A - m.K @ m.C))) < 1
+    assert compare(m, zr, horizon=1).fit[0] > compare(m, zr).fit[0] + 2
+
+
+def test_bad_requests_say_what_is_wrong(dryer: tuple[IdData, IdData]) -> None:
+    ze, _ = dryer
+    with pytest.raises(InvalidInput) as err:
+        n4sid(ze, 4, horizon=1)
+    assert err.value.field == "horizon"
+    with pytest.raises(InvalidInput) as err:
+        n4sid(ze, 16, horizon=16)
+    assert err.value.field == "order" and "order < horizon" in str(err.value)
+    with pytest.raises(InvalidInput, match="constant"):
+        n4sid(iddata(np.arange(200.0), np.ones(200), 1.0), 2)
+    with pytest.raises(InvalidInput) as err:
+        n4sid(ze[:20], 2, horizon=8)
+    assert err.value.field == "horizon"
