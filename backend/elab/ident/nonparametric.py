@@ -11,10 +11,15 @@ y_f = G u_f + v_f with u_f = w white, so
 and, if the system had no response at lag k, ĝ(k) would scatter with standard deviation
 σ = √(R̂_{y_f}(0) / (N R̂_w(0))). The band ±k·σ marks the lags whose estimate is noise;
 the delay estimate is the first lag outside it.
+
+Sine analysis (:func:`sine_response`): |G| and ∠G at the frequency of a sine experiment.
 """
 
 from __future__ import annotations
 
+import cmath
+import math
+import numbers
 from dataclasses import dataclass
 from typing import Any
 
@@ -135,3 +140,71 @@ over (−π/Ts, π/Ts] divided by 2π.
     G = phi_yu / phi_u
     noise = data.Ts * np.maximum(phi_y - np.abs(phi_yu) ** 2 / phi_u, 0.0)
     return Spectrum(w, G, noise, M)
+
+
+@dataclass(frozen=True)
+class SineResponse:
+    """G(e^{iωTs}) at one frequency from a sine-excited experiment."""
+
+    frequency_hz: float
+    omega: float  # rad/s
+    magnitude: float
+    phase_deg: float  # in (−180, 180]
+    periods_used: int
+    samples_used: int
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"frequency_hz": self.frequency_hz, "omega": self.omega,
+                "magnitude": self.magnitude, "phase_deg": self.phase_deg,
+                "periods_used": self.periods_used, "samples_used": self.samples_used}
+
+
+def sine_response(data: IdData, frequency_hz: float,
+                  periods_skip: int | None = None) -> SineResponse:
+    """Frequency analysis by correlation (Ljung 1999, sec. 6.1): with u(t) = α cos(ωt·Ts)
+    (any phase and offset) and the transient dropped, over a whole number of periods
+
+        Y = (2/n) Σ y(t) e^{−iωtTs},   U = (2/n) Σ u(t) e^{−iωtTs},   Ĝ(e^{iωTs}) = Y / U,
+
+    so |Ĝ| = |Y|/|U| and ∠Ĝ = ∠Y − ∠U; a constant offset and every harmonic of ω (a
+    distortion) drop out, and noise is averaged down as 1/√n. The transient skipped is
+    ``periods_skip`` periods (default: a quarter of the data rounded up to whole periods,
+    at least one). When a period is not a whole number of samples, the window is the
+    nearest whole number of samples, which leaves an error of order 1/n.
+    """
+    if data.ny != 1 or data.nu != 1:
+        raise InvalidInput("data", f"{data.ny} outputs, {data.nu} inputs",
+                           "one output and one input for sine analysis")
+    nyquist = 0.5 / data.Ts
+    if (not isinstance(frequency_hz, numbers.Real) or isinstance(frequency_hz, bool)
+            or not 0 < frequency_hz < nyquist):
+        raise InvalidInput("frequency_hz", frequency_hz,
+                           f"a frequency in (0, {nyquist:g}) Hz (below Nyquist, 1/(2 Ts))")
+    period = 1 / (frequency_hz * data.Ts)  # samples per period
+    N = data.N
+    if periods_skip is None:
+        skip = max(1, math.ceil(N / 4 / period - 1e-9))
+    elif (not isinstance(periods_skip, int) or isinstance(periods_skip, bool)
+          or periods_skip < 0):
+        raise InvalidInput("periods_skip", periods_skip, "an integer ≥ 0")
+    else:
+        skip = periods_skip
+    start = math.ceil(skip * period - 1e-9)
+    periods = math.floor((N - start) / period + 1e-9)
+    if periods < 1:
+        raise InvalidInput("data", f"{N} samples", f"at least one whole period "
+                           f"({period:.4g} samples) after the {start} samples skipped "
+                           f"({skip} periods of transient)")
+    n = min(round(periods * period), N - start)
+    omega = 2 * math.pi * frequency_hz
+    t = np.arange(start, start + n)
+    kernel = np.exp(-1j * omega * data.Ts * t)
+    Y = 2 / n * complex(data.y[start:start + n, 0] @ kernel)
+    U = 2 / n * complex(data.u[start:start + n, 0] @ kernel)
+    u_rms = float(np.sqrt(np.mean(data.u[start:start + n, 0] ** 2)))
+    if abs(U) <= 1e-9 * max(u_rms, 1e-300):
+        raise InvalidInput("u", "an input without a component at "
+                           f"{frequency_hz:g} Hz", "a sine at the test frequency")
+    G = Y / U
+    return SineResponse(float(frequency_hz), omega, abs(G), math.degrees(cmath.phase(G)),
+                        periods, n)
