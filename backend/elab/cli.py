@@ -253,6 +253,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_design)
     _add_simulate(sub)
+    _add_identify(sub)
     p = sub.add_parser("serve", help="run the lab server (REST + websocket stream)")
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=int, default=8000)
@@ -302,6 +303,110 @@ def _add_simulate(sub: Any) -> None:
     p.add_argument("--no-saturation", action="store_true")
     p.add_argument("--out", help="CSV file to write")
     p.set_defaults(func=cmd_simulate)
+
+
+def _add_identify(sub: Any) -> None:
+    p = sub.add_parser("identify", help="identify models from a data file (CSV, JSON, .dat)")
+    p.add_argument("data", help="file: an E-Lab CSV/JSON download or numeric columns")
+    p.add_argument("--input", default="u", help="input column(s), comma-separated "
+                   "(unnamed columns are c1, c2, …)")
+    p.add_argument("--output", default="y", help="output column(s), comma-separated")
+    p.add_argument("--Ts", type=float, help="sample time (s); default: from the file")
+    p.add_argument("--model", action="append", default=[],
+                   help="arx:na,nb,nk | armax:na,nb,nc,nk | oe:nb,nf,nk | n4sid[:n[,horizon]]"
+                        " (repeatable)")
+    p.add_argument("--search", action="append", default=[],
+                   help="arx:na1-na2,nb1-nb2,nk1-nk2 | n4sid:n1-n2 (order searches)")
+    p.add_argument("--split", type=float, default=0.5, help="estimation share (default 0.5)")
+    p.add_argument("--detrend", default="mean", choices=["mean", "linear", "none"])
+    p.add_argument("--horizon", type=int, help="subspace block rows")
+    p.add_argument("--sine", type=float, help="sine analysis at this frequency (Hz)")
+    p.add_argument("--json", action="store_true", help="every result as JSON")
+    p.set_defaults(func=cmd_identify)
+
+
+def cmd_identify(args: argparse.Namespace) -> str:
+    from elab.ident import workflow as wf
+    from elab.ident.files import read_table
+
+    path = Path(args.data)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InvalidInput("data", args.data, f"a readable file ({exc.strerror})") from None
+    table = read_table(raw, "json" if path.suffix.lower() == ".json" else "csv")
+    data = table.dataset(_names(args.input), _names(args.output), args.Ts)
+    arx_search, n4sid_orders = None, None
+    for text in args.search:
+        kind, _, spans = text.partition(":")
+        ranges = [_span(part, f"search {kind}") for part in spans.split(",") if part]
+        if kind == "arx" and len(ranges) == 3:
+            arx_search = (ranges[0], ranges[1], ranges[2])
+        elif kind == "n4sid" and len(ranges) == 1:
+            n4sid_orders = ranges[0]
+        else:
+            raise InvalidInput("search", text, "arx:na1-na2,nb1-nb2,nk1-nk2 or n4sid:n1-n2")
+    plan = wf.Plan(models=tuple(wf.parse_model(m) for m in args.model), detrend=args.detrend,
+                   split=args.split, sine_hz=args.sine, arx_search=arx_search,
+                   n4sid_orders=n4sid_orders, horizon=args.horizon)
+    result = wf.run(data, plan)
+    if args.json:
+        return json.dumps(result.as_dict())
+    return _identify_text(data, result)
+
+
+def _names(text: str) -> list[str]:
+    return [n.strip() for n in text.split(",") if n.strip()]
+
+
+def _span(text: str, field: str) -> range:
+    lo, sep, hi = text.partition("-")
+    try:
+        a, b = int(lo), int(hi) if sep else int(lo)
+    except ValueError:
+        raise InvalidInput(field, text, "an integer or a range such as 1-10") from None
+    if a > b:
+        raise InvalidInput(field, text, "a range low-high with low ≤ high")
+    return range(a, b + 1)
+
+
+def _identify_text(data: Any, result: Any) -> str:
+    d = result.data
+    lines = [f"data: {d['N']} samples at Ts = {d['Ts']:g} s, inputs {', '.join(d['input_names'])}"
+             f", outputs {', '.join(d['output_names'])}; estimation {d['estimation']} samples, "
+             f"validation {d['N'] - d['estimation']}; detrend {d['trend']}"]
+    a = result.analyses
+    if "correlation" in a:
+        lines.append(f"correlation analysis: delay {a['correlation']['delay']} samples")
+    if "arx_search" in a:
+        s = a["arx_search"]
+        best = min(s["rows"], key=lambda r: r[3])
+        lines.append(f"ARX search over {len(s['rows'])} structures: best [na nb nk] = "
+                     f"{s['best']} (validation loss {best[3]:.6g}); AIC {s['aic']}, "
+                     f"MDL {s['mdl']}")
+    if "n4sid_orders" in a:
+        o = a["n4sid_orders"]
+        sv = ", ".join(f"{v:.4g}" for v in o["singular_values"][:8])
+        lines.append(f"subspace (horizon {o['horizon']}): singular values {sv}, …; "
+                     f"order by MDL: {o['best']}")
+    if "sine" in a:
+        sn = a["sine"]
+        lines.append(f"sine analysis at {sn['frequency_hz']:g} Hz: |G| = {sn['magnitude']:.4g},"
+                     f" phase {sn['phase_deg']:.1f} deg")
+    for m in result.models:
+        fit = m["fit"]
+        lines.append(f"{m['name']}: validation fit {_pct(fit['validation_simulation'])} "
+                     f"(simulation), {_pct(fit['validation_one_step'])} (one step)")
+        p = m["parameters"]
+        for key in ("A", "B", "C", "F"):
+            if key in p:
+                lines.append(f"  {key}(q) = " + " ".join(f"{c:+.4f}" for c in p[key]))
+    lines += [f"note: {n}" for n in result.notes]
+    return "\n".join(lines)
+
+
+def _pct(values: list[float]) -> str:
+    return ", ".join(f"{v:.2f} %" for v in values)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

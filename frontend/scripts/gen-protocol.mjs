@@ -53,6 +53,7 @@ const ts = await compile(root, "ElabProtocol", {
   bannerComment: banner,
   additionalProperties: false,
   unreachableDefinitions: true,
+  maxItems: 2, // pairs such as [lowest, highest] become tuples; longer limits stay arrays
   style: { singleQuote: false, printWidth: 100 },
 });
 

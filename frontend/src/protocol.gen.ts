@@ -51,6 +51,9 @@ export type SignalOut =
 
 export interface ElabProtocol {
   AnalysisInfo?: AnalysisInfo;
+  ArmaxSpec?: ArmaxSpec;
+  ArxSearch?: ArxSearch;
+  ArxSpec?: ArxSpec;
   BodeInfo?: BodeInfo;
   BodeList?: BodeList;
   ChannelInfo?: ChannelInfo;
@@ -65,11 +68,16 @@ export interface ElabProtocol {
   ErrorDetail?: ErrorDetail;
   ErrorMessage?: ErrorMessage;
   FieldError?: FieldError;
+  FileData?: FileData;
   Frame?: Frame;
   Hello?: Hello;
+  IdentOut?: IdentOut;
+  IdentRequest?: IdentRequest;
   LQRRequest?: LQRRequest;
   "LTIControllerModel-Input"?: LTIControllerModel;
   "LTIControllerModel-Output"?: LTIControllerModelOut;
+  N4sidSpec?: N4SidSpec;
+  OeSpec?: OeSpec;
   "OpenLoopController-Input"?: OpenLoopController;
   "OpenLoopController-Output"?: OpenLoopControllerOut;
   "PIDController-Input"?: PIDController;
@@ -91,6 +99,7 @@ export interface ElabProtocol {
   Resume?: Resume;
   ResumeFrom?: ResumeFrom;
   RunCreate?: RunCreate;
+  RunData?: RunData;
   RunInfo?: RunInfo;
   RunList?: RunList;
   "SamplesSignal-Input"?: SamplesSignal;
@@ -158,6 +167,54 @@ export interface TransferFunctionInfo {
   den: number[];
   text: string;
   latex: string;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ArmaxSpec".
+ */
+export interface ArmaxSpec {
+  kind?: "armax";
+  na: number;
+  nb: number;
+  nc: number;
+  nk?: number;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ArxSearch".
+ */
+export interface ArxSearch {
+  /**
+   * [lowest, highest], inclusive
+   *
+   * @minItems 2
+   * @maxItems 2
+   */
+  na?: [number, number];
+  /**
+   * [lowest, highest], inclusive
+   *
+   * @minItems 2
+   * @maxItems 2
+   */
+  nb?: [number, number];
+  /**
+   * [lowest, highest], inclusive
+   *
+   * @minItems 2
+   * @maxItems 2
+   */
+  nk?: [number, number];
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ArxSpec".
+ */
+export interface ArxSpec {
+  kind?: "arx";
+  na: number;
+  nb: number;
+  nk?: number;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -500,6 +557,36 @@ export interface ErrorMessage {
   field: string | null;
 }
 /**
+ * An uploaded table: an E-Lab CSV/JSON download, or plain numeric columns
+ * (comma- or whitespace-separated; unnamed columns are c1, c2, …).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "FileData".
+ */
+export interface FileData {
+  source?: "file";
+  format?: "csv" | "json";
+  name?: string;
+  /**
+   * the file's content
+   */
+  text: string;
+  /**
+   * @minItems 1
+   * @maxItems 8
+   */
+  input: [string, ...string[]];
+  /**
+   * @minItems 1
+   * @maxItems 8
+   */
+  output: [string, ...string[]];
+  /**
+   * s; default: from the file
+   */
+  Ts?: number | null;
+}
+/**
  * Samples k0 .. k0+n−1: float32 little-endian bytes per channel (t = k·Ts).
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -564,6 +651,106 @@ export interface ParamChangeInfo {
   params: {
     [k: string]: unknown;
   };
+}
+/**
+ * ``data``: the (detrended) samples, thinned to ≤ 5000 points for plotting;
+ * ``analyses``: correlation, spectral, sine, arx_search, n4sid_orders (those asked for);
+ * ``models``: each with fit %, polynomials or matrices, transfer functions, poles,
+ * simulated and one-step outputs on the validation set and its residual analysis.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IdentOut".
+ */
+export interface IdentOut {
+  data: {
+    [k: string]: unknown;
+  };
+  analyses: {
+    [k: string]: unknown;
+  };
+  models: {
+    [k: string]: unknown;
+  }[];
+  notes: string[];
+}
+/**
+ * Identification on a run's data or an uploaded table. ``split``: the estimation
+ * share (the first part); the rest validates. Send ``Accept: application/x-ndjson`` to
+ * receive progress lines before the result.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IdentRequest".
+ */
+export interface IdentRequest {
+  data: RunData | FileData;
+  detrend?: "mean" | "linear" | "none";
+  split?: number;
+  correlation?: boolean;
+  max_lag?: number;
+  spectral?: boolean;
+  /**
+   * Hz; default: a run's sine signal
+   */
+  sine_hz?: number | null;
+  arx_search?: ArxSearch | null;
+  n4sid_orders?: [number, number] | null;
+  horizon?: number | null;
+  /**
+   * @maxItems 10
+   */
+  models?: (ArxSpec | ArmaxSpec | OeSpec | N4SidSpec)[];
+}
+/**
+ * The recording of a run (columns by channel name, e.g. ``u`` and ``theta``).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "RunData".
+ */
+export interface RunData {
+  source?: "run";
+  run: string;
+  /**
+   * @minItems 1
+   * @maxItems 8
+   */
+  input?: [string, ...string[]];
+  /**
+   * default: the plant's reference output
+   */
+  output?: [string, ...string[]] | null;
+  /**
+   * s
+   */
+  t_from?: number | null;
+  /**
+   * s
+   */
+  t_to?: number | null;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "OeSpec".
+ */
+export interface OeSpec {
+  kind?: "oe";
+  nb: number;
+  nf: number;
+  nk?: number;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "N4sidSpec".
+ */
+export interface N4SidSpec {
+  kind?: "n4sid";
+  /**
+   * 0: chosen from the singular values
+   */
+  order?: number;
+  /**
+   * block rows; 0: the default
+   */
+  horizon?: number;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

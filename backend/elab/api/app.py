@@ -17,7 +17,7 @@ from starlette.responses import FileResponse, HTMLResponse, JSONResponse, Redire
 from starlette.routing import BaseRoute, Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 
-from elab.api import plants, runs  # noqa: F401  (registers their endpoints)
+from elab.api import ident, plants, runs  # noqa: F401  (registers their endpoints)
 from elab.api.http import ENDPOINTS, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings

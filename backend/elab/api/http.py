@@ -27,8 +27,8 @@ M = TypeVar("M", bound=BaseModel)
 class TooLarge(ElabError):
     """A request body over the configured limit."""
 
-    def __init__(self, limit: int) -> None:
-        super().__init__(f"request body is larger than {limit} bytes (ELAB_MAX_BODY)")
+    def __init__(self, limit: int, setting: str = "ELAB_MAX_BODY") -> None:
+        super().__init__(f"request body is larger than {limit} bytes ({setting})")
 
 
 @dataclass(frozen=True)
@@ -67,17 +67,20 @@ def endpoint(method: str, path: str, summary: str, **meta: Any) -> Callable[[Han
     return register
 
 
-async def read_model(request: Request, model: type[M]) -> M:
-    """The body as ``model``: 413 over the limit, 422 for bad JSON or fields."""
-    limit: int = request.app.state.settings.max_body
+async def read_model(request: Request, model: type[M], upload: bool = False) -> M:
+    """The body as ``model``: 413 over the limit (``upload``: the larger upload limit),
+    422 for bad JSON or fields."""
+    settings = request.app.state.settings
+    limit: int = settings.max_upload if upload else settings.max_body
+    setting = "ELAB_MAX_UPLOAD" if upload else "ELAB_MAX_BODY"
     length = request.headers.get("content-length")
     if length is not None and length.isdigit() and int(length) > limit:
-        raise TooLarge(limit)
+        raise TooLarge(limit, setting)
     body = bytearray()
     async for part in request.stream():
         body += part
         if len(body) > limit:
-            raise TooLarge(limit)
+            raise TooLarge(limit, setting)
     try:
         data = json.loads(body) if body.strip() else None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:

@@ -110,7 +110,8 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.PlantSummary, "serialization"), (s.PlantDetail, "serialization"),
     (s.AnalysisInfo, "serialization"), (s.BodeList, "serialization"),
     (s.StepOut, "serialization"), (s.DesignOut, "serialization"), (s.ErrorBody, "serialization"),
-    (s.ServerMessage, "serialization"),
+    (s.ServerMessage, "serialization"), (s.IdentRequest, "validation"),
+    (s.IdentOut, "serialization"),
     # the unions by name, as clients build them and as the server describes them
     (s.Controller, "validation"), (s.Controller, "serialization"),
     (s.Signal, "validation"), (s.Signal, "serialization")]

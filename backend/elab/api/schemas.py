@@ -327,6 +327,104 @@ class DesignOut(Model):
     convention: str = "u = K (x_ref - x)"
 
 
+# -- identification ------------------------------------------------------------------
+Channels = Annotated[list[Annotated[str, Field(min_length=1, max_length=64)]],
+                     Field(min_length=1, max_length=8)]
+Span = Annotated[list[Annotated[int, Field(ge=0, le=50)]],
+                 Field(min_length=2, max_length=2, description="[lowest, highest], inclusive")]
+
+
+class RunData(Model):
+    """The recording of a run (columns by channel name, e.g. ``u`` and ``theta``)."""
+
+    source: Literal["run"] = "run"
+    run: str = Field(min_length=1, max_length=64)
+    input: Channels = ["u"]
+    output: Channels | None = Field(None, description="default: the plant's reference output")
+    t_from: Finite | None = Field(None, ge=0, description="s")
+    t_to: Finite | None = Field(None, gt=0, description="s")
+
+
+class FileData(Model):
+    """An uploaded table: an E-Lab CSV/JSON download, or plain numeric columns
+    (comma- or whitespace-separated; unnamed columns are c1, c2, …)."""
+
+    source: Literal["file"] = "file"
+    format: Literal["csv", "json"] = "csv"
+    name: str = Field("upload", max_length=200)
+    text: str = Field(min_length=1, description="the file's content")
+    input: Channels
+    output: Channels
+    Ts: Finite | None = Field(None, gt=0, description="s; default: from the file")
+
+
+class ArxSpec(Model):
+    kind: Literal["arx"] = "arx"
+    na: int = Field(ge=0, le=50)
+    nb: int = Field(ge=1, le=50)
+    nk: int = Field(1, ge=0, le=50)
+
+
+class ArmaxSpec(Model):
+    kind: Literal["armax"] = "armax"
+    na: int = Field(ge=0, le=50)
+    nb: int = Field(ge=1, le=50)
+    nc: int = Field(ge=1, le=50)
+    nk: int = Field(1, ge=0, le=50)
+
+
+class OeSpec(Model):
+    kind: Literal["oe"] = "oe"
+    nb: int = Field(ge=1, le=50)
+    nf: int = Field(ge=1, le=50)
+    nk: int = Field(1, ge=0, le=50)
+
+
+class N4sidSpec(Model):
+    kind: Literal["n4sid"] = "n4sid"
+    order: int = Field(0, ge=0, le=99, description="0: chosen from the singular values")
+    horizon: int = Field(0, ge=0, le=100, description="block rows; 0: the default")
+
+
+ModelSpec = Annotated[ArxSpec | ArmaxSpec | OeSpec | N4sidSpec, Field(discriminator="kind")]
+
+
+class ArxSearch(Model):
+    na: Span = [1, 10]
+    nb: Span = [1, 10]
+    nk: Span = [1, 10]
+
+
+class IdentRequest(Model):
+    """Identification on a run's data or an uploaded table. ``split``: the estimation
+    share (the first part); the rest validates. Send ``Accept: application/x-ndjson`` to
+    receive progress lines before the result."""
+
+    data: Annotated[RunData | FileData, Field(discriminator="source")]
+    detrend: Literal["mean", "linear", "none"] = "mean"
+    split: Finite = Field(0.5, gt=0, lt=1)
+    correlation: bool = True
+    max_lag: int = Field(30, ge=1, le=500)
+    spectral: bool = True
+    sine_hz: Finite | None = Field(None, gt=0, description="Hz; default: a run's sine signal")
+    arx_search: ArxSearch | None = None
+    n4sid_orders: Span | None = None
+    horizon: int | None = Field(None, ge=2, le=100)
+    models: list[ModelSpec] = Field([], max_length=10)
+
+
+class IdentOut(Model):
+    """``data``: the (detrended) samples, thinned to ≤ 5000 points for plotting;
+    ``analyses``: correlation, spectral, sine, arx_search, n4sid_orders (those asked for);
+    ``models``: each with fit %, polynomials or matrices, transfer functions, poles,
+    simulated and one-step outputs on the validation set and its residual analysis."""
+
+    data: dict[str, Any]
+    analyses: dict[str, Any]
+    models: list[dict[str, Any]]
+    notes: list[str]
+
+
 # -- errors --------------------------------------------------------------------------
 class FieldError(Model):
     field: str

@@ -1,0 +1,152 @@
+"""Identification over HTTP: ``POST /api/v1/ident`` runs :func:`elab.ident.workflow.run`
+on a run's recording or on an uploaded table and answers with every result as JSON.
+
+With ``Accept: application/x-ndjson`` the answer is a stream of lines, ``{"progress":
+{"stage", "done"}}`` while it works, then ``{"result": …}`` or ``{"error": …}``. The data
+are checked before anything is computed, so bad data get a 422 in either mode; only an
+error found while estimating arrives as the stream's last line. Nothing is stored.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from collections.abc import AsyncIterator
+from typing import Any
+
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response, StreamingResponse
+
+from elab.api import schemas as s
+from elab.api.http import endpoint, error_detail, read_model
+from elab.errors import ElabError, InvalidInput
+from elab.ident import IdData
+from elab.ident import workflow as wf
+from elab.ident.files import read_table
+from elab.plants import get_plant
+from elab.runs.manager import RunManager
+
+#: identification jobs computing at once (each may take seconds; 2 cores)
+_JOBS = asyncio.Semaphore(1)
+
+
+@endpoint("POST", "/ident", "Identify models from a run's data or an uploaded table",
+          body=s.IdentRequest, response=s.IdentOut, errors=(404, 413, 422))
+async def identify(request: Request) -> Response:
+    """Correlation, spectral and sine analysis, ARX order search, subspace singular values
+    and the requested ARX, ARMAX, OE and n4sid models with their validation fit % and
+    residual analysis (see docs/identification.md). The body may be as large as
+    ``ELAB_MAX_UPLOAD`` (16 MiB)."""
+    req = await read_model(request, s.IdentRequest, upload=True)
+    data, sine = await _dataset(request, req.data)
+    plan = _plan(req, sine)
+    if "application/x-ndjson" in request.headers.get("accept", ""):
+        return StreamingResponse(_progress_lines(data, plan), media_type="application/x-ndjson")
+    async with _JOBS:
+        result = await asyncio.to_thread(wf.run, data, plan)
+    return JSONResponse(result.as_dict())
+
+
+async def _progress_lines(data: IdData, plan: wf.Plan) -> AsyncIterator[bytes]:
+    loop = asyncio.get_running_loop()
+    queue: asyncio.Queue[tuple[str, float]] = asyncio.Queue()
+
+    def progress(stage: str, done: float) -> None:
+        loop.call_soon_threadsafe(queue.put_nowait, (stage, done))
+
+    async with _JOBS:
+        job = asyncio.ensure_future(asyncio.to_thread(wf.run, data, plan, progress))
+        while not job.done() or not queue.empty():
+            getter = asyncio.ensure_future(queue.get())
+            await asyncio.wait({job, getter}, return_when=asyncio.FIRST_COMPLETED)
+            if getter.done():
+                stage, done = getter.result()
+                yield _line({"progress": {"stage": stage, "done": round(done, 3)}})
+            else:
+                getter.cancel()
+        try:
+            yield _line({"result": job.result().as_dict()})
+        except ElabError as exc:
+            yield _line({"error": error_detail(exc)[1].model_dump(mode="json")})
+
+
+def _line(obj: dict[str, Any]) -> bytes:
+    return json.dumps(obj, allow_nan=False).encode() + b"\n"
+
+
+async def _dataset(request: Request, src: s.RunData | s.FileData) -> tuple[IdData, float | None]:
+    """The data set and, for a run excited by a sine, its frequency (Hz)."""
+    if isinstance(src, s.FileData):
+        table = await asyncio.to_thread(read_table, src.text.encode(), src.format)
+        return _prefixed("data", lambda: table.dataset(src.input, src.output, src.Ts)), None
+    m: RunManager = request.app.state.manager
+    record = await m.get(src.run)
+    names = [c[0] for c in record.channels]
+    units = dict(record.channels)
+    outputs = src.output or [get_plant(record.plant).outputs[
+        get_plant(record.plant).reference_output].name]
+    for fieldname, chosen in (("input", src.input), ("output", outputs)):
+        for name in chosen:
+            if name not in names:
+                raise InvalidInput(f"data.{fieldname}", name,
+                                   f"channels of run {record.id}: {', '.join(names)}")
+    k0 = 0 if src.t_from is None else round(src.t_from / record.Ts)
+    k1 = None if src.t_to is None else round(src.t_to / record.Ts) + 1
+    if k1 is not None and k1 <= k0:
+        raise InvalidInput("data.t_to", src.t_to, f"a time after t_from ({src.t_from} s)")
+    rows = await m.read(record.id, k0, k1)
+    if rows.shape[0] < 2:
+        raise InvalidInput("data.run", record.id, f"a run with recorded samples in the range "
+                                                  f"(it has {record.n_stored})")
+    col = {n: i for i, n in enumerate(names)}
+    data = _prefixed("data", lambda: IdData(
+        rows[:, [col[n] for n in outputs]], rows[:, [col[n] for n in src.input]], record.Ts,
+        output_names=tuple(outputs), input_names=tuple(src.input),
+        output_units=tuple(units[n] for n in outputs),
+        input_units=tuple(units[n] for n in src.input), k0=k0))
+    return data, _sine_of(record.spec)
+
+
+def _sine_of(spec: dict[str, Any]) -> float | None:
+    for key in ("excitation", "signal"):
+        sig = spec.get(key)
+        if isinstance(sig, dict) and sig.get("kind") == "sine":
+            return float(sig["frequency"])
+    return None
+
+
+def _prefixed(prefix: str, make: Any) -> Any:
+    try:
+        return make()
+    except InvalidInput as exc:
+        raise InvalidInput(f"{prefix}.{exc.field}", exc.value, exc.allowed) from None
+
+
+def _plan(req: s.IdentRequest, sine: float | None) -> wf.Plan:
+    def span(name: str, v: list[int]) -> range:
+        if v[0] > v[1]:
+            raise InvalidInput(name, v, "[lowest, highest] with lowest ≤ highest")
+        return range(v[0], v[1] + 1)
+
+    search = None
+    if req.arx_search is not None:
+        a = req.arx_search
+        search = (span("arx_search.na", a.na), span("arx_search.nb", a.nb),
+                  span("arx_search.nk", a.nk))
+        if a.nb[0] < 1:
+            raise InvalidInput("arx_search.nb", a.nb, "orders ≥ 1")
+        count = len(search[0]) * len(search[1]) * len(search[2])
+        if count > wf.MAX_SEARCH:
+            raise InvalidInput("arx_search", f"{count} structures",
+                               f"at most {wf.MAX_SEARCH} structures (na × nb × nk)")
+    orders = None if req.n4sid_orders is None else span("n4sid_orders", req.n4sid_orders)
+    if orders is not None and orders.start < 1:
+        raise InvalidInput("n4sid_orders", req.n4sid_orders, "orders ≥ 1")
+    models = tuple(wf.ModelRequest(m.kind, {k: v for k, v in m.model_dump().items()
+                                            if k != "kind"}) for m in req.models)
+    return wf.Plan(models=models, detrend=req.detrend, split=req.split,
+                   correlation=req.correlation, max_lag=req.max_lag, spectral=req.spectral,
+                   sine_hz=req.sine_hz if req.sine_hz is not None else sine,
+                   arx_search=search, n4sid_orders=orders, horizon=req.horizon)
+
+

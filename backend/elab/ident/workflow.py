@@ -1,0 +1,271 @@
+"""The identification workflow of the seed's chapter, as one call: data → estimation and
+validation sets → correlation, spectral and sine analysis → ARX order search and subspace
+singular values → the requested models, each compared on the validation set (simulation
+and one-step fit %) with its residual analysis. The API, the CLI and the browser panels
+all run this, so they give the same numbers. Fit % on the validation set: simulated from
+a zero initial state (as the published figures), from the best initial state, and one
+step ahead; on the estimation set, simulated from the best initial state.
+
+Every result is JSON-ready (``Result.as_dict``); plotted series are thinned to at most
+``MAX_POINTS`` points per series (every k-th sample; the fit figures use every sample).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import control as ct
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from elab.errors import InvalidInput
+from elab.ident.data import IdData
+from elab.ident.models import LinearModel
+from elab.ident.nonparametric import cra, sine_response, spa
+from elab.ident.pem import armax, oe
+from elab.ident.polynomial import arx, arxstruc, selstruc, struc
+from elab.ident.subspace import choose_order, decompose, n4sid
+from elab.ident.validation import compare, resid
+
+Array = NDArray[np.float64]
+Progress = Callable[[str, float], None]
+MAX_POINTS = 5000
+MAX_SEARCH = 2000  # ARX structures in one order search
+KINDS = {"arx": ("na", "nb", "nk"), "armax": ("na", "nb", "nc", "nk"),
+         "oe": ("nb", "nf", "nk"), "n4sid": ("order", "horizon")}
+
+
+@dataclass(frozen=True)
+class ModelRequest:
+    """A model to estimate: ``kind`` with its orders (n4sid: ``order`` 0 = choose by MDL
+    over ``Plan.n4sid_orders``; ``horizon`` 0 = the default)."""
+
+    kind: Literal["arx", "armax", "oe", "n4sid"]
+    orders: dict[str, int]
+
+    @property
+    def name(self) -> str:
+        return f"{self.kind} " + " ".join(str(self.orders[k]) for k in KINDS[self.kind]
+                                          if self.orders.get(k))
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What to compute; ``split`` is the estimation share (the rest validates)."""
+
+    models: tuple[ModelRequest, ...] = ()
+    detrend: Literal["mean", "linear", "none"] = "mean"
+    split: float = 0.5
+    correlation: bool = True
+    max_lag: int = 30
+    spectral: bool = True
+    sine_hz: float | None = None
+    arx_search: tuple[range, range, range] | None = None
+    n4sid_orders: range | None = None
+    horizon: int | None = None
+
+
+@dataclass
+class Result:
+    data: dict[str, Any]
+    analyses: dict[str, Any] = field(default_factory=dict)
+    models: list[dict[str, Any]] = field(default_factory=list)
+    fitted: list[LinearModel] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"data": self.data, "analyses": self.analyses, "models": self.models,
+                "notes": self.notes}
+
+
+def parse_model(text: str) -> ModelRequest:
+    """``arx:4,4,3``, ``armax:2,2,2,3``, ``oe:2,2,3``, ``n4sid:4`` or ``n4sid:4,16`` or
+    ``n4sid`` (order chosen from the singular values)."""
+    kind, _, rest = text.strip().partition(":")
+    if kind not in KINDS:
+        raise InvalidInput("model", text, f"kind:orders with kind one of {', '.join(KINDS)}")
+    names = KINDS[kind]
+    try:
+        values = [int(v) for v in rest.split(",")] if rest else []
+    except ValueError:
+        raise InvalidInput("model", text, f"{kind}:{','.join(names)} (integers)") from None
+    if kind == "n4sid":
+        values = [*values, 0, 0][:2] if len(values) <= 2 else values
+    if len(values) != len(names):
+        raise InvalidInput("model", text, f"{kind}:{','.join(names)}")
+    return ModelRequest(kind, dict(zip(names, values, strict=True)))  # type: ignore[arg-type]
+
+
+def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
+    """Everything ``plan`` asks for on ``data`` (see the module docstring)."""
+    report = progress or (lambda stage, done: None)
+    if not 0 < plan.split < 1:
+        raise InvalidInput("split", plan.split, "a fraction in (0, 1): the estimation share")
+    ze, zv = data.split(float(plan.split))
+    if plan.detrend != "none":  # each part its own trend, as MATLAB's standard experiment
+        ze, zv = ze.detrend(plan.detrend), zv.detrend(plan.detrend)
+    z = IdData(np.vstack([ze.y, zv.y]), np.vstack([ze.u, zv.u]), data.Ts,
+               data.output_names, data.input_names, data.output_units, data.input_units,
+               data.k0, ze.trend)
+    siso = z.ny == 1 and z.nu == 1
+    out = Result(data=_data_view(z, ze.N))
+    report("data", 0.02)
+    if not siso and (plan.correlation or plan.spectral or plan.arx_search or plan.sine_hz):
+        out.notes.append(f"{z.ny} outputs and {z.nu} inputs: correlation, spectral and sine "
+                         "analysis and the ARX search need one of each; they were skipped")
+    if siso and plan.correlation:
+        c = cra(ze, max_lag=min(plan.max_lag, max(ze.N // 4 - 12, 1)))
+        out.analyses["correlation"] = c.as_dict() | {"Ts": z.Ts}
+        report("correlation", 0.05)
+    if siso and plan.spectral:
+        out.analyses["spectral"] = spa(ze).as_dict()
+        report("spectral", 0.08)
+    if siso and plan.sine_hz is not None:
+        out.analyses["sine"] = sine_response(z, plan.sine_hz).as_dict()
+    if siso and plan.arx_search is not None:
+        out.analyses["arx_search"] = _arx_search(ze, zv, plan.arx_search, report)
+    if plan.n4sid_orders is not None or any(m.kind == "n4sid" for m in plan.models):
+        sub = decompose(ze, plan.horizon)
+        orders = plan.n4sid_orders or range(1, min(10, sub.max_order) + 1)
+        best, rows = choose_order(sub, orders)
+        out.analyses["n4sid_orders"] = {"horizon": sub.horizon, "best": best, "orders": rows,
+                                        "singular_values": sub.singular_values.tolist()}
+        report("subspace", 0.6)
+    else:
+        sub, best = None, 0
+    for i, request in enumerate(plan.models):
+        model = _estimate(ze, request, sub, best, plan.horizon, i)
+        out.fitted.append(model)
+        out.models.append(_describe(model, request, ze, zv, i))
+        report(f"model {request.name}", 0.6 + 0.4 * (i + 1) / len(plan.models))
+    report("done", 1.0)
+    return out
+
+
+def _arx_search(ze: IdData, zv: IdData, ranges: tuple[range, range, range],
+                report: Progress) -> dict[str, Any]:
+    S = struc(*ranges)
+    if S.shape[0] > MAX_SEARCH:
+        raise InvalidInput("arx_search", f"{S.shape[0]} structures",
+                           f"at most {MAX_SEARCH} structures (na × nb × nk)")
+    parts = []
+    delays = np.unique(S[:, 2])
+    for i, nk in enumerate(delays):  # one delay at a time, to report progress
+        parts.append(arxstruc(ze, zv, S[S[:, 2] == nk]))
+        report("arx search", 0.1 + 0.4 * (i + 1) / len(delays))
+    V = np.vstack(parts)
+    return {"rows": V.tolist(), "best": list(selstruc(V, 0)),
+            "aic": list(selstruc(V, "aic", zv.N)), "mdl": list(selstruc(V, "mdl", zv.N))}
+
+
+def _estimate(ze: IdData, r: ModelRequest, sub: Any, best: int, horizon: int | None,
+              i: int) -> LinearModel:
+    o = r.orders
+    if r.kind != "n4sid" and (ze.ny != 1 or ze.nu != 1):
+        raise InvalidInput(f"models[{i}].kind", r.kind, f"n4sid for {ze.ny} outputs and "
+                                                        f"{ze.nu} inputs ({r.kind}: one each)")
+    try:
+        if r.kind == "arx":
+            return arx(ze, o["na"], o["nb"], o["nk"])
+        if r.kind == "armax":
+            return armax(ze, o["na"], o["nb"], o["nc"], o["nk"])
+        if r.kind == "oe":
+            return oe(ze, o["nb"], o["nf"], o["nk"])
+        own = o.get("horizon") or None
+        if own is not None and own != sub.horizon:
+            sub = decompose(ze, own)
+        return n4sid(ze, o.get("order") or best, sub=sub)
+    except InvalidInput as exc:
+        raise InvalidInput(f"models[{i}].{exc.field}", exc.value, exc.allowed) from None
+
+
+def _describe(m: LinearModel, r: ModelRequest, ze: IdData, zv: IdData, i: int) -> dict[str, Any]:
+    sim = compare(m, zv)  # zero initial state, as the published figures
+    sim_x0 = compare(m, zv, x0="estimate")
+    one = compare(m, zv, horizon=1, x0="estimate")
+    est = compare(m, ze, x0="estimate")
+    out: dict[str, Any] = {
+        "name": r.name if r.kind != "n4sid" or r.orders.get("order") else f"n4sid {m.n}",
+        "kind": m.kind, "orders": m.orders, "parameters": _jsonable(m.parameters),
+        "fit": {"validation_simulation": sim.fit.tolist(),
+                "validation_simulation_x0": sim_x0.fit.tolist(),
+                "validation_one_step": one.fit.tolist(),
+                "estimation_simulation": est.fit.tolist()},
+        "noise_variance": m.noise_variance.tolist(),
+        "poles": [[p.real, p.imag] for p in m.poles],
+        "stable": bool(np.all(np.abs(m.poles) < 1)) if m.n else True,
+        "ss": {"A": m.A.tolist(), "B": m.B.tolist(), "C": m.C.tolist(), "D": m.D.tolist(),
+               "K": m.K.tolist(), "Ts": m.Ts},
+        "tf": _tf(m), "continuous": _continuous(m),
+        "simulated": _thin(sim.yhat), "one_step": _thin(one.yhat),
+    }
+    if ze.ny == 1 and ze.nu == 1:
+        lag = min(25, zv.N // 4 - 1)
+        out["residuals"] = resid(m, zv, max_lag=lag).as_dict() if lag >= 1 else None
+    return out
+
+
+def _tf(m: LinearModel) -> list[list[dict[str, list[float]]]]:
+    """Discrete transfer functions, [output][input], coefficients in powers of z."""
+    tf = m.to_tf()
+    return [[{"num": np.ravel(tf.num[i][j]).tolist(), "den": np.ravel(tf.den[i][j]).tolist()}
+             for j in range(m.nu)] for i in range(m.ny)]
+
+
+def _continuous(m: LinearModel) -> dict[str, Any] | None:
+    """The model in continuous time (inverse zero-order hold), if it has no pole on the
+    negative real axis or at zero (where the matrix logarithm has no real value)."""
+    if m.n == 0 or np.any(np.abs(m.poles) < 1e-9) or np.any(
+            (np.abs(m.poles.imag) < 1e-12) & (m.poles.real < 0)):
+        return None
+    try:
+        c = _d2c_zoh(m)  # python-control 0.10 has c2d but no d2c
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    A = np.real_if_close(np.asarray(c.A))
+    if np.iscomplexobj(A):
+        return None
+    return {"A": A.tolist(), "B": np.asarray(c.B).tolist(), "C": np.asarray(c.C).tolist(),
+            "D": np.asarray(c.D).tolist()}
+
+
+def _d2c_zoh(m: LinearModel) -> ct.StateSpace:
+    """Inverse of the zero-order hold: [[A, B], [0, I]] = expm(Ts [[Ac, Bc], [0, 0]])."""
+    n, nu = m.n, m.nu
+    M = np.zeros((n + nu, n + nu))
+    M[:n, :n], M[:n, n:], M[n:, n:] = m.A, m.B, np.eye(nu)
+    L = scipy.linalg.logm(M) / m.Ts
+    if np.max(np.abs(np.imag(L))) > 1e-8:
+        raise ValueError("no real logarithm")
+    L = np.real(L)
+    return ct.ss(L[:n, :n], L[:n, n:], m.C, m.D)
+
+
+def _thin(a: Array) -> list[list[float]]:
+    step = max(1, math.ceil(a.shape[0] / MAX_POINTS))
+    rows: list[list[float]] = np.asarray(a[::step]).T.tolist()
+    return rows
+
+
+def _data_view(z: IdData, n_est: int) -> dict[str, Any]:
+    step = max(1, math.ceil(z.N / MAX_POINTS))
+    return {"N": z.N, "Ts": z.Ts, "estimation": n_est, "step": step, "trend": z.trend,
+            "t": z.t[::step].tolist(), "u": z.u[::step].T.tolist(), "y": z.y[::step].T.tolist(),
+            "input_names": list(z.input_names), "output_names": list(z.output_names),
+            "input_units": list(z.input_units), "output_units": list(z.output_units)}
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {k: _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj

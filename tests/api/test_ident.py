@@ -1,0 +1,138 @@
+"""Identification over the API, against a real server: an uploaded file (the hair-dryer
+data with its published results), a recorded run, progress lines, and bad data."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.api.server import Server
+
+DRYER = Path(__file__).resolve().parents[1] / "reference" / "ident" / "dryer.dat"
+
+
+def _file(text: str | None = None, **over: Any) -> dict[str, Any]:
+    data = {"source": "file", "format": "csv", "name": "dryer.dat",
+            "text": DRYER.read_text() if text is None else text,
+            "input": ["c1"], "output": ["c2"], "Ts": 0.08}
+    return data | over
+
+
+def _ident(server: Server, body: dict[str, Any], **headers: str) -> Any:
+    with server.client() as c:
+        return c.post("/ident", json=body, headers=headers, timeout=120)
+
+
+def test_dryer_upload_reproduces_the_published_results(server: Server) -> None:
+    r = _ident(server, {"data": _file(), "arx_search": {"na": [1, 10], "nb": [1, 10],
+                                                         "nk": [3, 3]},
+                        "horizon": 16, "n4sid_orders": [1, 10],
+                        "models": [{"kind": "arx", "na": 2, "nb": 2, "nk": 3},
+                                   {"kind": "n4sid", "order": 4}]})
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["data"]["N"] == 1000 and out["data"]["estimation"] == 500
+    a = out["analyses"]
+    assert a["correlation"]["delay"] == 3
+    assert a["arx_search"]["best"] == [4, 4, 3]
+    assert min(row[3] for row in a["arx_search"]["rows"]) == pytest.approx(0.0022583, rel=0.01)
+    assert a["n4sid_orders"]["singular_values"][:3] == pytest.approx([39.13, 9.925, 2.132],
+                                                                     rel=1.5e-3)
+    assert len(a["spectral"]["omega"]) == 128
+    arx, ss = out["models"]
+    assert arx["name"] == "arx 2 2 3"
+    assert arx["parameters"]["A"] == pytest.approx([1, -1.2765, 0.3967], abs=5e-4)
+    assert arx["fit"]["validation_simulation"][0] == pytest.approx(89.55, abs=0.3)
+    assert ss["fit"]["validation_simulation"][0] >= 89
+    assert ss["orders"] == {"n": 4, "horizon": 16} and ss["stable"]
+    assert len(ss["poles"]) == 4 and ss["continuous"] is not None
+    assert arx["residuals"]["bound"] == pytest.approx(2.58 / np.sqrt(500))
+    assert len(arx["simulated"][0]) == 500
+
+
+def test_progress_lines_then_the_result(server: Server) -> None:
+    r = _ident(server, {"data": _file(), "arx_search": {"nk": [1, 10]}},
+               accept="application/x-ndjson")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("application/x-ndjson")
+    lines = [json.loads(x) for x in r.text.splitlines()]
+    progress = [ln["progress"]["done"] for ln in lines[:-1]]
+    assert len(progress) >= 10 and progress == sorted(progress) and progress[-1] == 1.0
+    search = lines[-1]["result"]["analyses"]["arx_search"]
+    assert len(search["rows"]) == 1000  # struc(1:10, 1:10, 1:10)
+    assert min(row[3] for row in search["rows"]) <= 0.0022583  # [4 4 3] is among them
+
+
+def test_a_recorded_identification_run(server: Server) -> None:
+    with server.client() as c:
+        run = c.post("/runs", json={
+            "plant": "flexible_link", "experiment": "identification", "pace": "fast",
+            "duration": 20, "signal": {"kind": "step", "amplitude": 0},
+            "excitation": {"kind": "prbs", "amplitude": 1.0, "order": 11, "band": 0.05},
+            "excitation_at": "input", "seed": 1}).json()
+        for _ in range(200):
+            if c.get(f"/runs/{run['id']}").json()["status"] == "finished":
+                break
+            time.sleep(0.1)
+    r = _ident(server, {"data": {"source": "run", "run": run["id"], "input": ["u"],
+                                 "output": ["theta", "alpha"]},
+                        "models": [{"kind": "n4sid", "order": 0, "horizon": 20}]})
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["data"]["output_units"] == ["rad", "rad"] and out["data"]["Ts"] == 0.001
+    assert "correlation" not in out["analyses"] and out["notes"]  # two outputs
+    m = out["models"][0]
+    assert min(m["fit"]["validation_one_step"]) > 90
+    r = _ident(server, {"data": {"source": "run", "run": run["id"]},  # θ by default
+                        "models": [{"kind": "arx", "na": 4, "nb": 4, "nk": 1}]})
+    assert r.status_code == 200, r.text
+    assert r.json()["data"]["output_names"] == ["theta"]
+
+
+def _error(r: Any, status: int = 422) -> dict[str, Any]:
+    assert r.status_code == status, r.text
+    err: dict[str, Any] = r.json()["error"]
+    return err
+
+
+def _rows(pairs: list[tuple[str, str]]) -> str:
+    return "u,y\n" + "\n".join(f"{u},{y}" for u, y in pairs) + "\n"
+
+
+def test_bad_data_get_clear_errors(server: Server) -> None:
+    rng = np.random.default_rng(0)
+    good = [(f"{u:.4f}", f"{y:.4f}") for u, y in rng.standard_normal((200, 2))]
+    named = {"input": ["u"], "output": ["y"]}
+    nan = good.copy()
+    nan[17] = ("nan", "1")
+    err = _error(_ident(server, {"data": _file(_rows(nan), **named)}))
+    assert err["field"].startswith("data.u[17") and "finite" in err["message"]
+    const = [("1.0", y) for _, y in good]
+    err = _error(_ident(server, {"data": _file(_rows(const), **named)}))
+    assert "constant" in err["message"] and "persistently exciting" in err["message"]
+    short = _rows(good) + "0.5\n"
+    err = _error(_ident(server, {"data": _file(short, **named)}))
+    assert "data" in err["field"]
+    err = _error(_ident(server, {"data": _file(_rows(good), **named, Ts=None)}))
+    assert err["field"] == "data.Ts" and "sample time" in err["message"]
+    err = _error(_ident(server, {"data": _file(_rows(good[:12]), **named),
+                                 "correlation": False, "spectral": False,
+                                 "models": [{"kind": "arx", "na": 8, "nb": 8, "nk": 1}]}))
+    assert err["field"] == "models[0].data" and "samples" in err["message"]
+    err = _error(_ident(server, {"data": _file(_rows(good), input=["x"], output=["y"])}))
+    assert err["field"] == "data.input" and "u, y" in err["message"]
+    err = _error(_ident(server, {"data": _file(), "arx_search": {"na": [5, 1]}}))
+    assert err["field"] == "arx_search.na"
+    err = _error(_ident(server, {"data": _file(), "models": [{"kind": "bj"}]}))
+    assert err["field"].startswith("models.0")
+    err = _error(_ident(server, {"data": {"source": "run", "run": "nope"}}), 404)
+    assert "nope" in err["message"]
+    huge = "u,y\n" + "1.0,2.0\n" * 2_300_000  # > 16 MiB
+    err = _error(_ident(server, {"data": _file(huge, **named)}), 413)
+    assert "ELAB_MAX_UPLOAD" in err["message"]
+    with server.client() as c:  # the server is fine afterwards
+        assert c.get("/plants").status_code == 200
