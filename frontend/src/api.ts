@@ -5,6 +5,8 @@ import type {
   BodeList,
   DesignOut,
   ErrorDetail,
+  IdentOut,
+  IdentRequest,
   LQRRequest,
   ParamsApplied,
   ParamsUpdate,
@@ -83,6 +85,44 @@ export const api = {
   resume: (id: string) => call<RunInfo>("POST", `/runs/${encodeURIComponent(id)}/resume`),
   params: (id: string, req: ParamsUpdate) => call<ParamsApplied>("POST", `/runs/${encodeURIComponent(id)}/params`, req),
 };
+
+/**
+ * Identification with progress: the server streams `{"progress": {stage, done}}` lines,
+ * then `{"result": …}` or `{"error": …}` (application/x-ndjson).
+ */
+export async function identify(req: IdentRequest, onProgress: (stage: string, done: number) => void): Promise<IdentOut> {
+  let response: Response;
+  try {
+    response = await fetch(API + "/ident", { method: "POST", headers: { "content-type": "application/json", accept: "application/x-ndjson" }, body: JSON.stringify(req) });
+  } catch (err) {
+    throw new ApiError(0, { code: "unavailable", message: `the lab server is not reachable (${String(err)})`, field: null, errors: [] });
+  }
+  if (!response.ok || !response.body) {
+    const text = await response.text();
+    let detail: ErrorDetail | undefined;
+    try {
+      detail = (JSON.parse(text) as { error?: ErrorDetail }).error;
+    } catch {
+      /* not JSON */
+    }
+    throw new ApiError(response.status, detail ?? { code: "invalid", message: `${response.status}: ${text.slice(0, 200)}`, field: null, errors: [] });
+  }
+  const reader = response.body.pipeThrough(new TextDecoderStream()).getReader();
+  let buffer = "";
+  for (;;) {
+    const { value, done } = await reader.read();
+    if (value) buffer += value;
+    let nl: number;
+    while ((nl = buffer.indexOf("\n")) >= 0) {
+      const line = JSON.parse(buffer.slice(0, nl)) as { progress?: { stage: string; done: number }; result?: IdentOut; error?: ErrorDetail };
+      buffer = buffer.slice(nl + 1);
+      if (line.progress) onProgress(line.progress.stage, line.progress.done);
+      if (line.result) return line.result;
+      if (line.error) throw new ApiError(422, line.error);
+    }
+    if (done) throw new ApiError(0, { code: "unavailable", message: "the identification stream ended without a result", field: null, errors: [] });
+  }
+}
 
 /** The download address of a run's recording. */
 export function dataUrl(run: RunInfo, format: "csv" | "json" | "mat", channels?: string[]): string {

@@ -15,6 +15,8 @@ export interface NumberSpec {
   integer?: boolean;
   step?: number | "any";
   hint?: string;
+  /** element id prefix (default "f"), for pages with two forms over the same fields */
+  idPrefix?: string;
 }
 
 export type Parsed = { ok: true; value: number } | { ok: false; message: string };
@@ -67,7 +69,7 @@ export class NumberField {
     readonly spec: NumberSpec,
     onChange?: () => void,
   ) {
-    const id = `f-${spec.field.replace(/[^a-zA-Z0-9_-]/g, "-")}`;
+    const id = `${spec.idPrefix ?? "f"}-${spec.field.replace(/[^a-zA-Z0-9_-]/g, "-")}`;
     this.root = document.createElement("div");
     this.root.className = "field";
     const label = document.createElement("label");

@@ -152,7 +152,61 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     req = httpx.get(f"{server.url}/api/v1/runs/{rid}").json()["request"]
     assert req["experiment"] == "identification"
     assert req["excitation"]["kind"] == "prbs" and req["excitation_at"] == "input"
+    # the analysis of this run, in the page, equals the API's answer to the same request
+    panel = page.get_by_test_id("ident-run")
+    panel.locator("#id-models").fill("arx:4,4,1; bj:1,1")
+    panel.get_by_role("button", name="Identify").click()
+    expect(panel.get_by_test_id("models-error")).to_contain_text("arx, armax, oe or n4sid")
+    panel.locator("#id-models").fill("arx:4,4,1; n4sid:4")
+    panel.get_by_role("button", name="Identify").click()
+    table = panel.get_by_test_id("ident-models")
+    expect(table).to_contain_text("n4sid 4", timeout=60_000)
+    api = httpx.post(f"{server.url}/api/v1/ident", timeout=60, json={
+        "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
+        "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]}, "n4sid_orders": [1, 10],
+        "models": [{"kind": "arx", "na": 4, "nb": 4, "nk": 1},
+                   {"kind": "n4sid", "order": 4, "horizon": 0}]}).json()
+    for i, m in enumerate(api["models"]):
+        cells = table.locator("tbody tr").nth(i).locator("td")
+        shown = float(cells.first.inner_text().split()[0])
+        assert shown == pytest.approx(m["fit"]["validation_simulation"][0], abs=1e-3 * max(
+            1, abs(shown)))
+    for testid in ("ident-data", "ident-impulse", "ident-spectral", "ident-arx-search",
+                   "ident-singular-values", "ident-compare", "ident-resid-arx"):
+        expect(panel.get_by_test_id(testid).locator(".main-svg").first).to_be_visible()
     page.screenshot(path=shots / "identification.png", full_page=True)
+    # "use this model": the design view shows it beside the physics model
+    panel.get_by_test_id("use-model-1").click()
+    expect(page).to_have_url(re.compile(r"/plants/flexible_link/design\?model=identified"))
+    panel = page.get_by_test_id("identified-model")
+    expect(panel).to_contain_text("Identified model: n4sid 4")
+    expect(panel.locator(".katex").first).to_be_visible()
+    expect(page.get_by_test_id("identified-step").locator(".main-svg").first).to_be_visible()
+    page.screenshot(path=shots / "design-identified.png", full_page=True)
+
+
+def test_identification_from_a_file_reproduces_the_dryer_results(page: Page) -> None:
+    page.goto("/plants/flexible_link/identification")
+    page.get_by_text("Or identify from a data file").click()
+    panel = page.get_by_test_id("ident-file")
+    panel.get_by_role("button", name="Identify").click()
+    expect(panel.get_by_test_id("ident-error")).to_contain_text("Choose a data file")
+    dryer = Path(__file__).resolve().parents[1] / "reference" / "ident" / "dryer.dat"
+    panel.locator("#idf-file").set_input_files(str(dryer))
+    panel.locator("#idf-input-cols").fill("c1")
+    panel.locator("#idf-output-cols").fill("c3")
+    panel.locator("#idf-data-Ts").fill("0.08")
+    panel.locator("#idf-models").fill("arx:2,2,3; n4sid:4,16")
+    panel.get_by_role("button", name="Identify").click()
+    expect(panel.get_by_test_id("ident-error")).to_contain_text("c1, c2")  # no column c3
+    panel.locator("#idf-output-cols").fill("c2")
+    panel.get_by_role("button", name="Identify").click()
+    rows = panel.get_by_test_id("ident-models").locator("tbody tr")
+    expect(rows.nth(0)).to_contain_text("arx 2 2 3", timeout=60_000)
+    assert float(rows.nth(0).locator("td").first.inner_text().split()[0]) == pytest.approx(
+        89.55, abs=0.3)  # published (README)
+    assert float(rows.nth(1).locator("td").first.inner_text().split()[0]) >= 89
+    expect(panel.get_by_test_id("ident-results")).to_contain_text("a delay of 3 samples")
 
 
 def test_design_lqr_compare_and_run(page: Page, server: Server, shots: Path) -> None:

@@ -4,6 +4,8 @@ import { api, ApiError } from "../api";
 import { fill, h } from "../dom";
 import { durationField, SignalForm } from "../experiment";
 import { FieldSet, NumberField } from "../forms";
+import { discreteStep, handedModel, type HandedModel } from "../ident";
+import { tex } from "../markdown";
 import { chart, purge } from "../plot";
 import type { DesignOut, PlaceRequest, PlantDetail, StepOut } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
@@ -12,7 +14,7 @@ import { downloadButton, experimentPage, failure, loading, showApiError } from "
 
 export function designPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
   return experimentPage(root, params.id, "design", (plant) => {
-    const view = new DesignView(plant);
+    const view = new DesignView(plant, handedModel(plant.id));
     return { content: view.root, cleanup: () => view.destroy() };
   });
 }
@@ -28,10 +30,14 @@ class DesignView {
   private readonly result = h("section.panel.wide", { hidden: true });
   private readonly runBox = h("section.panel.wide", { hidden: true });
   private readonly chartDiv = h("div.chart", { "data-testid": "design-step" });
+  private readonly modelDiv = h("div.chart", { "data-testid": "identified-step" });
   private design: DesignOut | null = null;
   private run: RunPanel | null = null;
 
-  constructor(readonly plant: PlantDetail) {
+  constructor(
+    readonly plant: PlantDetail,
+    readonly identified: HandedModel | null,
+  ) {
     const n = plant.states.length;
     this.method = h("select", { id: "method", onchange: () => this.toggle() }, h("option", { value: "lqr" }, "LQR (Q, R)"), h("option", { value: "place" }, "pole placement"));
     const qDefault = plant.id === "flexible_link" ? [400, 1e4, 3, 2] : new Array(n).fill(1);
@@ -56,7 +62,57 @@ class DesignView {
       h("div.actions", h("button.primary", { type: "submit" }, "Design")),
       this.msg,
     );
-    this.root = h("div", form, this.result, this.runBox);
+    const modelBox = identified ? this.identifiedPanel(identified) : null;
+    this.root = h("div", modelBox, form, this.result, this.runBox);
+  }
+
+  /** The model handed over by the identification view, checked against the physics model. */
+  private identifiedPanel(m: HandedModel): HTMLElement {
+    const num = (x: number, power: number) => {
+      const text = fmt(Math.abs(x), 4);
+      if (power && text === "1") return "";
+      const [mant, exp] = text.split("e");
+      return exp === undefined ? mant : `${mant} \\cdot 10^{${Number(exp)}}`;
+    };
+    const poly = (c: number[]) => c.map((x, i) => ({ x, p: c.length - 1 - i })).filter((t) => Math.abs(t.x) > 1e-12).map((t, i) => `${t.x < 0 ? "-" : i ? "+" : ""}${num(t.x, t.p)}${t.p ? (t.p === 1 ? "z" : `z^{${t.p}}`) : ""}`).join(" ") || "0";
+    const tfs = m.output.map((name, i) => {
+      const el = h("div.math");
+      el.innerHTML = tex(`G_{\\mathrm{${name.replace(/_/g, "\\_")}}}(z) = \\frac{${poly(m.tf[i][0].num)}}{${poly(m.tf[i][0].den)}}`, true);
+      return el;
+    });
+    const sPoles = m.poles.map(([re, im]) => {
+      const r = Math.hypot(re, im);
+      return { re: Math.log(r) / m.Ts, im: Math.atan2(im, re) / m.Ts };
+    });
+    const c = (re: number, im: number) => `${fmt(re)}${Math.abs(im) > 1e-12 ? ` ${im < 0 ? "−" : "+"} ${fmt(Math.abs(im))}j` : ""}`;
+    void this.drawIdentified(m);
+    return h(
+      "section.panel.wide",
+      { "data-testid": "identified-model" },
+      h("h2", `Identified model: ${m.name}`),
+      h("p", `From ${m.source}: input ${m.input}, output${m.output.length > 1 ? "s" : ""} ${m.output.join(", ")}; Ts = ${fmt(m.Ts * 1000)} ms; validation fit ${m.fit.map((f) => `${fmt(f)} %`).join(", ")}.`),
+      ...tfs,
+      h("p", "Poles z: ", h("span.mono", m.poles.map(([re, im]) => c(re, im)).join(", ")), h("br"), "as continuous poles s = ln(z)/Ts: ", h("span.mono", sPoles.map((p) => c(p.re, p.im)).join(", "))),
+      h("p.hint", "The step response below compares the identified model with the lab's physics model (open loop, 1 V step at u): where they agree, a controller designed on either carries over."),
+      this.modelDiv,
+      h("button.link", { type: "button", onclick: () => (sessionStorage.removeItem(`elab.model.${this.plant.id}`), this.root.firstElementChild?.remove()) }, "Dismiss this model"),
+    );
+  }
+
+  private async drawIdentified(m: HandedModel): Promise<void> {
+    const T = 2;
+    const n = Math.min(Math.round(T / m.Ts) + 1, 20_000);
+    const ident = discreteStep(m.ss, n);
+    const t = ident[0].map((_, k) => k * m.Ts);
+    let physics: StepOut | null = null;
+    try {
+      physics = await api.step(this.plant.id, { T: (n - 1) * m.Ts, n: Math.min(n, 4001) });
+    } catch {
+      /* the identified curve alone */
+    }
+    const series = m.output.map((name, i) => ({ x: t, y: ident[i], name: `${name}, identified (${m.units[i] || "–"})` }));
+    if (physics) for (const name of m.output) if (physics.outputs[name]) series.push({ x: physics.t, y: physics.outputs[name], name: `${name}, physics model`, dash: "dash" as const } as (typeof series)[number]);
+    chart(this.modelDiv, series, { xTitle: "time t (s)", yTitles: ["response to a 1 V step (SI)"], height: 320 });
   }
 
   private toggle(): void {
@@ -162,5 +218,6 @@ class DesignView {
   destroy(): void {
     this.run?.destroy();
     purge(this.chartDiv);
+    purge(this.modelDiv);
   }
 }

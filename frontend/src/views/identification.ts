@@ -8,10 +8,11 @@ import type { PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
 import { fmt } from "../units";
 import { experimentPage, showApiError } from "./common";
+import { IdentAnalysis } from "./identanalysis";
 
-export function identificationPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
+export function identificationPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
   return experimentPage(root, params.id, "identification", (plant) => {
-    const view = new IdentificationView(plant);
+    const view = new IdentificationView(plant, query.get("run"));
     return { content: view.root, cleanup: () => view.destroy() };
   });
 }
@@ -27,9 +28,15 @@ class IdentificationView {
   private readonly formMsg = h("p.error", { role: "alert", "data-testid": "form-error" });
   private readonly runArea = h("div.run-area");
   private readonly handover = h("section.panel.handover", { hidden: true });
+  private readonly analysisSlot = h("div");
+  private readonly fileAnalysis: IdentAnalysis;
+  private analysis: IdentAnalysis | null = null;
   private run: RunPanel | null = null;
 
-  constructor(readonly plant: PlantDetail) {
+  constructor(
+    readonly plant: PlantDetail,
+    runId: string | null,
+  ) {
     this.loop = h(
       "select",
       { id: "loop", onchange: () => this.buildExcitation() },
@@ -50,7 +57,17 @@ class IdentificationView {
       this.formMsg,
     );
     this.runArea.append(h("div.panel.empty", h("p", "Press Start: the excitation and the response draw here live; the recording downloads as CSV, JSON or MATLAB .mat.")));
-    this.root = h("div", h("div.split", form, this.runArea), this.handover);
+    this.fileAnalysis = new IdentAnalysis(plant, { kind: "file" });
+    const upload = h("details.panel.wide", h("summary", "Or identify from a data file (CSV, JSON, .dat — e.g. a recording made elsewhere)"), this.fileAnalysis.root);
+    this.root = h("div", h("div.split", form, this.runArea), this.handover, this.analysisSlot, upload);
+    if (runId) void api.run(runId).then((info) => this.showRun(info), (err) => fill(this.formMsg, String(err)));
+  }
+
+  /** An earlier run (?run=ID): its recording, ready for analysis. */
+  private showRun(info: RunInfo): void {
+    this.run?.destroy();
+    this.run = new RunPanel(info, this.plant, { onState: (s) => this.onState(s) });
+    fill(this.runArea, this.run.root);
   }
 
   private buildExcitation(): void {
@@ -85,6 +102,10 @@ class IdentificationView {
       this.run = new RunPanel(info, this.plant, { onState: (s) => this.onState(s) });
       fill(this.runArea, this.run.root);
       this.handover.hidden = true;
+      this.analysis?.destroy();
+      this.analysis = null;
+      fill(this.analysisSlot);
+      history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
     } catch (err) {
       showApiError(err, [this.excitation.fields, this.runFields], this.formMsg);
     }
@@ -99,6 +120,11 @@ class IdentificationView {
   private showHandover(run: RunInfo): void {
     const p = this.plant;
     this.handover.hidden = false;
+    if (!this.analysis || this.analysis.source.kind !== "run" || this.analysis.source.runId !== run.id) {
+      this.analysis?.destroy();
+      this.analysis = new IdentAnalysis(p, { kind: "run", runId: run.id });
+      fill(this.analysisSlot, this.analysis.root);
+    }
     fill(
       this.handover,
       h("h2", "Data set"),
@@ -118,5 +144,7 @@ class IdentificationView {
 
   destroy(): void {
     this.run?.destroy();
+    this.analysis?.destroy();
+    this.fileAnalysis.destroy();
   }
 }

@@ -1,0 +1,280 @@
+// The identification analysis panels: choose what to compute on a run's recording or an
+// uploaded file, follow the progress, then read the data with its estimation/validation
+// split, the impulse estimate with its band, the spectral Bode, the ARX order search, the
+// subspace singular values, each model's fit and residuals — and hand a model to design.
+import { ApiError, identify } from "../api";
+import { fill, h } from "../dom";
+import { FieldSet, NumberField } from "../forms";
+import { handOver, parseModels } from "../ident";
+import { chart, purge, type Series } from "../plot";
+import type { FileData, IdentOut, IdentRequest, PlantDetail, RunData } from "../protocol.gen";
+import { fmt } from "../units";
+import { downloadButton, showApiError } from "./common";
+
+/** Where the data come from: a run (channels by name) or a file chosen in the panel. */
+export type Source = { kind: "run"; runId: string } | { kind: "file" };
+
+type Any = Record<string, any>;
+
+export class IdentAnalysis {
+  readonly root: HTMLElement;
+  private readonly fields = new FieldSet();
+  private readonly output: HTMLSelectElement | null = null;
+  private readonly fileInput: HTMLInputElement | null = null;
+  private readonly columns: { input: HTMLInputElement; output: HTMLInputElement } | null = null;
+  private readonly detrend: HTMLSelectElement;
+  private readonly checks: Record<"correlation" | "spectral" | "arx" | "n4sid", HTMLInputElement>;
+  private readonly models: HTMLInputElement;
+  private readonly modelsMsg = h("small.error", { role: "alert", "data-testid": "models-error" });
+  private readonly msg = h("p.error", { role: "alert", "data-testid": "ident-error" });
+  private readonly progress = h("progress", { max: 1, value: 0, hidden: true, "aria-label": "identification progress" });
+  private readonly stage = h("span.progress");
+  private readonly results = h("div.ident-results", { "data-testid": "ident-results" });
+  private readonly charts: HTMLElement[] = [];
+  private busy = false;
+
+  constructor(
+    readonly plant: PlantDetail,
+    readonly source: Source,
+  ) {
+    const pre = source.kind === "run" ? "id" : "idf"; // element ids: one page holds both
+    const f = this.fields;
+    const num = (field: string, label: string, value: number, min: number, max: number, extra: Partial<ConstructorParameters<typeof NumberField>[0]> = {}) => f.add(new NumberField({ field, label, value, min, max, integer: true, idPrefix: pre, ...extra })).root;
+    const box = (id: string, label: string, checked = true) => {
+      const input = h("input", { type: "checkbox", id, checked });
+      return [input, h("label.check", input, " ", label)] as const;
+    };
+    const [correlation, corrLabel] = box(`${pre}-correlation`, "correlation analysis (impulse response, delay)");
+    const [spectral, specLabel] = box(`${pre}-spectral`, "spectral analysis (Bode, Blackman–Tukey)");
+    const [arx, arxLabel] = box(`${pre}-arx`, "ARX order search on the validation data (arxstruc)");
+    const [n4sid, n4sidLabel] = box(`${pre}-n4sid`, "subspace singular values over orders");
+    this.checks = { correlation, spectral, arx, n4sid };
+    this.detrend = h("select", { id: `${pre}-detrend` }, h("option", { value: "mean" }, "remove the mean (MATLAB's default)"), h("option", { value: "linear" }, "remove a straight line"), h("option", { value: "none" }, "keep as recorded"));
+    this.models = h("input.mono", { id: `${pre}-models`, value: "arx:4,4,1; armax:2,2,2,1; n4sid", spellcheck: false, autocomplete: "off", oninput: () => this.checkModels() });
+    const sourceBox: HTMLElement[] = [];
+    if (source.kind === "run") {
+      const outputs = plant.outputs.map((o) => h("option", { value: o.name }, `${o.label} (${o.unit})`));
+      this.output = h("select", { id: `${pre}-output` }, ...outputs, h("option", { value: "*" }, "all outputs (subspace models only)"));
+      this.output.value = plant.reference_output;
+      sourceBox.push(h("div.field", h("label", { for: `${pre}-output` }, "Output (input: u, the plant input)"), this.output));
+    } else {
+      this.fileInput = h("input", { type: "file", id: `${pre}-file`, accept: ".csv,.txt,.dat,.json" });
+      this.columns = { input: h("input", { id: `${pre}-input-cols`, value: "u" }), output: h("input", { id: `${pre}-output-cols`, value: "y" }) };
+      sourceBox.push(
+        h("div.field", h("label", { for: `${pre}-file` }, "Data file (E-Lab CSV/JSON, or numeric columns; ≤ 16 MiB)"), this.fileInput),
+        h("div.grid", h("div.field", h("label", { for: `${pre}-input-cols` }, "Input column(s)"), this.columns.input), h("div.field", h("label", { for: `${pre}-output-cols` }, "Output column(s)"), this.columns.output), f.add(new NumberField({ idPrefix: pre, field: "data.Ts", label: "Sample time (0: from the file)", unit: "s", value: 0, min: 0, max: 3600 })).root),
+        h("small.hint", "Columns are named by the file's header; unnamed columns are c1, c2, …"),
+      );
+    }
+    const form = h(
+      "form.panel.wide",
+      { novalidate: true, "aria-label": "identification analysis", onsubmit: (ev: Event) => (ev.preventDefault(), void this.run()) },
+      h("h2", source.kind === "run" ? "Identify a model from this run" : "Identify a model from a data file"),
+      ...sourceBox,
+      h("div.grid", f.add(new NumberField({ idPrefix: pre, field: "split", label: "Estimation share (the rest validates)", value: 0.5, min: 0, max: 1, minExclusive: true, maxExclusive: true, step: 0.05 })).root, h("div.field", h("label", { for: `${pre}-detrend` }, "Detrend (each part)"), this.detrend)),
+      h("fieldset", h("legend", "Analyses"), corrLabel, specLabel, arxLabel, h("div.grid", num("arx_search.na.0", "na from", 1, 0, 50), num("arx_search.na.1", "na to", 10, 0, 50), num("arx_search.nb.0", "nb from", 1, 1, 50), num("arx_search.nb.1", "nb to", 10, 1, 50), num("arx_search.nk.0", "nk from", 1, 0, 50), num("arx_search.nk.1", "nk to", 10, 0, 50)), n4sidLabel, h("div.grid", num("n4sid_orders.0", "order from", 1, 1, 99), num("n4sid_orders.1", "order to", 10, 1, 99), num("horizon", "horizon s (0: default)", 0, 0, 100))),
+      h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values); separate with ;"), this.modelsMsg),
+      h("div.actions", h("button.primary", { type: "submit" }, "Identify"), this.progress, this.stage),
+      this.msg,
+    );
+    this.root = h("div.ident", { "data-testid": `ident-${source.kind}` }, form, this.results);
+  }
+
+  private checkModels(): ReturnType<typeof parseModels> {
+    const parsed = parseModels(this.models.value);
+    fill(this.modelsMsg, parsed.ok ? "" : parsed.message);
+    this.models.setAttribute("aria-invalid", String(!parsed.ok));
+    return parsed;
+  }
+
+  private async request(): Promise<IdentRequest | null> {
+    const v = this.fields.values();
+    const models = this.checkModels();
+    if (!v || !models.ok) return null;
+    const span = (a: string): [number, number] => [v.get(`${a}.0`)!, v.get(`${a}.1`)!];
+    let data: RunData | FileData;
+    if (this.source.kind === "run") {
+      const out = this.output!.value;
+      data = { source: "run", run: this.source.runId, input: ["u"], output: (out === "*" ? this.plant.outputs.map((o) => o.name) : [out]) as RunData["input"] };
+    } else {
+      const file = this.fileInput!.files?.[0];
+      if (!file) {
+        fill(this.msg, "Choose a data file first.");
+        return null;
+      }
+      if (file.size > 16 << 20) {
+        fill(this.msg, `${file.name} is ${(file.size / 2 ** 20).toFixed(1)} MiB: the limit is 16 MiB.`);
+        return null;
+      }
+      const names = (s: string) => s.split(",").map((x) => x.trim()).filter(Boolean) as FileData["input"];
+      const Ts = v.get("data.Ts")!;
+      data = { source: "file", name: file.name, format: file.name.toLowerCase().endsWith(".json") ? "json" : "csv", text: await file.text(), input: names(this.columns!.input.value), output: names(this.columns!.output.value), Ts: Ts > 0 ? Ts : null };
+    }
+    return {
+      data,
+      split: v.get("split")!,
+      detrend: this.detrend.value as "mean" | "linear" | "none",
+      correlation: this.checks.correlation.checked,
+      spectral: this.checks.spectral.checked,
+      arx_search: this.checks.arx.checked ? { na: span("arx_search.na"), nb: span("arx_search.nb"), nk: span("arx_search.nk") } : null,
+      n4sid_orders: this.checks.n4sid.checked ? span("n4sid_orders") : null,
+      horizon: v.get("horizon")! > 0 ? v.get("horizon")! : null,
+      models: models.models,
+    };
+  }
+
+  private async run(): Promise<void> {
+    if (this.busy) return;
+    fill(this.msg);
+    this.fields.clearErrors();
+    const req = await this.request();
+    if (!req) {
+      if (!this.msg.textContent) fill(this.msg, "Please correct the marked fields; nothing was sent.");
+      return;
+    }
+    this.busy = true;
+    this.progress.hidden = false;
+    this.progress.value = 0;
+    try {
+      const out = await identify(req, (stage, done) => {
+        this.progress.value = done;
+        fill(this.stage, `${stage} · ${Math.round(done * 100)} %`);
+      });
+      this.show(out, req);
+      fill(this.stage, "done");
+    } catch (err) {
+      fill(this.stage);
+      if (err instanceof ApiError && err.detail.field?.startsWith("models")) fill(this.modelsMsg, err.message);
+      showApiError(err, [this.fields], this.msg);
+    } finally {
+      this.busy = false;
+      this.progress.hidden = true;
+    }
+  }
+
+  private chartBox(testid: string): HTMLElement {
+    const div = h("div.chart", { "data-testid": testid });
+    this.charts.push(div);
+    return div;
+  }
+
+  private show(out: IdentOut, req: IdentRequest): void {
+    for (const c of this.charts.splice(0)) purge(c);
+    const d = out.data as Any;
+    const a = out.analyses as Any;
+    const sections: HTMLElement[] = [];
+    const yName = (i: number) => `${d.output_names[i]} (${d.output_units[i] || "–"})`;
+    // data with the split
+    const split = d.estimation * d.Ts + d.t[0];
+    const dataDiv = this.chartBox("ident-data");
+    sections.push(h("section.panel.wide", h("h2", "Data"), h("p", `${d.N.toLocaleString("en")} samples at Ts = ${fmt(d.Ts * 1000)} ms; estimation: the first ${d.estimation.toLocaleString("en")} (to t = ${fmt(split)} s), validation: the rest; detrended: ${d.trend}.`), dataDiv));
+    const dataSeries: Series[] = [];
+    d.y.forEach((y: number[], i: number) => dataSeries.push({ x: d.t, y, name: yName(i) }));
+    d.u.forEach((u: number[], i: number) => dataSeries.push({ x: d.t, y: u, name: `${d.input_names[i]} (${d.input_units[i] || "–"})`, axis: 2 }));
+    const ys = (d.y as number[][]).flat();
+    dataSeries.push({ x: [split, split], y: [Math.min(...ys), Math.max(...ys)], name: "estimation | validation", dash: "dot" });
+    if (out.notes.length) sections.push(h("section.panel.wide", h("h2", "Notes"), ...out.notes.map((n) => h("p", n))));
+    // non-parametric
+    if (a.correlation) {
+      const c = a.correlation;
+      const div = this.chartBox("ident-impulse");
+      sections.push(h("section.panel", h("h2", "Impulse response (correlation analysis)"), h("p", c.delay === null ? "No lag outside the band: no clear response." : `First lag outside the ±3σ band: ${c.delay} — a delay of ${c.delay} samples (${fmt(c.delay * d.Ts * 1000)} ms).`), div, downloadButton("impulse.csv", ["lag", "impulse", "band"], [c.lags, c.impulse, c.band])));
+      queueMicrotask(() => chart(div, [{ x: c.lags, y: c.impulse, name: "impulse estimate", mode: "markers" }, { x: c.lags, y: c.band, name: "+3σ", dash: "dash" }, { x: c.lags, y: c.band.map((b: number) => -b), name: "−3σ", dash: "dash" }], { xTitle: "lag (samples)", yTitles: ["g(k)"], height: 300 }));
+    }
+    if (a.spectral) {
+      const s = a.spectral;
+      const div = this.chartBox("ident-spectral");
+      const dB = s.magnitude.map((m: number) => 20 * Math.log10(m));
+      sections.push(h("section.panel", h("h2", "Frequency response (spectral analysis)"), h("p", `Hann lag window of ${s.window} lags.`), div, downloadButton("spectral.csv", ["omega_rad_s", "magnitude", "phase_deg"], [s.omega, s.magnitude, s.phase_deg])));
+      queueMicrotask(() => chart(div, [{ x: s.omega, y: dB, name: "|G| (dB)" }, { x: s.omega, y: s.phase_deg, name: "∠G (°)", axis: 2 }], { xTitle: "frequency ω (rad/s)", yTitles: ["magnitude (dB)", "phase (°)"], logX: true }));
+    }
+    if (a.sine) {
+      const s = a.sine;
+      sections.push(h("section.panel", h("h2", "Sine analysis"), h("p", `At ${fmt(s.frequency_hz)} Hz (ω = ${fmt(s.omega)} rad/s), over ${s.periods_used} whole periods after the transient: |G| = ${fmt(s.magnitude)} (${fmt(20 * Math.log10(s.magnitude))} dB), ∠G = ${fmt(s.phase_deg)}°.`)));
+    }
+    if (a.arx_search) {
+      const s = a.arx_search;
+      const best = new Map<number, number>();
+      for (const [na, nb, , V] of s.rows as number[][]) best.set(na + nb, Math.min(best.get(na + nb) ?? Infinity, V));
+      const ds = [...best.keys()].sort((x, y) => x - y);
+      const minLoss = Math.min(...(s.rows as number[][]).map((r) => r[3]));
+      const div = this.chartBox("ident-arx-search");
+      sections.push(h("section.panel", h("h2", "ARX order search"), h("p", `${s.rows.length} structures; least validation loss ${fmt(minLoss)} at [na nb nk] = [${s.best.join(" ")}]; AIC picks [${s.aic.join(" ")}], MDL [${s.mdl.join(" ")}].`), div, downloadButton("arx-search.csv", ["na", "nb", "nk", "loss"], [0, 1, 2, 3].map((j) => (s.rows as number[][]).map((r) => r[j])))));
+      queueMicrotask(() => chart(div, [{ x: ds, y: ds.map((k) => best.get(k)!), name: "least loss per parameter count", mode: "markers" }], { xTitle: "parameters na + nb", yTitles: ["validation loss"], height: 300 }));
+    }
+    if (a.n4sid_orders) {
+      const o = a.n4sid_orders;
+      const sv: number[] = o.singular_values.slice(0, 30);
+      const div = this.chartBox("ident-singular-values");
+      sections.push(h("section.panel", h("h2", "Subspace: singular values"), h("p", `Horizon ${o.horizon}. The order where they drop is the model's order; by MDL over ${o.orders[0].order}…${o.orders[o.orders.length - 1].order}: ${o.best}.`), div, downloadButton("singular-values.csv", ["index", "sigma"], [sv.map((_, i) => i + 1), sv])));
+      queueMicrotask(() => chart(div, [{ x: sv.map((_, i) => i + 1), y: sv.map((x) => Math.log10(x)), name: "log₁₀ σ", mode: "markers" }], { xTitle: "index (order)", yTitles: ["log₁₀ singular value"], height: 300 }));
+    }
+    if (out.models.length) sections.push(this.modelsSection(out, req));
+    fill(this.results, ...sections);
+    queueMicrotask(() => chart(dataDiv, dataSeries, { xTitle: "time t (s)", yTitles: ["outputs", "input"] }));
+  }
+
+  private modelsSection(out: IdentOut, req: IdentRequest): HTMLElement {
+    const d = out.data as Any;
+    const models = out.models as Any[];
+    const source = this.source.kind === "run" ? `run ${this.source.runId}` : ((req.data as FileData).name ?? "upload");
+    const rows = models.map((m, i) =>
+      h(
+        "tr",
+        h("th", { scope: "row" }, m.name),
+        h("td", m.fit.validation_simulation.map((x: number) => `${fmt(x)} %`).join(", ")),
+        h("td", m.fit.validation_simulation_x0.map((x: number) => `${fmt(x)} %`).join(", ")),
+        h("td", m.fit.validation_one_step.map((x: number) => `${fmt(x)} %`).join(", ")),
+        h("td", m.stable ? "stable" : "unstable"),
+        h("td", h("a.button", { href: `/plants/${this.plant.id}/design?model=identified`, "data-link": "", "data-testid": `use-model-${i}`, onclick: () => handOver(this.plant.id, out, i, source) }, "Use this model"), " ", h("button.link", { type: "button", onclick: () => this.saveModel(m) }, "JSON")),
+      ),
+    );
+    const compareDiv = this.chartBox("ident-compare");
+    const n0 = d.estimation;
+    const tv = (d.t as number[]).filter((_, k) => k * d.step >= n0);
+    const series: Series[] = [];
+    (d.y as number[][]).forEach((y, i) => series.push({ x: tv, y: y.slice(y.length - tv.length), name: `measured ${d.output_names[i]}` }));
+    for (const m of models) (m.simulated as number[][]).forEach((y, i) => series.push({ x: tv, y: y.slice(0, tv.length), name: `${m.name}${d.output_names.length > 1 ? " " + d.output_names[i] : ""}`, dash: "dash" }));
+    const residDivs: HTMLElement[] = [];
+    const residBlocks = models
+      .filter((m) => m.residuals)
+      .map((m) => {
+        const div = this.chartBox(`ident-resid-${m.kind}`);
+        residDivs.push(div);
+        const r = m.residuals;
+        queueMicrotask(() =>
+          chart(
+            div,
+            [
+              { x: r.lags, y: r.autocorrelation, name: "autocorrelation of ε", mode: "markers" },
+              { x: r.lags, y: r.lags.map(() => r.bound), name: "99 % bound", dash: "dash" },
+              { x: r.cross_lags, y: r.cross_correlation, name: "cross-correlation ε–u", mode: "markers", axis: 2 },
+              { x: r.cross_lags, y: r.cross_lags.map(() => r.bound), name: "99 % bound ", dash: "dash", axis: 2 },
+            ],
+            { xTitle: "lag (samples)", yTitles: ["r_ε(τ)", "r_εu(τ)"], height: 380 },
+          ),
+        );
+        return h("div", h("h3", `${m.name}: residuals ${r.white ? "white" : "not white"}, ${r.independent ? "independent of the input" : "correlated with the input"}`), div);
+      });
+    queueMicrotask(() => chart(compareDiv, series, { xTitle: "time t (s)", yTitles: ["validation output"] }));
+    return h(
+      "section.panel.wide",
+      h("h2", "Models on the validation data"),
+      h("table.params", { "data-testid": "ident-models" }, h("thead", h("tr", h("th", "model"), h("th", "fit, simulated (x₀ = 0)"), h("th", "fit, simulated (x₀ fitted)"), h("th", "fit, one step ahead"), h("th", "poles"), h("th", ""))), h("tbody", ...rows)),
+      h("p.hint", "Fit = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) on the validation part. Use this model: its transfer function and step response go to the controller design view."),
+      compareDiv,
+      ...residBlocks,
+    );
+  }
+
+  private saveModel(m: Any): void {
+    const blob = new Blob([JSON.stringify(m, null, 1)], { type: "application/json" });
+    const a = h("a", { href: URL.createObjectURL(blob), download: `${m.name.replace(/\s+/g, "-")}.json` });
+    a.click();
+    URL.revokeObjectURL(a.href);
+  }
+
+  destroy(): void {
+    for (const c of this.charts.splice(0)) purge(c);
+  }
+}
