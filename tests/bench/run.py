@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import math
 import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as `elab` runs (elab/__init__.py)
 import platform
 import re
 import resource
@@ -128,9 +130,14 @@ def live_plot_section() -> str:
     return "## Browser app (issue 4)\n\n" + bench_live_plot()
 
 
+def ident_section() -> str:
+    from tests.bench.ident import bench_ident
+    return "## Identification (issue 5)\n\n" + bench_ident()
+
+
 #: name → function returning the section's markdown, in document order
 SECTIONS: dict[str, Callable[[], str]] = {"engine": engine_section, "server": server_section,
-                                           "liveplot": live_plot_section}
+                                           "liveplot": live_plot_section, "ident": ident_section}
 OUT = ROOT / "docs" / "benchmarks.md"
 
 

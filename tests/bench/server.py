@@ -13,8 +13,8 @@ run ends) this measures:
 - latency: receipt wall time of each frame minus the wall time of its last
   sample, ``started_at + k·Ts`` (``started_at`` is the server's wall clock at
   sample 0 of a real-time run);
-- drift: slope of each watcher's per-second minimum latency against sample
-  time, in ms per minute of run time;
+- drift: slope (Theil–Sen) of each watcher's per-second minimum latency against
+  sample time, in ms per minute of run time;
 - completeness: samples missing at each watcher and ``skipped`` notices, then
   each recording downloaded (``.mat``) and compared with the same run
   simulated offline (``simulate()``): missing samples and differing rows.
@@ -39,6 +39,7 @@ from typing import Any
 import httpx
 import numpy as np
 import scipy.io
+import scipy.stats
 
 from elab.api import convert
 from elab.api import schemas as s
@@ -174,7 +175,8 @@ def latency(frames: dict[str, np.ndarray], window: Window) -> tuple[np.ndarray, 
 
 
 def drift(frames: dict[str, np.ndarray], window: Window) -> np.ndarray:
-    """Per watcher: the slope of its per-second minimum latency vs sample time (ms/min)."""
+    """Per watcher: the slope of its per-second minimum latency vs sample time (ms/min),
+    by Theil–Sen."""
     lat, w = latency(frames, window)
     k = frames["frame_k"][(frames["frame_t"] >= window.t0) & (frames["frame_t"] < window.t1)]
     Ts = frames["run_Ts"][w]
@@ -183,7 +185,9 @@ def drift(frames: dict[str, np.ndarray], window: Window) -> np.ndarray:
         sec = np.floor(k[w == i] * Ts[w == i]).astype(int)
         bins = np.unique(sec)
         low = np.array([lat[w == i][sec == b].min() for b in bins])
-        slopes.append(np.polyfit(bins.astype(float), low, 1)[0] * 60e3)
+        # Theil–Sen (the median of pairwise slopes): a second of client-side stall
+        # moves a least-squares line, not the median
+        slopes.append(scipy.stats.theilslopes(low, bins.astype(float))[0] * 60e3)
     return np.array(slopes)
 
 
@@ -269,8 +273,8 @@ process (`tests/bench/wsload.py`) holding every websocket; 2 shared cores. Flexi
 predefined controller, Ts = 1 ms, real time, 20 ms frames (50 per second per watcher).
 After every watcher has caught up, a {seconds:.0f} s window measures: server CPU from
 `/proc/<pid>/stat` (utime + stime, all threads); latency = receipt time − wall time of the
-frame's last sample (`started_at + k·Ts`); drift = slope of each watcher's per-second
-minimum latency over the window; completeness at every watcher; then every run is stopped,
+frame's last sample (`started_at + k·Ts`); drift = Theil–Sen slope of each watcher's
+per-second minimum latency over the window; completeness at every watcher; then every run is stopped,
 downloaded (.mat) and compared row by row with the same run simulated offline.
 
 | figure | {n} runs × 1 watcher | 1 run × {n} watchers | goal |

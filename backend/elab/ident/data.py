@@ -138,9 +138,10 @@ def _detrend(a: Array, kind: str) -> Array:
 def require_exciting(u: Array, order: int, field: str = "u") -> None:
     """Raise unless every input is persistently exciting of ``order``.
 
-    Checked on the data: the matrix of ``order`` successive lags of the input must have
-    full column rank (Ljung 1999, sec. 13.2). A constant input has rank one, so it cannot
-    identify more than a gain, and after the mean is removed it has rank zero.
+    Checked on the data: the matrix Φ of ``order`` successive lags of the input must have
+    full column rank (Ljung 1999, sec. 13.2), judged by the eigenvalues of ΦᵀΦ (λ_min ≤
+    1e-13 λ_max, i.e. σ_min ≤ 3e-7 σ_max, counts as rank-deficient). A constant input has
+    rank one, so it cannot identify more than a gain; after the mean is removed, rank zero.
     """
     if order <= 0:
         return
@@ -148,8 +149,8 @@ def require_exciting(u: Array, order: int, field: str = "u") -> None:
         x = u[:, j]
         n = min(order, x.shape[0] - 1)
         lags = np.lib.stride_tricks.sliding_window_view(x, n)
-        s = np.linalg.svd(lags, compute_uv=False)
-        if s[0] == 0 or s[-1] <= 1e-9 * s[0]:
+        s = np.linalg.eigvalsh(lags.T @ lags)[::-1]
+        if s[0] <= 0 or s[-1] <= 1e-13 * s[0]:
             what = "constant" if np.ptp(x) == 0 else f"not persistently exciting of order {order}"
             raise InvalidInput(f"{field}[{j}]" if u.shape[1] > 1 else field,
                                f"an input that is {what}",

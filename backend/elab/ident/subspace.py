@@ -4,7 +4,9 @@
 With ``s`` block rows ("horizon"), j = N − 2s + 1 columns and the block Hankel matrices
 of past and future inputs and outputs (rows u(t)ᵀ … u(t+s−1)ᵀ),
 
-    [U_f; W_p; Y_f] = L Q,   W_p = [U_p; Y_p],   L lower block triangular (an LQ step),
+    [U_f; W_p; Y_f] = L Q,   W_p = [U_p; Y_p],   L lower block triangular
+(L is the Cholesky factor of the correlation matrix H Hᵀ, as SLICOT computes it by
+default, or comes from a QR step when that is ill-conditioned),
 
 the block L₃₂ (future outputs against past data, with the future inputs projected out)
 is Γ_s X̂: its left singular vectors give the extended observability matrix
@@ -12,7 +14,7 @@ is Γ_s X̂: its left singular vectors give the extended observability matrix
 (these are the singular values SLICOT's IB01AD — and so GNU Octave's ``n4sid`` — report).
 A and C follow from the shift structure, Γ_s(first s−1 blocks) A = Γ_s(last s−1 blocks);
 should A come out unstable, the shifted block is padded with zeros (Chui & Maciejowski
-1996), which gives a stable A. B, D and x₀ are the least-squares fit of the simulated output
+1996), which gives a stable A (``stable=True``, the default). B, D and x₀ are the least-squares fit of the simulated output
 y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) + D u(t) — linear in them, with the Markov
 parameters convolved with the inputs by FFT. The states X̂ = Γ_s⁺ L₃₂ L₂₂⁺ W_p give the
 residual covariances of the state equations, and the Kalman gain K solves the filter
@@ -26,6 +28,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.fft
 import scipy.linalg
 import scipy.signal
 from numpy.typing import NDArray
@@ -47,7 +50,7 @@ class Subspace:
     singular_values: Array
     U1: Array  # left singular vectors of L₃₂ (s·ny × s·ny)
     L32: Array
-    states_basis: Array  # L₃₂ L₂₂⁺ W_p: Γ_s X̂ for the columns' times s … s+j−1
+    states_basis: Array  # U₁ᵀ L₃₂ L₂₂⁺ W_p: row i over √σᵢ is state i at times s … s+j−1
 
     @property
     def max_order(self) -> int:
@@ -75,13 +78,27 @@ def decompose(data: IdData, horizon: int | None = None) -> Subspace:
     Yp, Yf = hankel(data.y, 0), hankel(data.y, s)
     Wp = np.vstack([Up, Yp])
     H = np.vstack([Uf, Wp, Yf])
-    R = scipy.linalg.qr(H.T, mode="r", check_finite=False)[0]
-    L = R[: H.shape[0]].T  # H = L Q
+    L = _lq_factor(H)
     a, b = s * nu, s * (nu + ny) + s * nu
     L22, L32 = L[a:b, a:b], L[b:, a:b]
     U1, sv, _ = np.linalg.svd(L32)
-    states_basis = L32 @ np.linalg.lstsq(L22, Wp, rcond=None)[0]
+    states_basis = (U1.T @ L32 @ np.linalg.pinv(L22)) @ Wp
     return Subspace(data, s, sv, U1, L32, states_basis)
+
+
+def _lq_factor(H: Array) -> Array:
+    """L of H = L Q: the Cholesky factor of H Hᵀ (SLICOT's default, the "Cholesky
+    algorithm applied to the correlation matrix"), or of a QR step when H Hᵀ is too
+    ill-conditioned for it."""
+    try:
+        L = scipy.linalg.cholesky(H @ H.T, lower=True, check_finite=False)
+        d = np.abs(np.diag(L))
+        if d.min() > 1e-6 * d.max():
+            return np.asarray(L, dtype=np.float64)
+    except np.linalg.LinAlgError:
+        pass
+    R = scipy.linalg.qr(H.T, mode="r", check_finite=False)[0]
+    return np.asarray(R[: H.shape[0]].T, dtype=np.float64)
 
 
 def n4sid(data: IdData, order: int | None = None, horizon: int | None = None,
@@ -153,23 +170,35 @@ def _markov(A: Array, C: Array, N: int) -> Array:
 
 
 def _input_matrices(data: IdData, A: Array, C: Array) -> tuple[Array, Array, Array]:
-    """B, D and x₀ minimising ‖y − ŷ‖² of the simulation (a linear least squares)."""
+    """B, D and x₀ minimising ‖y − ŷ‖² of the simulated output, a linear least squares in
+    them: y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) + D u(t)."""
     N, nu, ny, n = data.N, data.nu, data.ny, A.shape[0]
-    h = _markov(A, C, N)  # (N, ny, n)
-    cols: list[Array] = [h.reshape(N * ny, n)]  # x₀
-    for k in range(nu):  # Σ_{k<t} C A^{t−1−k} e_i u(k): h delayed by one, convolved with u
-        conv = scipy.signal.fftconvolve(h, data.u[:, k][:, None, None], axes=0)[:N]
-        shifted = np.zeros_like(h)
-        shifted[1:] = conv[:-1]
-        cols.append(shifted.reshape(N * ny, n))
+    free, forced = _fft_regressors(A, C, data.u)
+    cols: list[Array] = [free.reshape(N * ny, n)]  # x₀
+    cols += [f.reshape(N * ny, n) for f in forced]  # B, input by input
     for k in range(nu):  # D: u_k appears in output i
         cols.append(np.asarray(np.kron(data.u[:, k][:, None], np.eye(ny)), dtype=np.float64))
     M = np.hstack(cols)
-    theta = np.asarray(np.linalg.lstsq(M, data.y.reshape(-1), rcond=None)[0], dtype=np.float64)
+    theta = np.asarray(scipy.linalg.lstsq(M, data.y.reshape(-1), lapack_driver="gelsy",
+                                          check_finite=False)[0], dtype=np.float64)
     x0 = theta[:n]
     B = theta[n:n + n * nu].reshape(nu, n).T
     D = theta[n + n * nu:].reshape(nu, ny).T
     return B, D, x0
+
+
+def _fft_regressors(A: Array, C: Array, u: Array) -> tuple[Array, list[Array]]:
+    """C Aᵗ (N, ny, n), and per input k the Markov parameters convolved with u_k one step
+    late, Σ_{j<t} C A^{t−1−j} u_k(j), by FFT."""
+    N, ny, n = u.shape[0], C.shape[0], A.shape[0]
+    h = _markov(A, C, N)
+    L = scipy.fft.next_fast_len(2 * N - 1, real=True)
+    H = scipy.fft.rfft(h.reshape(N, ny * n), L, axis=0)
+    forced = []
+    for k in range(u.shape[1]):
+        Uk = scipy.fft.rfft(np.r_[0.0, u[:-1, k]], L)
+        forced.append(scipy.fft.irfft(H * Uk[:, None], L, axis=0)[:N].reshape(N, ny, n))
+    return h, forced
 
 
 def _simulate_fast(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> Array:
@@ -189,8 +218,8 @@ def _kalman_gain(sub: Subspace, A: Array, B: Array, C: Array,
     state equations on X̂ = Γ_s⁺ (Γ_s X̂), and the innovation covariance."""
     data, s, n = sub.data, sub.horizon, A.shape[0]
     ny = data.ny
-    G = sub.U1[:, :n] * np.sqrt(sub.singular_values[:n])
-    X = np.linalg.lstsq(G, sub.states_basis, rcond=None)[0]  # (n, j), times s … s+j−1
+    # Γ_s = U₁ Σ₁^½ has orthogonal columns: X̂ = Γ_s⁺ (Γ_s X̂) = Σ₁^−½ U₁ᵀ (Γ_s X̂)
+    X = sub.states_basis[:n] / np.sqrt(sub.singular_values[:n])[:, None]  # times s … s+j−1
     j = X.shape[1]
     U, Y = data.u[s:s + j].T, data.y[s:s + j].T
     W = X[:, 1:] - A @ X[:, :-1] - B @ U[:, :-1]
