@@ -14,11 +14,11 @@ is Γ_s X̂: its left singular vectors give the extended observability matrix
 (these are the singular values SLICOT's IB01AD — and so GNU Octave's ``n4sid`` — report).
 A and C follow from the shift structure, Γ_s(first s−1 blocks) A = Γ_s(last s−1 blocks);
 should A come out unstable, the shifted block is padded with zeros (Chui & Maciejowski
-1996), which gives a stable A (``stable=True``, the default). B, D and x₀ are the least-squares fit of the simulated output
-y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) + D u(t) — linear in them, with the Markov
-parameters convolved with the inputs by FFT. The states X̂ = Γ_s⁺ L₃₂ L₂₂⁺ W_p give the
-residual covariances of the state equations, and the Kalman gain K solves the filter
-Riccati equation for them.
+1996), which gives a stable A (``stable=True``, the default). B, D and x₀ are the
+least-squares fit of the simulated output y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) +
+D u(t) — linear in them, with the Markov parameters convolved with the inputs by FFT.
+The states X̂ = Γ_s⁺ L₃₂ L₂₂⁺ W_p give the residual covariances of the state equations,
+and the Kalman gain K solves the filter Riccati equation for them.
 """
 
 from __future__ import annotations
