@@ -6,8 +6,6 @@ No Octave cross-check: the control package (3.4.0) has ``arx`` and ``n4sid`` but
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import scipy.signal
@@ -19,16 +17,9 @@ from elab.ident.pem import _reflect, armax, oe
 from elab.ident.polynomial import arx
 from elab.ident.validation import compare
 
-DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat"
 A, B, C = np.array([1, -1.5, 0.7]), np.array([0, 1, 0.5]), np.array([1, -0.5, 0.2])
 B_OE, F_OE = np.array([0, 0.5, 0.3]), np.array([1, -1.2, 0.5])
 
-
-@pytest.fixture(scope="module")
-def dryer() -> tuple[IdData, IdData]:
-    raw = np.loadtxt(DRYER)
-    z = iddata(raw[:, 1], raw[:, 0], 0.08)
-    return z[:500].detrend(), z[500:].detrend()
 
 
 def _armax_data(seed: int, c: np.ndarray = C, N: int = 5000, lam: float = 0.1) -> IdData:

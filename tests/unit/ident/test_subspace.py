@@ -3,8 +3,6 @@ systems (every plant's discretised model, lightly damped systems) and its own gu
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import control as ct
 import numpy as np
 import pytest
@@ -17,15 +15,6 @@ from elab.ident.subspace import choose_order, decompose, n4sid
 from elab.ident.validation import compare
 from elab.laws import StateFeedback
 from elab.plants import get_plant
-
-DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat"
-
-
-@pytest.fixture(scope="module")
-def dryer() -> tuple[IdData, IdData]:
-    raw = np.loadtxt(DRYER)
-    z = iddata(raw[:, 1], raw[:, 0], 0.08)
-    return z[:500].detrend(), z[500:].detrend()
 
 
 def test_dryer_singular_values_and_fits(dryer: tuple[IdData, IdData]) -> None:
