@@ -10,8 +10,10 @@ Each watcher is in one of two modes:
   queue holds ``max_frames`` it skips frames and is told so (``skipped``) when it
   catches up, and the run and the other watchers never wait for it;
 - **pull** (after ``resume_from``): it reads from the recording at its own
-  pace until it reaches the live edge, then goes back to push — so every
-  missing sample arrives.
+  pace, while the frames published meanwhile queue as in push mode; the pull
+  stops where the first queued frame begins and the watcher goes back to push
+  — so every missing sample arrives, each once. (Reading on until the live
+  edge instead never ends on a busy server: the edge moves during every read.)
 
 Everything here runs on the event loop thread; encoding is msgpack with
 float32 columns.
@@ -20,6 +22,7 @@ float32 columns.
 from __future__ import annotations
 
 import asyncio
+import functools
 from collections import deque
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
@@ -45,10 +48,49 @@ def pack(message: dict[str, Any]) -> bytes:
 
 
 def encode_frame(names: tuple[str, ...], F: int, k0: int, data: Array) -> bytes:
-    """One ``frame`` message: float32 little-endian column bytes per channel."""
-    cols = np.ascontiguousarray(data.T, dtype="<f4")
-    return pack({"type": "frame", "seq": k0 // F, "k0": k0, "n": int(data.shape[0]),
-                 "columns": {name: cols[i].tobytes() for i, name in enumerate(names)}})
+    """One ``frame`` message of samples ``k0 .. k0+n−1`` (``data``: n × channels)."""
+    return encode_frames(names, F, np.array([k0]), data[np.newaxis])[0]
+
+
+def encode_frames(names: tuple[str, ...], F: int, k0: NDArray[np.int64],
+                  data: Array) -> list[bytes]:
+    """``frame`` messages of R runs at once (``data``: R × n × channels, ``k0``: R).
+
+    A frame is the msgpack map ``{type: "frame", seq, k0, n, columns: {name: bin}}``
+    with float32 little-endian bytes per channel. Every message of one shape has the
+    same layout (``seq`` and ``k0`` are written as uint64), so all R are filled into
+    one byte array by a few array copies instead of being packed one by one.
+    """
+    R, n, _ = data.shape
+    template, at_seq, at_k0, at_cols = _layout(names, n)
+    out = np.empty((R, len(template)), np.uint8)
+    out[:] = np.frombuffer(template, np.uint8)
+    k0 = np.asarray(k0, dtype=np.int64)
+    out[:, at_seq:at_seq + 8] = (k0 // F).astype(">u8").view(np.uint8).reshape(R, 8)
+    out[:, at_k0:at_k0 + 8] = k0.astype(">u8").view(np.uint8).reshape(R, 8)
+    cols = np.ascontiguousarray(data.transpose(0, 2, 1), dtype="<f4").view(np.uint8)
+    for i, at in enumerate(at_cols):
+        out[:, at:at + 4 * n] = cols[:, i]
+    return [row.tobytes() for row in out]
+
+
+@functools.lru_cache(maxsize=256)
+def _layout(names: tuple[str, ...], n: int) -> tuple[bytes, int, int, tuple[int, ...]]:
+    """A frame of ``n`` samples with zeros for ``seq``, ``k0`` and the data, and where
+    ``seq``, ``k0`` and each channel's bytes begin."""
+    packer = msgpack.Packer(use_bin_type=True)
+    head = (packer.pack_map_header(5) + packer.pack("type") + packer.pack("frame")
+            + packer.pack("seq"))
+    at_seq = len(head) + 1
+    head += b"\xcf" + bytes(8) + packer.pack("k0")
+    at_k0 = len(head) + 1
+    head += b"\xcf" + bytes(8) + packer.pack("n") + packer.pack(n) + packer.pack("columns")
+    head += packer.pack_map_header(len(names))
+    at_cols = []
+    for name in names:
+        head += packer.pack(name) + packer.pack(bytes(4 * n))
+        at_cols.append(len(head) - 4 * n)
+    return head, at_seq, at_k0, tuple(at_cols)
 
 
 @dataclass(eq=False)  # identity: watchers live in sets
@@ -57,27 +99,41 @@ class Watcher:
 
     send: Callable[[bytes], Awaitable[None]]
     max_frames: int = 100
-    items: deque[tuple[bool, bytes]] = field(default_factory=deque)  # (is_frame, payload)
+    # (first sample of a frame, or None for a control message, payload)
+    items: deque[tuple[int | None, bytes]] = field(default_factory=deque)
     frames_queued: int = 0
     skipped: tuple[int, int] | None = None  # first and last seq not delivered
     pull_from: int | None = None  # next sample to read from the recording
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     closed: bool = False
 
-    def offer(self, payload: bytes, seq: int, frames: int) -> None:
-        if self.pull_from is not None:
-            return  # catching up from the recording
+    def offer(self, payload: bytes, k0: int, seq: int, frames: int) -> None:
+        if self.pull_from is not None:  # catching up: queue, and let the pull fill any gap
+            if self.frames_queued >= self.max_frames:
+                self.drop_frames()
+            self.items.append((k0, payload))
+            self.frames_queued += 1
+            return
         if self.frames_queued >= self.max_frames:
             first = self.skipped[0] if self.skipped else seq
             self.skipped = (first, seq + frames - 1)
             return
-        self.items.append((True, payload))
+        self.items.append((k0, payload))
         self.frames_queued += 1
         self.wake.set()
 
     def control(self, payload: bytes) -> None:
-        self.items.append((False, payload))
+        self.items.append((None, payload))
         self.wake.set()
+
+    def drop_frames(self) -> None:
+        """Forget the queued frames (the control messages stay)."""
+        self.items = deque(item for item in self.items if item[0] is None)
+        self.frames_queued = 0
+
+    def first_queued(self) -> int | None:
+        """The first sample of the oldest queued frame."""
+        return next((k0 for k0, _ in self.items if k0 is not None), None)
 
 
 class RunChannel:
@@ -93,7 +149,7 @@ class RunChannel:
         self.watchers: set[Watcher] = set()
         self._pending: list[Array] = []
         self._pending_n = 0
-        self._moved = asyncio.Event()
+        self._moved: asyncio.Event | None = None  # set when the edge moves
 
     def publish(self, k0: int, data: Array) -> None:
         """New samples (consecutive); complete frames go out now."""
@@ -120,21 +176,26 @@ class RunChannel:
         out, rest = data[:n], data[n:]
         self._pending = [rest] if rest.shape[0] else []
         self._pending_n = rest.shape[0]
-        payload = encode_frame(self.names, self.F, self.edge, out)
-        seq, frames = self.edge // self.F, -(-n // self.F)
+        self._deliver(encode_frame(self.names, self.F, self.edge, out), n)
+
+    def _deliver(self, payload: bytes, n: int) -> None:
+        """Offer the message of the next ``n`` samples to every watcher."""
+        k0 = self.edge
+        seq, frames = k0 // self.F, -(-n // self.F)
         self.edge += n
         for w in self.watchers:
-            w.offer(payload, seq, frames)
+            w.offer(payload, k0, seq, frames)
         self._poke()
 
     def _poke(self) -> None:
-        self._moved.set()
-        self._moved = asyncio.Event()
+        if self._moved is not None:
+            self._moved.set()
+            self._moved = None
 
     def resume_from(self, w: Watcher, seq: int) -> None:
         """Serve ``w`` every sample from frame ``seq`` on, from the recording."""
-        w.items = deque(item for item in w.items if not item[0])
-        w.frames_queued, w.skipped = 0, None
+        w.drop_frames()
+        w.skipped = None
         w.pull_from = min(max(0, seq) * self.F, self.edge)
         w.wake.set()
 
@@ -154,22 +215,43 @@ class RunChannel:
                 await w.send(pack({"type": "skipped", "from_seq": first, "to_seq": last,
                                    "reason": "slow watcher: frames dropped; send resume_from "
                                              "to receive them from the recording"}))
-            is_frame, payload = w.items.popleft()
-            w.frames_queued -= is_frame
+            k0, payload = w.items.popleft()
+            w.frames_queued -= k0 is not None
             await w.send(payload)
 
     async def _pull(self, w: Watcher) -> None:
         assert w.pull_from is not None
-        if w.pull_from >= self.edge:
-            w.pull_from = None  # caught up: live frames from here on
+        queued = w.first_queued()
+        until = self.edge if queued is None else queued
+        if w.pull_from >= until:
+            w.pull_from = None  # caught up: the queued live frames follow
             if w.items:
                 w.wake.set()
             return
-        k1 = min(self.edge, w.pull_from + PULL_FRAMES * self.F)
+        k1 = min(until, w.pull_from + PULL_FRAMES * self.F)
         data = await self.read(w.pull_from, k1)
         if data.shape[0] == 0:  # not yet readable: wait for the recording to move
-            moved = self._moved
-            await moved.wait()
+            if self._moved is None:
+                self._moved = asyncio.Event()
+            await self._moved.wait()
             return
         await w.send(encode_frame(self.names, self.F, w.pull_from, data))
         w.pull_from += data.shape[0]
+
+
+def publish_all(new: list[tuple[RunChannel, Array]]) -> None:
+    """:meth:`RunChannel.publish` for many channels. New samples that are whole frames
+    at a channel's edge (the usual real-time case: one frame per tick) are encoded
+    together, one :func:`encode_frames` call per shape."""
+    batches: dict[tuple[tuple[str, ...], int, int], list[tuple[RunChannel, Array]]] = {}
+    for ch, data in new:
+        n = data.shape[0]
+        if ch._pending_n == 0 and n and n % ch.F == 0:
+            batches.setdefault((ch.names, ch.F, n), []).append((ch, data))
+        else:
+            ch.publish(ch.edge + ch._pending_n, data)
+    for (names, F, n), batch in batches.items():
+        k0 = np.array([ch.edge for ch, _ in batch], dtype=np.int64)
+        payloads = encode_frames(names, F, k0, np.stack([data for _, data in batch]))
+        for (ch, _), payload in zip(batch, payloads, strict=True):
+            ch._deliver(payload, n)

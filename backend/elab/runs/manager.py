@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from elab.errors import Conflict, InvalidInput, TooMany
 from elab.laws import ControlLaw
-from elab.runs.fanout import RunChannel, pack
+from elab.runs.fanout import RunChannel, pack, publish_all
 from elab.runs.recorder import Recorder
 from elab.runs.state import RunState, transition
 from elab.runs.stepper import Chunk, Ended, Pace, Stepper
@@ -103,10 +103,10 @@ class RunManager:
             raise InvalidInput("duration", spec.duration,
                                f"a duration in (0, {self.max_duration:g}] s")
         run = compile_run(spec)
-        # sample 0 on the stepper's next tick, so each tick completes a frame;
+        # sample 0 just after the stepper's next tick, so each tick completes a frame;
         # started_at: the wall time of sample 0
         mono = time.monotonic()
-        origin = self.stepper.align(mono) if pace == "realtime" else mono
+        origin = self.stepper.origin(mono, run.Ts) if pace == "realtime" else mono
         now = time.time() + (origin - mono)
         record = RunRecord(id=f"r-{secrets.token_hex(6)}", plant=spec.plant.id, mode=mode,
                            experiment=experiment, spec=request, status=RunState.RUNNING.value,
@@ -193,11 +193,13 @@ class RunManager:
             self._loop.call_soon_threadsafe(self._publish, chunks, ended)
 
     def _publish(self, chunks: list[Chunk], ended: list[Ended]) -> None:
+        new = []
         for c in chunks:
             live = self._live.get(c.run_id)
             if live is not None:
                 live.k = c.k0 + c.data.shape[0]
-                self._channels[c.run_id].publish(c.k0, c.data)
+                new.append((self._channels[c.run_id], c.data))
+        publish_all(new)
         for e in ended:
             live = self._live.get(e.run_id)
             if live is not None:

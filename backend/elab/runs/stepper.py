@@ -1,10 +1,12 @@
 """The stepping thread: advances every live run, paced to the wall clock.
 
-All live runs share one :class:`~elab.sim.batch.Batch`; each tick (20 ms) the
-thread applies queued commands (add, pause, resume, stop, parameter changes),
-steps each real-time run by the samples now due (sample ``k`` is due at
-``t_origin + k Ts``, so the run's clock never drifts) and each fast run by a
-block, then hands the new samples to ``on_tick`` in one call. The compiled loop
+All live runs share one :class:`~elab.sim.batch.Batch`; each tick (20 ms, on a
+fixed grid of the monotonic clock) the thread applies queued commands (add,
+pause, resume, stop, parameter changes), steps each real-time run by the
+samples due at the tick's scheduled time (sample ``k`` is due at
+``t_origin + k Ts``, so the run's clock never drifts, and a late wake-up does
+not change which samples a tick holds) and each fast run by a block, then hands
+the new samples to ``on_tick`` in one call. The compiled loop
 releases the GIL, so stepping does not stall the web event loop.
 """
 
@@ -18,7 +20,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,8 +35,7 @@ Array = NDArray[np.float64]
 Pace = Literal["realtime", "fast"]
 
 
-@dataclass(frozen=True)
-class Chunk:
+class Chunk(NamedTuple):  # a tuple: hundreds are made per tick
     """New samples of one run: rows ``k0 .. k0+n-1``, columns ``[r, u, y…, x…]``."""
 
     run_id: str
@@ -137,8 +138,9 @@ class Stepper:
 
     def _resume(self, run_id: str) -> int:
         live = self._runs[run_id]
-        if live.paused_at is not None:
-            live.t_origin += self._clock() - live.paused_at
+        if live.paused_at is not None:  # the clock stops for whole ticks: frames stay aligned
+            paused = self._clock() - live.paused_at
+            live.t_origin += math.ceil(paused / self.tick - 1e-9) * self.tick
             live.paused_at = None
         return live.k
 
@@ -173,8 +175,8 @@ class Stepper:
                     command()
                 except Exception:  # a failed add: the run never starts; the others go on
                     log.exception("stepper command failed")
-            try:
-                chunks, ended = self._step(self._clock())
+            try:  # the tick's scheduled time, unless it is early (the first pass, fast runs)
+                chunks, ended = self._step(min(self._clock(), deadline))
             except Exception as exc:  # a bug must not stop the thread and hang every run
                 log.exception("stepping failed; ending the live runs")
                 chunks, ended = [], [self._end(live, "failed", f"internal error: {exc!r}")
@@ -186,10 +188,15 @@ class Stepper:
             time.sleep(0.0005 if fast else max(0.0, deadline - self._clock()))
 
     def align(self, t: float) -> float:
-        """The first tick at or after ``t``. A real-time run whose sample 0 is due on a tick
-        (and whose frames last a whole number of ticks) completes a frame at every tick: its
-        frames go out as soon as their last sample is due."""
+        """The first tick at or after ``t``."""
         return self._grid + math.ceil((t - self._grid) / self.tick - 1e-9) * self.tick
+
+    def origin(self, t: float, Ts: float) -> float:
+        """When sample 0 of a real-time run starting at ``t`` is due: one sample after the
+        next tick. Sample ``k`` is then due at a tick when ``k + 1`` is a multiple of
+        ``tick / Ts``; a run whose frames last one tick (20 samples at 1 kHz) gets exactly
+        one frame per tick, sent at the tick its last sample is due."""
+        return self.align(t) + Ts
 
     def _step(self, now: float) -> tuple[list[Chunk], list[Ended]]:
         groups: dict[int, list[_Live]] = {}
@@ -227,7 +234,8 @@ class Stepper:
         left = live.run.n_samples - live.k
         if live.pace == "fast":
             return min(self._fast_block, left)
-        due = math.floor((now - live.t_origin) / live.run.Ts) + 1 - live.k
+        # + 1e-6: a sample due at the tick, up to rounding of the float times
+        due = math.floor((now - live.t_origin) / live.run.Ts + 1e-6) + 1 - live.k
         return max(0, min(due, left, self._batch.block))
 
     def _record(self, live: _Live, data: Array, ended: list[Ended]) -> Chunk:

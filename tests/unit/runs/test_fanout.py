@@ -7,7 +7,7 @@ import asyncio
 import msgpack
 import numpy as np
 
-from elab.runs.fanout import RunChannel, Watcher
+from elab.runs.fanout import RunChannel, Watcher, encode_frame, encode_frames, publish_all
 
 
 def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
@@ -60,3 +60,111 @@ def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
     np.testing.assert_array_equal(samples, want)  # every sample, after the resume
     skipped = [m for m in got_slow if m["type"] == "skipped"]
     assert len(skipped) == 1 and skipped[0]["to_seq"] == 49
+
+
+def test_catching_up_while_the_edge_moves_ends_in_push_mode_with_every_sample_once() -> None:
+    """A watcher resuming from sample 0 while the run publishes a frame during each of its
+    reads (a busy server): it reaches the first frame queued meanwhile, goes back to push
+    mode, and receives every sample exactly once."""
+
+    async def scenario() -> tuple[list[dict], int, Watcher]:
+        data = np.arange(4000, dtype=np.float64).reshape(-1, 2) / 3  # 2000 samples
+        published = [0]  # samples published so far
+        reads = [0]
+        ch = RunChannel(("a", "b"), Ts=0.001, read=lambda k0, k1: read(k0, k1))  # F = 20
+
+        def publish_frame() -> None:
+            k0 = published[0]
+            ch.publish(k0, data[k0:k0 + 20])
+            published[0] += 20
+
+        async def read(k0: int, k1: int) -> np.ndarray:
+            reads[0] += 1
+            publish_frame()  # the edge moves while the recording is read
+            await asyncio.sleep(0)
+            return data[k0:k1]
+
+        got: list[dict] = []
+
+        async def send(b: bytes) -> None:
+            got.append(msgpack.unpackb(b))
+            await asyncio.sleep(0)
+
+        for _ in range(30):  # 600 samples before the watcher joins
+            publish_frame()
+        w = Watcher(send, max_frames=100)
+        ch.watchers.add(w)
+        ch.resume_from(w, 0)
+        task = asyncio.create_task(ch.serve(w))
+        for _ in range(40):  # the run goes on: 800 more samples, one frame per tick
+            await asyncio.sleep(0.001)
+            publish_frame()
+        await asyncio.sleep(0.01)
+        w.closed = True
+        w.wake.set()
+        task.cancel()
+        return got, reads[0], w
+
+    got, reads, w = asyncio.run(scenario())
+    assert w.pull_from is None  # back in push mode
+    assert reads <= 2  # not one read per tick for ever
+    ks = np.concatenate([np.arange(m["k0"], m["k0"] + m["n"]) for m in got if m["type"] == "frame"])
+    np.testing.assert_array_equal(ks, np.arange(ks.size))  # every sample once, in order
+    assert ks.size >= 1400
+
+
+def test_frames_encoded_together_decode_to_the_samples_and_equal_one_by_one() -> None:
+    names = ("r", "u", "theta_with_a_long_name")
+    rng = np.random.default_rng(3)
+    block = rng.standard_normal((5, 20, 3)) * 1e3
+    k0 = np.array([0, 20, 2**40, 77 * 20, 5 * 20])  # seq and k0 of any size
+    together = encode_frames(names, 20, k0, block)
+    for i, payload in enumerate(together):
+        assert payload == encode_frame(names, 20, int(k0[i]), block[i])
+        m = msgpack.unpackb(payload)
+        assert (m["type"], m["seq"], m["k0"], m["n"]) == ("frame", k0[i] // 20, k0[i], 20)
+        for j, name in enumerate(names):
+            np.testing.assert_array_equal(np.frombuffer(m["columns"][name], "<f4"),
+                                          block[i, :, j].astype("<f4"))
+
+
+def test_publish_all_gives_each_channel_what_publish_would() -> None:
+    """Whole frames at the edge go through the batch; a channel holding a partial frame
+    (or getting one) takes the one-by-one path; both end in the same messages."""
+
+    async def scenario() -> tuple[list[list[dict]], list[list[dict]]]:
+        async def read(k0: int, k1: int) -> np.ndarray:
+            raise AssertionError("not reading")
+
+        rng = np.random.default_rng(4)
+        sizes = [[20, 20, 40], [7, 13, 20], [20, 5, 15, 20]]  # samples per tick, per channel
+        data = [rng.standard_normal((sum(s), 2)) for s in sizes]
+        got: list[list[list[dict]]] = [[], []]
+        for mode in (0, 1):
+            chans = [RunChannel(("a", "b"), Ts=0.001, read=read) for _ in sizes]
+            sinks: list[list[dict]] = [[] for _ in sizes]
+            for ch, sink in zip(chans, sinks, strict=True):
+                w = Watcher(lambda b: None)  # type: ignore[arg-type, return-value]
+                w.control = lambda p: None  # type: ignore[method-assign]
+                w.offer = lambda p, *_, sink=sink: sink.append(msgpack.unpackb(p))  # type: ignore
+                ch.watchers.add(w)
+            for tick in range(4):
+                new = []
+                for i, (ch, s) in enumerate(zip(chans, sizes, strict=True)):
+                    if tick < len(s):
+                        k0 = sum(s[:tick])
+                        new.append((ch, data[i][k0:k0 + s[tick]]))
+                if mode:
+                    publish_all(new)
+                else:
+                    for ch, d in new:
+                        ch.publish(0, d)
+            got[mode] = sinks
+        return got[0], got[1]
+
+    one_by_one, together = asyncio.run(scenario())
+    assert [[m["k0"] for m in s] for s in together] == [[0, 20, 40], [0, 20], [0, 20, 40]]
+    for a, b in zip(one_by_one, together, strict=True):
+        assert len(a) == len(b)
+        for x, y in zip(a, b, strict=True):
+            assert x.keys() == y.keys() and all(x[k] == y[k] for k in x)

@@ -87,3 +87,27 @@ def test_a_failure_while_stepping_fails_the_live_runs_and_the_thread_goes_on(
     stepper.add("b", compile_run(spec("belt_conveyor")), "fast")  # still serving
     sink.wait_ended("b")
     assert sink.ended["b"].state == "finished"
+
+
+def test_a_real_time_run_gets_whole_frames_at_ticks_never_before_they_are_due() -> None:
+    """Sample 0 due one sample after a tick: each tick holds whole 20 ms frames (20 samples
+    at 1 kHz) — no frame waits for the next tick — and no sample comes before it is due."""
+    got: list[tuple[float, int, int]] = []  # (clock at delivery, k0, n)
+
+    def sink(chunks: list[Chunk], ended: list[Ended]) -> None:
+        got.extend((time.monotonic(), c.k0, c.data.shape[0]) for c in chunks)
+
+    stepper = Stepper(sink)
+    run = compile_run(spec("flexible_link", 1.0))
+    t_origin = stepper.origin(time.monotonic(), run.Ts)
+    stepper.start()
+    try:
+        stepper.add("a", run, "realtime", t_origin=t_origin)
+        assert _until(lambda: sum(n for _, _, n in got) >= 400, 10)
+    finally:
+        stepper.close()
+    t, k0, n = (np.array(col) for col in zip(*got, strict=True))
+    assert k0[0] == 0 and np.all(k0[1:] == np.cumsum(n)[:-1])  # consecutive
+    assert np.all(k0 % 20 == 0) and np.all(n % 20 == 0), list(zip(k0, n, strict=True))[:5]
+    due_last = t_origin + (k0 + n - 1) * run.Ts
+    assert np.all(t >= due_last - 1e-6)  # never early
