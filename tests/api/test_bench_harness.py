@@ -4,6 +4,7 @@ small run of the benchmark itself, so `make bench` cannot silently measure nothi
 from __future__ import annotations
 
 import asyncio
+import math
 
 import numpy as np
 from websockets.asyncio.server import ServerConnection, serve
@@ -49,3 +50,4 @@ def test_a_short_benchmark_run_sees_every_sample() -> None:
     assert (r["watch_missing"], r["short"], r["skipped"], r["errors"]) == (0, 0, 0, 0)
     assert (r["rec_missing"], r["rec_differing"], r["rec_not_stopped"]) == (0, 0, 0)
     assert 0 < r["p50"] < 1000  # ms: a received frame, after its samples were due
+    assert math.isfinite(r["clock_drift"]) and r["late_max"] >= r["late_p99"] >= 0

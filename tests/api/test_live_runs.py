@@ -14,6 +14,7 @@ from typing import Any
 import httpx
 import numpy as np
 import scipy.io
+from websockets.sync.client import connect
 
 from elab.laws import StateFeedback
 from elab.plants import get_plant
@@ -182,3 +183,19 @@ def test_a_stalled_watcher_delays_nobody_and_gets_every_sample_back(tmp_path: Pa
                 np.testing.assert_array_equal(got[name], recorded[:, i].astype("<f4"))
     finally:
         srv.stop()
+
+
+def test_the_server_status_shows_live_runs_watchers_and_the_stepper_keeping_time(
+        server: Server) -> None:
+    with server.client() as c:
+        run = c.post("/runs", json={"plant": "flexible_link", "duration": 30}).json()
+        with connect(server.ws_url + run["stream_url"], subprotocols=["elab.v1"]) as ws:
+            ws.recv()  # hello
+            time.sleep(1.0)
+            st = c.get("/server").json()
+        c.post(f"/runs/{run['id']}/stop")
+    assert (st["live_runs"], st["watchers"]) == (1, 1)
+    timing = st["stepper"]
+    assert timing["ticks"] >= 40 and timing["tick_s"] == 0.02 and timing["window_s"] > 0.5
+    assert 0 <= timing["late_p50_ms"] <= timing["late_p99_ms"] <= timing["late_max_ms"]
+    assert math.isfinite(timing["drift_ms_per_min"])

@@ -80,6 +80,14 @@ async def list_runs(request: Request) -> Response:
     return ok(s.RunList(runs=infos, total=total, limit=limit, offset=offset))
 
 
+@endpoint("GET", "/server", "The server: live runs, watchers, and how closely it keeps time",
+          response=s.ServerStatus, errors=())
+async def server_status(request: Request) -> Response:
+    """For operators and benchmarks: is the stepping thread keeping up? Its ticks' lateness
+    over the last minute and the trend of that lateness (the drift of the runs' clocks)."""
+    return ok(s.ServerStatus.model_validate(manager(request).status()))
+
+
 @endpoint("GET", "/runs/{run_id}", "A run: state, progress, channels, parameter changes",
           response=s.RunInfo, params=(RUN_ID,), errors=(404,))
 async def get_run(request: Request) -> Response:

@@ -178,6 +178,25 @@ class RunInfo(Model):
     param_changes: list[ParamChangeInfo] = []
 
 
+class StepperTiming(Model):
+    """The stepping thread over the last minute of ticks."""
+
+    ticks: int = Field(description="ticks since the server started")
+    tick_s: float = Field(description="tick period (s)")
+    window_s: float = Field(description="time spanned by the ticks below (s)")
+    late_p50_ms: float = Field(description="how late a tick began: median (ms)")
+    late_p99_ms: float
+    late_max_ms: float
+    drift_ms_per_min: float = Field(description="trend of that lateness (ms per minute): the "
+                                    "drift of real-time runs' clocks")
+
+
+class ServerStatus(Model):
+    live_runs: int
+    watchers: int = Field(description="websocket watchers connected, all runs")
+    stepper: StepperTiming
+
+
 class RunList(Model):
     runs: list[RunInfo]
     total: int

@@ -82,6 +82,12 @@ class RunManager:
     def live_count(self) -> int:
         return len(self._live)
 
+    def status(self) -> dict[str, Any]:
+        """Live runs, connected watchers and the stepping thread's timing."""
+        return {"live_runs": len(self._live),
+                "watchers": sum(len(ch.watchers) for ch in self._channels.values()),
+                "stepper": self.stepper.timing()}
+
     async def get(self, run_id: str) -> RunRecord:
         live = self._live.get(run_id)
         if live is not None:

@@ -17,6 +17,7 @@ import math
 import queue
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, field
@@ -84,6 +85,9 @@ class Stepper:
         self._commands: queue.SimpleQueue[Command] = queue.SimpleQueue()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name="elab-stepper", daemon=True)
+        self.ticks = 0
+        # (scheduled time, how late the tick began) of the last minute's ticks
+        self._late: deque[tuple[float, float]] = deque(maxlen=round(60.0 / tick))
 
     def start(self) -> None:
         self._thread.start()
@@ -175,8 +179,11 @@ class Stepper:
                     command()
                 except Exception:  # a failed add: the run never starts; the others go on
                     log.exception("stepper command failed")
+            now = self._clock()
+            self.ticks += 1
+            self._late.append((deadline, max(0.0, now - deadline)))
             try:  # the tick's scheduled time, unless it is early (the first pass, fast runs)
-                chunks, ended = self._step(min(self._clock(), deadline))
+                chunks, ended = self._step(min(now, deadline))
             except Exception as exc:  # a bug must not stop the thread and hang every run
                 log.exception("stepping failed; ending the live runs")
                 chunks, ended = [], [self._end(live, "failed", f"internal error: {exc!r}")
@@ -186,6 +193,22 @@ class Stepper:
             fast = any(r.pace == "fast" and r.paused_at is None for r in self._runs.values())
             deadline = self.align(max(deadline + self.tick, self._clock()))  # stay on the grid
             time.sleep(0.0005 if fast else max(0.0, deadline - self._clock()))
+
+    def timing(self) -> dict[str, float | int]:
+        """How closely the ticks of the last minute kept to their schedule: how late they
+        began (ms; p50, p99, max) and the least-squares trend of that lateness (ms per
+        minute). A real-time sample is computed at the first tick at or after its due
+        time, so this trend is the drift of the runs' clocks against the monotonic clock."""
+        late = np.array(self._late)  # a copy; the thread appends meanwhile
+        out: dict[str, float | int] = {"ticks": self.ticks, "tick_s": self.tick,
+                                       "window_s": 0.0, "late_p50_ms": 0.0, "late_p99_ms": 0.0,
+                                       "late_max_ms": 0.0, "drift_ms_per_min": 0.0}
+        if late.shape[0] >= 2:
+            t, lag = late[:, 0], late[:, 1] * 1e3
+            out.update(window_s=float(t[-1] - t[0]), late_p50_ms=float(np.percentile(lag, 50)),
+                       late_p99_ms=float(np.percentile(lag, 99)), late_max_ms=float(lag.max()),
+                       drift_ms_per_min=float(np.polyfit(t - t[0], lag, 1)[0] * 60.0))
+        return out
 
     def align(self, t: float) -> float:
         """The first tick at or after ``t``."""
