@@ -196,9 +196,11 @@ class Stepper:
 
     def timing(self) -> dict[str, float | int]:
         """How closely the ticks of the last minute kept to their schedule: how late they
-        began (ms; p50, p99, max) and the least-squares trend of that lateness (ms per
-        minute). A real-time sample is computed at the first tick at or after its due
-        time, so this trend is the drift of the runs' clocks against the monotonic clock."""
+        began (ms; p50, p99, max) and the trend of that lateness (ms per minute): the
+        Theil–Sen slope of its medians over 12 equal parts of the minute, which one long
+        stall does not tilt. A real-time sample is computed at the first tick at or after
+        its due time, so this trend is the drift of the runs' clocks against the monotonic
+        clock."""
         late = np.array(self._late)  # a copy; the thread appends meanwhile
         out: dict[str, float | int] = {"ticks": self.ticks, "tick_s": self.tick,
                                        "window_s": 0.0, "late_p50_ms": 0.0, "late_p99_ms": 0.0,
@@ -207,7 +209,7 @@ class Stepper:
             t, lag = late[:, 0], late[:, 1] * 1e3
             out.update(window_s=float(t[-1] - t[0]), late_p50_ms=float(np.percentile(lag, 50)),
                        late_p99_ms=float(np.percentile(lag, 99)), late_max_ms=float(lag.max()),
-                       drift_ms_per_min=float(np.polyfit(t - t[0], lag, 1)[0] * 60.0))
+                       drift_ms_per_min=_trend(t - t[0], lag) * 60.0)
         return out
 
     def align(self, t: float) -> float:
@@ -279,3 +281,17 @@ class Stepper:
         del self._runs[live.id]
         self._batch.remove(live.slot)
         return Ended(live.id, state, live.k, error)
+
+
+def _trend(t: Array, y: Array, parts: int = 12) -> float:
+    """Slope of ``y`` over ``t`` (per unit of ``t``): the median of the pairwise slopes
+    between the medians of ``parts`` equal spans of ``t`` (Theil–Sen on part medians)."""
+    edges = np.linspace(t[0], t[-1], parts + 1)
+    part = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, parts - 1)
+    filled = [i for i in range(parts) if np.any(part == i)]
+    if len(filled) < 2:
+        return 0.0
+    tm = np.array([np.median(t[part == i]) for i in filled])
+    ym = np.array([np.median(y[part == i]) for i in filled])
+    i, j = np.triu_indices(len(filled), 1)
+    return float(np.median((ym[j] - ym[i]) / (tm[j] - tm[i])))
