@@ -158,6 +158,13 @@ def _blocks(text: str) -> dict[str, str]:
     return dict(found)
 
 
+def _notes(block: str) -> str:
+    """A section's hand-written part (history, findings), kept when it is re-measured:
+    the text from ``<!-- notes -->`` to ``<!-- /notes -->`` inside the block."""
+    found = re.search(r"<!-- notes -->\n.*?<!-- /notes -->\n", block, re.S)
+    return found.group(0) + "\n" if found else ""
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--only", action="append", choices=list(SECTIONS),
@@ -168,7 +175,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"running {name} ...", flush=True)
         when = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
         blocks[name] = SECTIONS[name]().rstrip() + f"\n\n_Measured {when}, load average " \
-            f"{os.getloadavg()[0]:.1f} at the end._\n\n"
+            f"{os.getloadavg()[0]:.1f} at the end._\n\n" + _notes(blocks.get(name, ""))
     body = "".join(f"<!-- bench:{n} -->\n{blocks[n]}<!-- /bench:{n} -->\n"
                    for n in SECTIONS if n in blocks)
     OUT.write_text(header() + "\n" + body, encoding="utf-8")
