@@ -13,6 +13,9 @@ At the end it writes everything to an ``.npz`` file.
 final ``status``) to every client with :func:`websockets.asyncio.server.broadcast`,
 encoding each frame once. It starts once ``--clients`` clients are connected.
 
+Both run on uvloop, the event loop ``elab serve`` gets from uvicorn, so the peer and
+E-Lab are compared on the same loop.
+
 Run as ``python -m tests.bench.wsload client|peer ...`` from the project root.
 """
 
@@ -30,10 +33,11 @@ import time
 from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import msgpack
 import numpy as np
+import uvloop
 from websockets.asyncio.server import ServerConnection, broadcast, serve
 from websockets.uri import parse_uri
 
@@ -96,9 +100,8 @@ class Watch(asyncio.Protocol):
         self.done: asyncio.Future[None] = loop.create_future()
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        assert isinstance(transport, asyncio.Transport)
-        self.transport = transport
-        transport.write((f"GET {self.uri.resource_name} HTTP/1.1\r\n"
+        self.transport = cast(asyncio.Transport, transport)  # uvloop's is no subclass of it
+        self.transport.write((f"GET {self.uri.resource_name} HTTP/1.1\r\n"
                          f"Host: {self.uri.host}:{self.uri.port}\r\nUpgrade: websocket\r\n"
                          f"Connection: Upgrade\r\nSec-WebSocket-Key: {self.key}\r\n"
                          f"Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: {PROTOCOL}"
@@ -270,9 +273,9 @@ def main(argv: list[str]) -> None:
     args = p.parse_args(argv)
     if args.cmd == "client":
         urls = [line.strip() for line in sys.stdin if line.strip()]
-        asyncio.run(run_clients(urls, args.out))
+        uvloop.run(run_clients(urls, args.out))
     else:
-        asyncio.run(run_peer(args.port, args.clients, args.duration, args.Ts))
+        uvloop.run(run_peer(args.port, args.clients, args.duration, args.Ts))
 
 
 if __name__ == "__main__":
