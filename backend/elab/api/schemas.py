@@ -377,26 +377,30 @@ class FileData(Model):
     Ts: Finite | None = Field(None, gt=0, description="s; default: from the file")
 
 
+Order = Annotated[int, Field(ge=1, le=50)]  # a polynomial's number of coefficients
+Lags = Annotated[int, Field(ge=0, le=50)]  # na (none allowed) and the delay nk
+
+
 class ArxSpec(Model):
     kind: Literal["arx"] = "arx"
-    na: int = Field(ge=0, le=50)
-    nb: int = Field(ge=1, le=50)
-    nk: int = Field(1, ge=0, le=50)
+    na: Lags
+    nb: Order
+    nk: Lags = 1
 
 
 class ArmaxSpec(Model):
     kind: Literal["armax"] = "armax"
-    na: int = Field(ge=0, le=50)
-    nb: int = Field(ge=1, le=50)
-    nc: int = Field(ge=1, le=50)
-    nk: int = Field(1, ge=0, le=50)
+    na: Lags
+    nb: Order
+    nc: Order
+    nk: Lags = 1
 
 
 class OeSpec(Model):
     kind: Literal["oe"] = "oe"
-    nb: int = Field(ge=1, le=50)
-    nf: int = Field(ge=1, le=50)
-    nk: int = Field(1, ge=0, le=50)
+    nb: Order
+    nf: Order
+    nk: Lags = 1
 
 
 class N4sidSpec(Model):

@@ -151,8 +151,8 @@ class RunChannel:
         self._pending_n = 0
         self._moved: asyncio.Event | None = None  # set when the edge moves
 
-    def publish(self, k0: int, data: Array) -> None:
-        """New samples (consecutive); complete frames go out now."""
+    def publish(self, data: Array) -> None:
+        """The next samples (following those published before); whole frames go out now."""
         self._pending.append(data)
         self._pending_n += data.shape[0]
         whole = (self._pending_n // self.F) * self.F
@@ -249,7 +249,7 @@ def publish_all(new: list[tuple[RunChannel, Array]]) -> None:
         if ch._pending_n == 0 and n and n % ch.F == 0:
             batches.setdefault((ch.names, ch.F, n), []).append((ch, data))
         else:
-            ch.publish(ch.edge + ch._pending_n, data)
+            ch.publish(data)
     for (names, F, n), batch in batches.items():
         k0 = np.array([ch.edge for ch, _ in batch], dtype=np.int64)
         payloads = encode_frames(names, F, k0, np.stack([data for _, data in batch]))

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from typing import Literal, NamedTuple
 
 import numpy as np
+import scipy.stats
 from numpy.typing import NDArray
 
 from elab.sim.batch import Batch
@@ -201,7 +202,7 @@ class Stepper:
         stall does not tilt. A real-time sample is computed at the first tick at or after
         its due time, so this trend is the drift of the runs' clocks against the monotonic
         clock."""
-        late = np.array(self._late)  # a copy; the thread appends meanwhile
+        late = np.array(self._late.copy())  # deque.copy is atomic; the thread appends
         out: dict[str, float | int] = {"ticks": self.ticks, "tick_s": self.tick,
                                        "window_s": 0.0, "late_p50_ms": 0.0, "late_p99_ms": 0.0,
                                        "late_max_ms": 0.0, "drift_ms_per_min": 0.0}
@@ -284,14 +285,13 @@ class Stepper:
 
 
 def _trend(t: Array, y: Array, parts: int = 12) -> float:
-    """Slope of ``y`` over ``t`` (per unit of ``t``): the median of the pairwise slopes
-    between the medians of ``parts`` equal spans of ``t`` (Theil–Sen on part medians)."""
+    """Slope of ``y`` over ``t`` (per unit of ``t``): Theil–Sen through the medians of
+    ``parts`` equal spans of ``t``."""
     edges = np.linspace(t[0], t[-1], parts + 1)
     part = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, parts - 1)
-    filled = [i for i in range(parts) if np.any(part == i)]
+    filled = [part == i for i in range(parts) if np.any(part == i)]
     if len(filled) < 2:
         return 0.0
-    tm = np.array([np.median(t[part == i]) for i in filled])
-    ym = np.array([np.median(y[part == i]) for i in filled])
-    i, j = np.triu_indices(len(filled), 1)
-    return float(np.median((ym[j] - ym[i]) / (tm[j] - tm[i])))
+    tm = np.array([np.median(t[m]) for m in filled])
+    ym = np.array([np.median(y[m]) for m in filled])
+    return float(scipy.stats.theilslopes(ym, tm)[0])

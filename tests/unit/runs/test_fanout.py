@@ -35,7 +35,7 @@ def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
         tasks = [asyncio.create_task(ch.serve(w)) for w in (fast, slow)]
         for k0 in range(0, 1000, 20):  # 50 frames, published as the stepper would
             recording.append(data[k0:k0 + 20])
-            ch.publish(k0, data[k0:k0 + 20])
+            ch.publish(data[k0:k0 + 20])
             await asyncio.sleep(0)
         await asyncio.sleep(0.01)
         assert len([m for m in got_fast if m["type"] == "frame"]) == 50  # never waited
@@ -75,7 +75,7 @@ def test_catching_up_while_the_edge_moves_ends_in_push_mode_with_every_sample_on
 
         def publish_frame() -> None:
             k0 = published[0]
-            ch.publish(k0, data[k0:k0 + 20])
+            ch.publish(data[k0:k0 + 20])
             published[0] += 20
 
         async def read(k0: int, k1: int) -> np.ndarray:
@@ -158,7 +158,7 @@ def test_publish_all_gives_each_channel_what_publish_would() -> None:
                     publish_all(new)
                 else:
                     for ch, d in new:
-                        ch.publish(0, d)
+                        ch.publish(d)
             got[mode] = sinks
         return got[0], got[1]
 
