@@ -22,7 +22,7 @@ from elab.api import ident, plants, runs  # noqa: F401  (registers their endpoin
 from elab.api.http import ENDPOINTS, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
-from elab.api.stream import stream
+from elab.api.stream import Stream
 from elab.errors import ElabError
 from elab.runs.manager import RunManager
 from elab.runs.store import Store
@@ -67,7 +67,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
 
     routes: list[BaseRoute] = [Route(API + e.path, e.handler, methods=[e.method])
                                for e in ENDPOINTS]
-    routes += [WebSocketRoute(API + "/runs/{run_id}/stream", stream),
+    routes += [WebSocketRoute(API + "/runs/{run_id}/stream", Stream()),
                Route(API + "/openapi.json", openapi), Route(API + "/docs", docs)]
     routes += _app_routes(STATIC)
     app = Starlette(routes=routes, lifespan=lifespan, middleware=[

@@ -15,6 +15,11 @@ Each watcher is in one of two modes:
   — so every missing sample arrives, each once. (Reading on until the live
   edge instead never ends on a busy server: the edge moves during every read.)
 
+Who sends: one :class:`Sender` task per server writes every watcher's new
+messages in one pass, as ``websockets.broadcast()`` does, without waking a task
+per watcher; a watcher whose connection made a send wait, or which catches up
+from the recording, is served by its own task until its queue is empty.
+
 Everything here runs on the event loop thread; encoding is msgpack with
 float32 columns.
 """
@@ -95,7 +100,12 @@ def _layout(names: tuple[str, ...], n: int) -> tuple[bytes, int, int, tuple[int,
 
 @dataclass(eq=False)  # identity: watchers live in sets
 class Watcher:
-    """One subscriber: a send function and its queue of pending messages."""
+    """One subscriber: a send function, its queue of pending messages, and who sends them.
+
+    ``direct``: the :class:`Sender` sends its messages in its pass over all watchers;
+    otherwise (a send to it had to wait, or it catches up from the recording) its own
+    task (:meth:`RunChannel.serve`) does, and hands it back once its queue is empty.
+    """
 
     send: Callable[[bytes], Awaitable[None]]
     max_frames: int = 100
@@ -104,8 +114,12 @@ class Watcher:
     frames_queued: int = 0
     skipped: tuple[int, int] | None = None  # first and last seq not delivered
     pull_from: int | None = None  # next sample to read from the recording
-    wake: asyncio.Event = field(default_factory=asyncio.Event)
     closed: bool = False
+    direct: bool = True
+    sending: bool = False  # a send to it is under way (one at a time)
+    # the own task's wake-up while it waits (a bare future: an asyncio.Event cost twice
+    # as much per wake-up)
+    _waiter: asyncio.Future[None] | None = field(default=None, init=False, repr=False)
 
     def offer(self, payload: bytes, k0: int, seq: int, frames: int) -> None:
         if self.pull_from is not None:  # catching up: queue, and let the pull fill any gap
@@ -120,11 +134,44 @@ class Watcher:
             return
         self.items.append((k0, payload))
         self.frames_queued += 1
-        self.wake.set()
 
     def control(self, payload: bytes) -> None:
         self.items.append((None, payload))
-        self.wake.set()
+
+    def close(self) -> None:
+        self.closed = True
+        self.wake()
+
+    @property
+    def has_next(self) -> bool:
+        return bool(self.skipped or self.items)
+
+    async def send_next(self) -> None:
+        """Send a notice of skipped frames if any, else the oldest queued message."""
+        if self.skipped is not None:
+            (first, last), self.skipped = self.skipped, None
+            payload = pack({"type": "skipped", "from_seq": first, "to_seq": last,
+                            "reason": "slow watcher: frames dropped; send resume_from to "
+                                      "receive them from the recording"})
+        else:
+            k0, payload = self.items.popleft()
+            self.frames_queued -= k0 is not None
+        self.sending = True
+        try:
+            await self.send(payload)
+        finally:
+            self.sending = False
+
+    def wake(self) -> None:
+        """Let its own task look again (if it waits; otherwise it has not yet looked)."""
+        waiter, self._waiter = self._waiter, None
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
+
+    async def wait(self) -> None:
+        """Until :meth:`wake`; the task checks its queue, mode and ``closed`` before."""
+        self._waiter = asyncio.get_running_loop().create_future()
+        await self._waiter
 
     def drop_frames(self) -> None:
         """Forget the queued frames (the control messages stay)."""
@@ -136,12 +183,84 @@ class Watcher:
         return next((k0 for k0, _ in self.items if k0 is not None), None)
 
 
+class _Pass:
+    """One pass of the :class:`Sender` over the watchers with new messages."""
+
+    def __init__(self, batch: list[Watcher]) -> None:
+        self.batch = batch
+        self.at = 0  # the watcher being sent to
+        self.stuck = False  # a send waited: another pass took over the rest
+
+
+class Sender:
+    """Sends the direct watchers' messages in passes, one watcher after another.
+
+    A send that completes at once (the usual case: the connection's buffer has room)
+    costs no task switch; with one task per watcher, waking and switching tasks was a
+    quarter of the server's CPU at 300 runs × 1 watcher (docs/benchmarks.md). If a
+    send waits (a watcher that stopped reading filled its connection), the pass stays
+    with that watcher until the send completes, then hands it to its own task; a new
+    pass goes on with the others at once, so it never delays them. (What Python 3.12
+    calls an eager task; this also holds for any ASGI server's ``send``.)
+    """
+
+    def __init__(self) -> None:
+        self._ready: list[Watcher] = []
+        self._running = False  # a pass is scheduled or under way, and not stuck
+        self._tasks: set[asyncio.Task[None]] = set()
+
+    def ready(self, w: Watcher) -> None:
+        """``w`` has messages: send them in the next pass, or wake its own task."""
+        if not w.direct or w.pull_from is not None:
+            w.wake()
+            return
+        self._ready.append(w)
+        if not self._running:
+            self._running = True
+            self._start([])
+
+    def _start(self, batch: list[Watcher]) -> None:
+        task = asyncio.get_running_loop().create_task(self._run(_Pass(batch)))
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _run(self, p: _Pass) -> None:
+        p.batch += self._ready
+        self._ready = []
+        # runs at the next pass of the event loop: only if this task waits before
+        watch = asyncio.get_running_loop().call_soon(self._stuck, p)
+        try:
+            for at, w in enumerate(p.batch):
+                p.at = at
+                if w.sending or not w.direct:  # another sender has it
+                    continue
+                try:
+                    while (w.direct and w.pull_from is None and not w.closed and w.has_next
+                           and not p.stuck):
+                        await w.send_next()
+                except Exception:  # the connection broke: its stream handler ends
+                    w.close()
+                if p.stuck:  # this send waited; a new pass went on with the others
+                    w.direct = False
+                    w.wake()
+                    return
+        finally:
+            watch.cancel()
+            if not p.stuck:
+                self._running = False
+
+    def _stuck(self, p: _Pass) -> None:
+        p.stuck = True
+        self._start(p.batch[p.at + 1:])
+
+
 class RunChannel:
     """The watchers of one run and the framing of its samples."""
 
     def __init__(self, names: tuple[str, ...], Ts: float, read: Reader, *, edge: int = 0,
-                 ended: bool = False) -> None:
+                 ended: bool = False, sender: Sender | None = None) -> None:
         self.names = names
+        self.sender = sender or Sender()
         self.F = frame_samples(Ts)
         self.read = read
         self.edge = edge  # samples published as whole frames (or all, once ended)
@@ -169,6 +288,7 @@ class RunChannel:
     def control(self, payload: bytes) -> None:
         for w in self.watchers:
             w.control(payload)
+            self.sender.ready(w)
         self._poke()
 
     def _emit(self, n: int) -> None:
@@ -183,8 +303,10 @@ class RunChannel:
         k0 = self.edge
         seq, frames = k0 // self.F, -(-n // self.F)
         self.edge += n
+        ready = self.sender.ready
         for w in self.watchers:
             w.offer(payload, k0, seq, frames)
+            ready(w)
         self._poke()
 
     def _poke(self) -> None:
@@ -197,27 +319,21 @@ class RunChannel:
         w.drop_frames()
         w.skipped = None
         w.pull_from = min(max(0, seq) * self.F, self.edge)
-        w.wake.set()
+        w.direct = False
+        w.wake()
 
     async def serve(self, w: Watcher) -> None:
-        """Send to ``w`` until it closes (the watcher's sender task)."""
+        """The watcher's own task, until it closes: sends when it is not direct."""
         while not w.closed:
-            if w.pull_from is not None:
+            if w.sending:  # a pass still sends to it, and wakes this task when done
+                await w.wait()
+            elif w.pull_from is not None:
                 await self._pull(w)
-                continue
-            if not w.items:
-                w.wake.clear()
-                await w.wake.wait()
-                continue
-            if w.skipped is not None:
-                first, last = w.skipped
-                w.skipped = None
-                await w.send(pack({"type": "skipped", "from_seq": first, "to_seq": last,
-                                   "reason": "slow watcher: frames dropped; send resume_from "
-                                             "to receive them from the recording"}))
-            k0, payload = w.items.popleft()
-            w.frames_queued -= k0 is not None
-            await w.send(payload)
+            elif not w.direct and w.has_next:
+                await w.send_next()
+            else:
+                w.direct = True  # nothing left: the sender's passes take over again
+                await w.wait()
 
     async def _pull(self, w: Watcher) -> None:
         assert w.pull_from is not None
@@ -225,8 +341,7 @@ class RunChannel:
         until = self.edge if queued is None else queued
         if w.pull_from >= until:
             w.pull_from = None  # caught up: the queued live frames follow
-            if w.items:
-                w.wake.set()
+            w.direct = False  # sent by this task, then the sender takes over
             return
         k1 = min(until, w.pull_from + PULL_FRAMES * self.F)
         data = await self.read(w.pull_from, k1)

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from elab.errors import Conflict, InvalidInput, TooMany
 from elab.laws import ControlLaw
-from elab.runs.fanout import RunChannel, pack, publish_all
+from elab.runs.fanout import RunChannel, Sender, pack, publish_all
 from elab.runs.recorder import Recorder
 from elab.runs.state import RunState, transition
 from elab.runs.stepper import Chunk, Ended, Pace, Stepper
@@ -59,6 +59,7 @@ class RunManager:
         self.stepper = Stepper(self._on_tick, tick=tick)
         self._live: dict[str, _Live] = {}
         self._channels: dict[str, RunChannel] = {}
+        self._sender = Sender()  # one pass over all watchers per tick
         self._loop: asyncio.AbstractEventLoop | None = None
         self.interrupted: list[str] = []
         self._tasks: set[asyncio.Future[None]] = set()
@@ -122,7 +123,8 @@ class RunManager:
         self.recorder.open(record.id, len(record.channels))
         self._live[record.id] = _Live(record, run, RunState.RUNNING)
         self._channels[record.id] = RunChannel(
-            tuple(name for name, _ in record.channels), run.Ts, self._reader(record.id))
+            tuple(name for name, _ in record.channels), run.Ts, self._reader(record.id),
+            sender=self._sender)
         self.stepper.add(record.id, run, pace, t_origin=origin)
         return record
 
@@ -167,7 +169,8 @@ class RunManager:
         ch = self._channels.get(record.id)
         if ch is None:
             ch = RunChannel(tuple(n for n, _ in record.channels), record.Ts,
-                            self._reader(record.id), edge=record.n_stored, ended=True)
+                            self._reader(record.id), edge=record.n_stored, ended=True,
+                            sender=self._sender)
             self._channels[record.id] = ch
         return ch
 

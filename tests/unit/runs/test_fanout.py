@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Awaitable, Callable
 
 import msgpack
 import numpy as np
@@ -45,8 +46,7 @@ def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
         ch.resume_from(slow, notice["from_seq"])
         await asyncio.sleep(0.05)
         for w, t in zip((fast, slow), tasks, strict=True):
-            w.closed = True
-            w.wake.set()
+            w.close()
             t.cancel()
         return got_fast, got_slow
 
@@ -100,8 +100,7 @@ def test_catching_up_while_the_edge_moves_ends_in_push_mode_with_every_sample_on
             await asyncio.sleep(0.001)
             publish_frame()
         await asyncio.sleep(0.01)
-        w.closed = True
-        w.wake.set()
+        w.close()
         task.cancel()
         return got, reads[0], w
 
@@ -168,3 +167,50 @@ def test_publish_all_gives_each_channel_what_publish_would() -> None:
         assert len(a) == len(b)
         for x, y in zip(a, b, strict=True):
             assert x.keys() == y.keys() and all(x[k] == y[k] for k in x)
+
+
+def test_one_pass_sends_to_every_watcher_and_a_send_that_waits_delays_nobody() -> None:
+    """The sender's pass writes a frame to all watchers in one task (no task per watcher).
+    A watcher whose send writes and then waits (a connection that stopped reading) gets
+    each message once and in order, from its own task, while the others keep receiving
+    every frame in their passes."""
+
+    async def scenario() -> tuple[dict[str, list[tuple[int, object]]], list[int]]:
+        async def read(k0: int, k1: int) -> np.ndarray:
+            raise AssertionError("not reading")
+
+        ch = RunChannel(("a",), Ts=0.001, read=read)  # F = 20
+        got: dict[str, list[tuple[int, object]]] = {"f1": [], "f2": [], "slow": []}
+        gate = asyncio.Event()
+
+        def sender(name: str, waits: bool) -> Callable[[bytes], Awaitable[None]]:
+            async def send(b: bytes) -> None:
+                got[name].append((msgpack.unpackb(b)["k0"], asyncio.current_task()))
+                if waits and not gate.is_set():
+                    await gate.wait()  # written, then the connection's buffer is full
+            return send
+
+        watchers = [Watcher(sender("f1", False)), Watcher(sender("f2", False)),
+                    Watcher(sender("slow", True), max_frames=1000)]
+        ch.watchers |= set(watchers)
+        tasks = [asyncio.create_task(ch.serve(w)) for w in watchers]
+        fast_while_blocked = []
+        for k0 in range(0, 600, 20):  # 30 frames, one per tick
+            ch.publish(np.full((20, 1), k0 / 20))
+            await asyncio.sleep(0.001)
+            fast_while_blocked.append(len(got["f1"]))
+        gate.set()
+        await asyncio.sleep(0.02)
+        for w, t in zip(watchers, tasks, strict=True):
+            w.close()
+            t.cancel()
+        return got, fast_while_blocked
+
+    got, fast_while_blocked = asyncio.run(scenario())
+    assert fast_while_blocked == list(range(1, 31))  # each frame at its tick: never held up
+    for name in got:
+        assert [k0 for k0, _ in got[name]] == list(range(0, 600, 20)), name  # once, in order
+    # the fast watchers' frames went out together, in one task per pass (but where the
+    # slow watcher's first wait split a pass)
+    together = [t1 is t2 for (_, t1), (_, t2) in zip(got["f1"], got["f2"], strict=True)]
+    assert sum(together) >= 29, together
