@@ -29,7 +29,7 @@ from __future__ import annotations
 import asyncio
 import functools
 from collections import deque
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -354,19 +354,24 @@ class RunChannel:
         w.pull_from += data.shape[0]
 
 
-def publish_all(new: list[tuple[RunChannel, Array]]) -> None:
-    """:meth:`RunChannel.publish` for many channels. New samples that are whole frames
-    at a channel's edge (the usual real-time case: one frame per tick) are encoded
-    together, one :func:`encode_frames` call per shape."""
-    batches: dict[tuple[tuple[str, ...], int, int], list[tuple[RunChannel, Array]]] = {}
-    for ch, data in new:
-        n = data.shape[0]
+def publish_block(channels: Sequence[RunChannel | None], data: Array) -> None:
+    """:meth:`RunChannel.publish` of ``data[i]`` on ``channels[i]`` (``None``: skipped)
+    for the runs of a block (``data``: runs × n × channels). Runs whose new samples are
+    whole frames at their channel's edge (the usual real-time case: one frame per tick)
+    get their messages encoded together, one :func:`encode_frames` call per layout."""
+    n = data.shape[1]
+    together: dict[tuple[tuple[str, ...], int], list[int]] = {}
+    for i, ch in enumerate(channels):
+        if ch is None:
+            continue
         if ch._pending_n == 0 and n and n % ch.F == 0:
-            batches.setdefault((ch.names, ch.F, n), []).append((ch, data))
+            together.setdefault((ch.names, ch.F), []).append(i)
         else:
-            ch.publish(data)
-    for (names, F, n), batch in batches.items():
-        k0 = np.array([ch.edge for ch, _ in batch], dtype=np.int64)
-        payloads = encode_frames(names, F, k0, np.stack([data for _, data in batch]))
-        for (ch, _), payload in zip(batch, payloads, strict=True):
+            ch.publish(data[i])
+    for (names, F), idx in together.items():
+        chans = [channels[i] for i in idx]
+        rows = data if len(idx) == data.shape[0] else data[idx]
+        k0 = np.array([ch.edge for ch in chans if ch is not None], dtype=np.int64)
+        for ch, payload in zip(chans, encode_frames(names, F, k0, rows), strict=True):
+            assert ch is not None
             ch._deliver(payload, n)

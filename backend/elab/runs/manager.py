@@ -19,10 +19,10 @@ from numpy.typing import NDArray
 
 from elab.errors import Conflict, InvalidInput, TooMany
 from elab.laws import ControlLaw
-from elab.runs.fanout import RunChannel, Sender, pack, publish_all
+from elab.runs.fanout import RunChannel, Sender, pack, publish_block
 from elab.runs.recorder import Recorder
 from elab.runs.state import RunState, transition
-from elab.runs.stepper import Chunk, Ended, Pace, Stepper
+from elab.runs.stepper import Block, Ended, Pace, Stepper
 from elab.runs.store import ParamChange, RunRecord, Store
 from elab.sim.result import Samples
 from elab.sim.signals import Signal
@@ -194,21 +194,23 @@ class RunManager:
             transition(live.state, target)
         return live
 
-    def _on_tick(self, chunks: list[Chunk], ended: list[Ended]) -> None:
+    def _on_tick(self, blocks: list[Block], ended: list[Ended]) -> None:
         """In the stepping thread: record now, publish on the loop."""
-        for c in chunks:
-            self.recorder.append(c.run_id, c.k0, c.data)
+        for b in blocks:
+            self.recorder.append_many(b.run_ids, b.k0, b.data)
         if self._loop is not None:
-            self._loop.call_soon_threadsafe(self._publish, chunks, ended)
+            self._loop.call_soon_threadsafe(self._publish, blocks, ended)
 
-    def _publish(self, chunks: list[Chunk], ended: list[Ended]) -> None:
-        new = []
-        for c in chunks:
-            live = self._live.get(c.run_id)
-            if live is not None:
-                live.k = c.k0 + c.data.shape[0]
-                new.append((self._channels[c.run_id], c.data))
-        publish_all(new)
+    def _publish(self, blocks: list[Block], ended: list[Ended]) -> None:
+        for b in blocks:
+            n = b.data.shape[1]
+            channels: list[RunChannel | None] = []
+            for run_id, k0 in zip(b.run_ids, b.k0, strict=True):
+                live = self._live.get(run_id)
+                if live is not None:
+                    live.k = k0 + n
+                channels.append(None if live is None else self._channels[run_id])
+            publish_block(channels, b.data)
         for e in ended:
             live = self._live.get(e.run_id)
             if live is not None:

@@ -50,8 +50,14 @@ class Recorder:
             self._tails[run_id] = _Tail(nch)
 
     def append(self, run_id: str, k0: int, data: Array) -> None:
+        self.append_many([run_id], [k0], data[np.newaxis])
+
+    def append_many(self, run_ids: list[str], k0: list[int], data: Array) -> None:
+        """Rows ``k0[i] ..`` of run ``run_ids[i]``: ``data[i]`` (runs × n × channels)."""
         with self._lock:
-            self._tails[run_id].chunks.append((k0, data))
+            tails = self._tails
+            for run_id, k, rows in zip(run_ids, k0, data, strict=True):
+                tails[run_id].chunks.append((k, rows))
 
     def finish(self, run_id: str) -> None:
         """Store what is left of ``run_id`` now and stop tracking it."""

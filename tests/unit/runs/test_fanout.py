@@ -8,7 +8,7 @@ from collections.abc import Awaitable, Callable
 import msgpack
 import numpy as np
 
-from elab.runs.fanout import RunChannel, Watcher, encode_frame, encode_frames, publish_all
+from elab.runs.fanout import RunChannel, Watcher, encode_frame, encode_frames, publish_block
 
 
 def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
@@ -127,7 +127,7 @@ def test_frames_encoded_together_decode_to_the_samples_and_equal_one_by_one() ->
                                           block[i, :, j].astype("<f4"))
 
 
-def test_publish_all_gives_each_channel_what_publish_would() -> None:
+def test_publish_block_gives_each_channel_what_publish_would() -> None:
     """Whole frames at the edge go through the batch; a channel holding a partial frame
     (or getting one) takes the one-by-one path; both end in the same messages."""
 
@@ -153,8 +153,13 @@ def test_publish_all_gives_each_channel_what_publish_would() -> None:
                     if tick < len(s):
                         k0 = sum(s[:tick])
                         new.append((ch, data[i][k0:k0 + s[tick]]))
-                if mode:
-                    publish_all(new)
+                if mode:  # as the stepper's blocks come: one per number of samples
+                    by_n: dict[int, list[tuple[RunChannel, np.ndarray]]] = {}
+                    for ch, d in new:
+                        by_n.setdefault(d.shape[0], []).append((ch, d))
+                    for group in by_n.values():
+                        publish_block([ch for ch, _ in group] + [None],
+                                      np.stack([d for _, d in group] + [group[0][1]]))
                 else:
                     for ch, d in new:
                         ch.publish(d)

@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterator
 
 import numpy as np
 import pytest
 
+from elab.laws import StateFeedback
 from elab.plants import get_plant
-from elab.runs.stepper import Chunk, Ended, Stepper
-from elab.sim import RunSpec, Step, compile_run, simulate
+from elab.runs.stepper import Block, Chunk, Ended, Stepper
+from elab.sim import RunSpec, Square, Step, compile_run, simulate
 
 
 class Sink:
@@ -18,8 +20,8 @@ class Sink:
         self.chunks: dict[str, list[Chunk]] = {}
         self.ended: dict[str, Ended] = {}
 
-    def __call__(self, chunks: list[Chunk], ended: list[Ended]) -> None:
-        for c in chunks:
+    def __call__(self, blocks: list[Block], ended: list[Ended]) -> None:
+        for c in (c for b in blocks for c in b.chunks()):
             self.chunks.setdefault(c.run_id, []).append(c)
         for e in ended:
             self.ended[e.run_id] = e
@@ -94,8 +96,8 @@ def test_a_real_time_run_gets_whole_frames_at_ticks_never_before_they_are_due() 
     at 1 kHz) — no frame waits for the next tick — and no sample comes before it is due."""
     got: list[tuple[float, int, int]] = []  # (clock at delivery, k0, n)
 
-    def sink(chunks: list[Chunk], ended: list[Ended]) -> None:
-        got.extend((time.monotonic(), c.k0, c.data.shape[0]) for c in chunks)
+    def sink(blocks: list[Block], ended: list[Ended]) -> None:
+        got.extend((time.monotonic(), c.k0, c.data.shape[0]) for b in blocks for c in b.chunks())
 
     stepper = Stepper(sink)
     run = compile_run(spec("flexible_link", 1.0))
@@ -127,3 +129,26 @@ def test_timing_reports_how_late_ticks_began_and_the_trend_as_clock_drift() -> N
     assert timing["drift_ms_per_min"] == pytest.approx(0.5, rel=0.05)  # the stall: no tilt
     assert timing["window_s"] == pytest.approx(59.98)
     assert 0.2 < timing["late_p50_ms"] < 0.81 and timing["late_max_ms"] == pytest.approx(200)
+
+
+def test_a_diverging_run_fails_at_its_divergence_and_its_neighbours_go_on(
+        sink_stepper: tuple[Sink, Stepper]) -> None:
+    """Two runs of one plant stepped in one block, one of them unstable: that one ends
+    `failed` with the samples before it diverged (those of the offline simulation), the
+    other finishes complete and exact."""
+    sink, stepper = sink_stepper
+    flex = get_plant("flexible_link")
+    bad = RunSpec(flex, StateFeedback((20, 20, 20, 20)), Square(math.radians(30), 4.0),
+                  duration=10.0, saturate=False)
+    good = spec("flexible_link", 10.0)
+    stepper.add("bad", compile_run(bad), "fast")
+    stepper.add("good", compile_run(good), "fast")
+    sink.wait_ended("bad", "good")
+    offline = simulate(bad)
+    assert sink.ended["bad"].state == "failed" and "diverged" in (sink.ended["bad"].error or "")
+    assert sink.ended["bad"].k == offline.n < 10_000
+    data = np.concatenate([c.data for c in sink.chunks["bad"]])
+    np.testing.assert_array_equal(data[:, 1], offline.u)
+    assert sink.ended["good"].state == "finished"
+    data = np.concatenate([c.data for c in sink.chunks["good"]])
+    np.testing.assert_array_equal(data[:, 2:2 + flex.ny], simulate(good).y)
