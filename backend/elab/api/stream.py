@@ -10,6 +10,7 @@ Query ``from_seq=N`` starts the watcher at frame N from the recording
 
 from __future__ import annotations
 
+import contextlib
 import json
 from collections.abc import Awaitable, Callable
 from typing import Any
@@ -89,10 +90,9 @@ def _start_seq(ws: WebSocket, live_seq: int, status: str) -> int | None:
 
 
 async def _send(channel: Any, watcher: Watcher, scope: anyio.CancelScope) -> None:
-    try:
+    with contextlib.suppress(WebSocketDisconnect, RuntimeError, OSError):
         await channel.serve(watcher)
-    except (WebSocketDisconnect, RuntimeError, OSError):
-        scope.cancel()  # the client went away: stop receiving too
+    scope.cancel()  # the client went away (or a send to it failed): stop receiving too
 
 
 async def _receive(ws: WebSocket, m: Any, run_id: str, channel: Any, watcher: Watcher) -> None:
