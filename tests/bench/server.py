@@ -242,11 +242,11 @@ def bench_elab(runs: int, watchers: int, seconds: float) -> dict[str, float]:
             server.stop()
     # the runs' clocks against wall time: the stepper's lateness trend (against the
     # monotonic clock the runs are paced by) plus how the wall clock moved against it
-    clock = status["drift_ms_per_min"] + window.slew * 1e3 / (window.seconds / 60)
+    slew = window.slew * 1e3 / (window.seconds / 60)  # ms per minute
     return {**summarise(window, frames), **{f"rec_{k}": v for k, v in rec.items()},
             "late_p99": status["late_p99_ms"], "late_max": status["late_max_ms"],
-            "stepper_drift": status["drift_ms_per_min"],
-            "slew": window.slew * 1e3 / (window.seconds / 60), "clock_drift": clock}
+            "stepper_drift": status["drift_ms_per_min"], "slew": slew,
+            "clock_drift": status["drift_ms_per_min"] + slew}
 
 
 def bench_peer(clients: int, seconds: float) -> dict[str, float]:
@@ -344,6 +344,6 @@ as `elab serve`):
 The latency floor's own noise shows in the peer (a plain timer loop, no run clock): about
 {p['drift_median']:.1f} ms per minute on this machine. The whole benchmark took
 {r['meta']['wall']:.0f} s. The host's speed that hour, for comparing runs of this table:
-`simulate()` took {r['meta']['sim_ns']:.0f} ns per step (the engine section's figure; 127 ns
-on 2026-11-22, 315–441 ns on the slower host of 2026-11-23).
+`simulate()` took {r['meta']['sim_ns']:.0f} ns per step (the engine section's figure; the
+notes below say what it was on other days).
 """

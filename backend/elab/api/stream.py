@@ -90,7 +90,7 @@ def _start_seq(ws: WebSocket, live_seq: int, status: str) -> int | None:
 
 
 async def _send(channel: Any, watcher: Watcher, scope: anyio.CancelScope) -> None:
-    with contextlib.suppress(WebSocketDisconnect, RuntimeError, OSError):
+    with contextlib.suppress(OSError, RuntimeError):  # from the raw send, as the Sender's
         await channel.serve(watcher)
     scope.cancel()  # the client went away (or a send to it failed): stop receiving too
 

@@ -239,8 +239,8 @@ class Sender:
                     while (w.direct and w.pull_from is None and not w.closed and w.has_next
                            and not p.stuck):
                         await w.send_next()
-                except Exception:  # the connection broke: its stream handler ends
-                    w.close()
+                except (OSError, RuntimeError):  # the connection broke (or closed): its
+                    w.close()  # stream handler ends
                 if p.stuck:  # this send waited; a new pass went on with the others
                     w.direct = False
                     w.wake()
@@ -361,18 +361,16 @@ def publish_block(channels: Sequence[RunChannel | None], data: Array) -> None:
     whole frames at their channel's edge (the usual real-time case: one frame per tick)
     get their messages encoded together, one :func:`encode_frames` call per layout."""
     n = data.shape[1]
-    together: dict[tuple[tuple[str, ...], int], list[int]] = {}
+    together: dict[tuple[tuple[str, ...], int], list[tuple[int, RunChannel]]] = {}
     for i, ch in enumerate(channels):
         if ch is None:
             continue
         if ch._pending_n == 0 and n and n % ch.F == 0:
-            together.setdefault((ch.names, ch.F), []).append(i)
+            together.setdefault((ch.names, ch.F), []).append((i, ch))
         else:
             ch.publish(data[i])
-    for (names, F), idx in together.items():
-        chans = [channels[i] for i in idx]
-        rows = data if len(idx) == data.shape[0] else data[idx]
-        k0 = np.array([ch.edge for ch in chans if ch is not None], dtype=np.int64)
-        for ch, payload in zip(chans, encode_frames(names, F, k0, rows), strict=True):
-            assert ch is not None
+    for (names, F), runs in together.items():
+        rows = data if len(runs) == data.shape[0] else data[[i for i, _ in runs]]
+        k0 = np.array([ch.edge for _, ch in runs], dtype=np.int64)
+        for (_, ch), payload in zip(runs, encode_frames(names, F, k0, rows), strict=True):
             ch._deliver(payload, n)

@@ -49,9 +49,6 @@ class Recorder:
         with self._lock:
             self._tails[run_id] = _Tail(nch)
 
-    def append(self, run_id: str, k0: int, data: Array) -> None:
-        self.append_many([run_id], [k0], data[np.newaxis])
-
     def append_many(self, run_ids: list[str], k0: list[int], data: Array) -> None:
         """Rows ``k0[i] ..`` of run ``run_ids[i]``: ``data[i]`` (runs × n × channels)."""
         with self._lock:

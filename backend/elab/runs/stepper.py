@@ -20,7 +20,7 @@ import time
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
 import numpy as np
@@ -37,14 +37,6 @@ Array = NDArray[np.float64]
 Pace = Literal["realtime", "fast"]
 
 
-class Chunk(NamedTuple):
-    """New samples of one run: rows ``k0 .. k0+n-1``, columns ``[r, u, y…, x…]``."""
-
-    run_id: str
-    k0: int
-    data: Array
-
-
 class Block(NamedTuple):
     """New samples of runs stepped together (one per plant and tick, not one per run: at
     300 runs the per-run objects and copies were a sixth of the server's CPU): run
@@ -53,10 +45,6 @@ class Block(NamedTuple):
     run_ids: list[str]
     k0: list[int]
     data: Array
-
-    def chunks(self) -> list[Chunk]:
-        return [Chunk(r, k, d) for r, k, d in zip(self.run_ids, self.k0, self.data,
-                                                     strict=True)]
 
 
 @dataclass(frozen=True)
@@ -78,7 +66,7 @@ class _Live:
     t_origin: float
     k: int = 0
     paused_at: float | None = None
-    cols: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    cols: tuple[int, ...] = ()  # its columns [r, u, y…, x…] in the batch's block
 
 
 Command = Callable[[], None]
@@ -180,7 +168,7 @@ class Stepper:
     def _refresh_columns(self) -> None:
         for live in self._runs.values():
             ys, xs = self._batch.columns(live.slot)
-            live.cols = np.r_[0, 1, np.arange(ys.start, ys.stop), np.arange(xs.start, xs.stop)]
+            live.cols = (0, 1, *range(ys.start, ys.stop), *range(xs.start, xs.stop))
 
     def _loop(self) -> None:
         deadline = self.align(self._clock())
@@ -250,12 +238,12 @@ class Stepper:
             block = self._batch.advance(n, [live.slot for live in lives])
             # runs with the same columns (the same plant) are cut out of the block with
             # one copy and checked for divergence at once
-            same: dict[bytes, list[_Live]] = {}
+            same: dict[tuple[int, ...], list[_Live]] = {}
             for live in lives:
-                same.setdefault(live.cols.tobytes(), []).append(live)
+                same.setdefault(live.cols, []).append(live)
             for group in same.values():
                 slots = np.array([live.slot for live in group])
-                data = block[np.ix_(slots, np.arange(n), group[0].cols)]
+                data = block[np.ix_(slots, np.arange(n), np.array(group[0].cols))]
                 with np.errstate(invalid="ignore"):
                     fine = (np.abs(data[:, :, 1:]) <= DIVERGENCE_LIMIT).all(axis=(1, 2))
                 if not fine.all():

@@ -157,7 +157,7 @@ def test_publish_block_gives_each_channel_what_publish_would() -> None:
                     by_n: dict[int, list[tuple[RunChannel, np.ndarray]]] = {}
                     for ch, d in new:
                         by_n.setdefault(d.shape[0], []).append((ch, d))
-                    for group in by_n.values():
+                    for group in by_n.values():  # + a run that ended meanwhile: skipped
                         publish_block([ch for ch, _ in group] + [None],
                                       np.stack([d for _, d in group] + [group[0][1]]))
                 else:

@@ -11,18 +11,19 @@ import pytest
 
 from elab.laws import StateFeedback
 from elab.plants import get_plant
-from elab.runs.stepper import Block, Chunk, Ended, Stepper
+from elab.runs.stepper import Block, Ended, Stepper
 from elab.sim import RunSpec, Square, Step, compile_run, simulate
 
 
 class Sink:
     def __init__(self) -> None:
-        self.chunks: dict[str, list[Chunk]] = {}
+        self.data: dict[str, list[np.ndarray]] = {}  # each run's samples, as they came
         self.ended: dict[str, Ended] = {}
 
     def __call__(self, blocks: list[Block], ended: list[Ended]) -> None:
-        for c in (c for b in blocks for c in b.chunks()):
-            self.chunks.setdefault(c.run_id, []).append(c)
+        for b in blocks:
+            for run_id, rows in zip(b.run_ids, b.data, strict=True):
+                self.data.setdefault(run_id, []).append(rows)
         for e in ended:
             self.ended[e.run_id] = e
 
@@ -59,11 +60,11 @@ def test_runs_of_every_plant_joining_one_after_another_are_exact(
     ids = ["flexible_link", "double_pendulum", "belt_conveyor"]
     for pid in ids:
         stepper.add(pid, compile_run(spec(pid)), "fast")
-        assert _until(lambda pid=pid: pid in sink.chunks, 10)  # type: ignore[misc]
+        assert _until(lambda pid=pid: pid in sink.data, 10)  # type: ignore[misc]
     sink.wait_ended(*ids)
     for pid in ids:
         assert sink.ended[pid].state == "finished"
-        data = np.concatenate([c.data for c in sink.chunks[pid]])
+        data = np.concatenate(sink.data[pid])
         alone = simulate(spec(pid))
         np.testing.assert_array_equal(data[:, 2:2 + alone.y.shape[1]], alone.y)
 
@@ -97,7 +98,7 @@ def test_a_real_time_run_gets_whole_frames_at_ticks_never_before_they_are_due() 
     got: list[tuple[float, int, int]] = []  # (clock at delivery, k0, n)
 
     def sink(blocks: list[Block], ended: list[Ended]) -> None:
-        got.extend((time.monotonic(), c.k0, c.data.shape[0]) for b in blocks for c in b.chunks())
+        got.extend((time.monotonic(), k0, b.data.shape[1]) for b in blocks for k0 in b.k0)
 
     stepper = Stepper(sink)
     run = compile_run(spec("flexible_link", 1.0))
@@ -116,7 +117,7 @@ def test_a_real_time_run_gets_whole_frames_at_ticks_never_before_they_are_due() 
 
 
 def test_timing_reports_how_late_ticks_began_and_the_trend_as_clock_drift() -> None:
-    stepper = Stepper(lambda chunks, ended: None)  # not started: its record filled by hand
+    stepper = Stepper(lambda blocks, ended: None)  # not started: its record filled by hand
     assert stepper.timing()["drift_ms_per_min"] == 0.0  # nothing yet
     # a minute of ticks, each 0.2 ms + 0.5 ms per minute late, with jitter and, early on,
     # a stall of 200 ms
@@ -147,8 +148,8 @@ def test_a_diverging_run_fails_at_its_divergence_and_its_neighbours_go_on(
     offline = simulate(bad)
     assert sink.ended["bad"].state == "failed" and "diverged" in (sink.ended["bad"].error or "")
     assert sink.ended["bad"].k == offline.n < 10_000
-    data = np.concatenate([c.data for c in sink.chunks["bad"]])
+    data = np.concatenate(sink.data["bad"])
     np.testing.assert_array_equal(data[:, 1], offline.u)
     assert sink.ended["good"].state == "finished"
-    data = np.concatenate([c.data for c in sink.chunks["good"]])
+    data = np.concatenate(sink.data["good"])
     np.testing.assert_array_equal(data[:, 2:2 + flex.ny], simulate(good).y)
