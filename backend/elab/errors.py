@@ -60,4 +60,20 @@ class Conflict(ElabError, RuntimeError):
 
 
 class TooMany(ElabError, RuntimeError):
-    """A limit on concurrent work is reached (e.g. live runs)."""
+    """A limit on concurrent work is reached (e.g. live runs): HTTP 429. ``retry_after``
+    (s): when trying again may succeed."""
+
+    def __init__(self, message: str, retry_after: float = 5.0) -> None:
+        self.retry_after = retry_after
+        super().__init__(message)
+
+
+class Unavailable(ElabError, RuntimeError):
+    """A part the request needs is down or failing (the engine, the store): HTTP 503.
+
+    ``retry_after`` (s) says when trying again makes sense, if known.
+    """
+
+    def __init__(self, message: str, retry_after: float | None = None) -> None:
+        self.retry_after = retry_after
+        super().__init__(message)

@@ -102,6 +102,7 @@ export interface ElabProtocol {
   RunData?: RunData;
   RunInfo?: RunInfo;
   RunList?: RunList;
+  RunSummaryInfo?: RunSummaryInfo;
   "SamplesSignal-Input"?: SamplesSignal;
   "SamplesSignal-Output"?: SamplesSignalOut;
   ServerMessage?: ServerMessage;
@@ -628,11 +629,15 @@ export interface RunInfo {
   channels: ChannelInfo[];
   n_planned: number;
   n_samples: number;
-  frame_samples: number;
   created_at: number;
   started_at: number | null;
   finished_at: number | null;
+  /**
+   * why it failed, stopped early or was interrupted
+   */
   error: string | null;
+  url: string;
+  frame_samples: number;
   stream_url: string;
   data_url: string;
   request: {
@@ -977,10 +982,36 @@ export interface RunCreate {
  * via the `definition` "RunList".
  */
 export interface RunList {
-  runs: RunInfo[];
+  runs: RunSummaryInfo[];
   total: number;
   limit: number;
   offset: number;
+}
+/**
+ * A run in a list: without its request and parameter changes (``GET /runs/{id}``
+ * has them).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "RunSummaryInfo".
+ */
+export interface RunSummaryInfo {
+  id: string;
+  plant: string;
+  mode: string;
+  experiment: string;
+  status: "created" | "running" | "paused" | "finished" | "stopped" | "failed" | "interrupted";
+  Ts: number;
+  channels: ChannelInfo[];
+  n_planned: number;
+  n_samples: number;
+  created_at: number;
+  started_at: number | null;
+  finished_at: number | null;
+  /**
+   * why it failed, stopped early or was interrupted
+   */
+  error: string | null;
+  url: string;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -988,7 +1019,7 @@ export interface RunList {
  */
 export interface Status {
   type: "status";
-  state: string;
+  state: "created" | "running" | "paused" | "finished" | "stopped" | "failed" | "interrupted";
   k: number;
   error: string | null;
 }

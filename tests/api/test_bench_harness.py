@@ -5,15 +5,21 @@ from __future__ import annotations
 
 import asyncio
 import math
+from typing import Any
 
+import msgpack
 import numpy as np
 import uvloop
 from websockets.asyncio.server import ServerConnection, serve
 
-from elab.runs.fanout import encode_frame, pack
+from elab.api.frames import encode_frame
 from tests.api.server import free_port
 from tests.bench.server import bench_elab
 from tests.bench.wsload import NAMES, PROTOCOL, Log, watch
+
+
+def pack(message: dict[str, Any]) -> bytes:
+    return msgpack.packb(message, use_bin_type=True)  # type: ignore[no-any-return]
 
 
 def test_the_client_answers_keepalive_pings_and_logs_every_frame() -> None:

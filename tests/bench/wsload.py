@@ -41,7 +41,12 @@ import uvloop
 from websockets.asyncio.server import ServerConnection, broadcast, serve
 from websockets.uri import parse_uri
 
-from elab.runs.fanout import encode_frame, frame_samples, pack
+from elab.api.frames import encode_frame
+from elab.runs.fanout import frame_samples
+
+
+def pack(message: dict[str, Any]) -> bytes:
+    return msgpack.packb(message, use_bin_type=True)  # type: ignore[no-any-return]
 
 PROTOCOL = "elab.v1"
 _GUID = "258EAFA5-E914-47DA-95CA-C5AB0DC85B11"  # RFC 6455, section 1.3

@@ -19,13 +19,15 @@ from starlette.routing import BaseRoute, Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 
 from elab.api import ident, plants, runs  # noqa: F401  (registers their endpoints)
+from elab.api.frames import MsgpackCodec
 from elab.api.http import ENDPOINTS, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
 from elab.api.stream import Stream
+from elab.engines.process import ProcessEngine
 from elab.errors import ElabError
 from elab.runs.manager import RunManager
-from elab.runs.store import Store
+from elab.store.sqlite import SQLiteStore
 
 API = "/api/v1"
 #: The built browser app (``make install`` runs the frontend build into it).
@@ -39,10 +41,12 @@ def create_app(settings: Settings | None = None) -> Starlette:
 
     @asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
-        store = Store(settings.database)
-        manager = RunManager(store, max_live=settings.max_live,
-                             max_duration=settings.max_duration, tick=settings.tick,
-                             flush_interval=settings.flush_interval)
+        store = SQLiteStore(settings.database)  # migrated here, before the engine opens it
+        engine = ProcessEngine("sim-0", settings.database, settings.engine,
+                               nice=settings.engine_nice, max_queue=settings.engine_queue,
+                               command_timeout=settings.engine_timeout,
+                               stall_timeout=settings.engine_stall)
+        manager = RunManager(store, engine, MsgpackCodec(), limits=settings.limits)
         app.state.manager = manager
         # Everything imported so far (numpy, scipy, control, numba: ~160,000 objects) lives
         # as long as the process. Frozen, the collector stops scanning it: a full collection

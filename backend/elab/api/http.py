@@ -2,13 +2,16 @@
 bodies with a size limit, responses from models, and errors as JSON.
 
 Status codes: 422 invalid input (every field error listed), 404 unknown id,
-409 conflict with the current state, 413 body too large, 429 too many live
-runs. Every error body is ``{"error": {"code", "message", "field", "errors"}}``.
+409 conflict with the current state, 413 body too large, 429 a limit on
+concurrent work (with ``Retry-After``), 503 a part of the server is down or
+failing (the engine, the store; with ``Retry-After`` when it is worth retrying).
+Every error body is ``{"error": {"code", "message", "field", "errors"}}``.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
@@ -18,7 +21,7 @@ from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 
 from elab.api.schemas import ErrorBody, ErrorDetail, FieldError
-from elab.errors import Conflict, ElabError, InvalidInput, NotFound, TooMany
+from elab.errors import Conflict, ElabError, InvalidInput, NotFound, TooMany, Unavailable
 
 Handler = Callable[[Request], Awaitable[Response]]
 M = TypeVar("M", bound=BaseModel)
@@ -99,7 +102,10 @@ def ok(model: BaseModel | list[Any], status: int = 200) -> JSONResponse:
 def error_response(exc: Exception) -> JSONResponse:
     """The JSON error for a known exception (anything else is a bug: 500)."""
     status, detail = error_detail(exc)
-    return JSONResponse(ErrorBody(error=detail).model_dump(mode="json"), status_code=status)
+    retry = getattr(exc, "retry_after", None)
+    headers = {"retry-after": str(max(1, math.ceil(retry)))} if retry is not None else None
+    return JSONResponse(ErrorBody(error=detail).model_dump(mode="json"), status_code=status,
+                        headers=headers)
 
 
 def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
@@ -120,6 +126,8 @@ def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
         return 429, ErrorDetail(code="too_many", message=str(exc))
     if isinstance(exc, TooLarge):
         return 413, ErrorDetail(code="too_large", message=str(exc))
+    if isinstance(exc, Unavailable):
+        return 503, ErrorDetail(code="unavailable", message=str(exc))
     raise exc
 
 

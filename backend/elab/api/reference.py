@@ -16,7 +16,8 @@ from elab.api.http import ENDPOINTS, Endpoint
 REF = "#/components/schemas/{model}"
 STATUS_TEXT = {200: "OK", 201: "Created", 404: "Unknown id", 409: "Conflict with the run's state",
                413: "Body too large", 422: "Invalid input (every field error listed)",
-               429: "Too many live runs"}
+               429: "A limit on concurrent work (Retry-After says when to retry)",
+               503: "A part of the server is down or failing (the engine, the store)"}
 STREAM_TEXT = """The live stream of a run: websocket `GET /api/v1/runs/{run_id}/stream`,
 subprotocol `elab.v1`, every message one msgpack map with a `type`. The server sends `hello`
 (the run, its channels and `frame_samples` F), then `frame` messages (frame `seq` holds samples

@@ -13,12 +13,13 @@ from starlette.responses import Response
 from elab.api import convert
 from elab.api import schemas as s
 from elab.api.http import Param, endpoint, ok, query_float, query_int, read_model
+from elab.engines.base import Action, EngineStatus, StoreHealth
 from elab.errors import InvalidInput
 from elab.plants import get_plant
 from elab.runs import export
 from elab.runs.fanout import frame_samples
 from elab.runs.manager import RunManager
-from elab.runs.store import RunRecord
+from elab.store.base import RunRecord, RunSummary
 
 RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
 FORMATS = {"csv": "text/csv; charset=utf-8", "json": "application/json",
@@ -29,23 +30,33 @@ def manager(request: HTTPConnection) -> RunManager:
     return request.app.state.manager  # type: ignore[no-any-return]
 
 
+def run_summary(record: RunSummary) -> s.RunSummaryInfo:
+    return s.RunSummaryInfo(**_summary_fields(record))
+
+
+def _summary_fields(record: RunSummary) -> dict[str, Any]:
+    return {"id": record.id, "plant": record.plant, "mode": record.mode,
+            "experiment": record.experiment, "status": record.status, "Ts": record.Ts,
+            "channels": [s.ChannelInfo(name=n, unit=u) for n, u in record.channels],
+            "n_planned": record.n_planned, "n_samples": record.n_stored,
+            "created_at": record.created_at, "started_at": record.started_at,
+            "finished_at": record.finished_at, "error": record.error,
+            "url": f"/api/v1/runs/{record.id}"}
+
+
 async def run_info(request: HTTPConnection, record: RunRecord) -> s.RunInfo:
-    changes = await asyncio.to_thread(manager(request).store.param_changes, record.id)
+    changes = await manager(request).param_changes(record.id)
     base = "/api/v1/runs/" + record.id
     return s.RunInfo(
-        id=record.id, plant=record.plant, mode=record.mode, experiment=record.experiment,
-        status=record.status, Ts=record.Ts,  # type: ignore[arg-type]
-        channels=[s.ChannelInfo(name=n, unit=u) for n, u in record.channels],
-        n_planned=record.n_planned, n_samples=record.n_stored,
-        frame_samples=frame_samples(record.Ts), created_at=record.created_at,
-        started_at=record.started_at, finished_at=record.finished_at, error=record.error,
+        **_summary_fields(record), frame_samples=frame_samples(record.Ts),
         stream_url=base + "/stream", data_url=base + "/data", request=record.spec,
         param_changes=[s.ParamChangeInfo(k=c.k, t=c.k * record.Ts, at=c.at, params=c.params)
                        for c in changes])
 
 
 @endpoint("POST", "/runs", "Start a run (simulation); samples stream live and are recorded",
-          body=s.RunCreate, response=s.RunInfo, status=201, errors=(404, 409, 413, 422, 429))
+          body=s.RunCreate, response=s.RunInfo, status=201,
+          errors=(404, 409, 413, 422, 429, 503))
 async def create_run(request: Request) -> Response:
     """Starts stepping at once (paced to real time unless ``pace`` is ``fast``). Follow it on
     ``stream_url`` (websocket, subprotocol ``elab.v1``); download it from ``data_url``."""
@@ -59,7 +70,7 @@ async def create_run(request: Request) -> Response:
     spec = convert.run_spec(req, plant)
     record = await manager(request).create(
         spec, pace=req.pace, mode=req.mode, experiment=req.experiment,
-        request=req.model_dump(mode="json"))
+        request=req.model_dump(mode="json"), client=client_of(request))
     return ok(await run_info(request, record), status=201)
 
 
@@ -74,18 +85,54 @@ async def list_runs(request: Request) -> Response:
         get_plant(plant)
     limit = query_int(request, "limit", 50, 1, 500)
     offset = query_int(request, "offset", 0, 0, 10**9)
-    records, total = await asyncio.to_thread(m.store.list_runs, plant=plant, limit=limit,
-                                             offset=offset)
-    infos = [await run_info(request, await m.get(r.id)) for r in records]
-    return ok(s.RunList(runs=infos, total=total, limit=limit, offset=offset))
+    records, total = await m.page(plant=plant, limit=limit, offset=offset)
+    return ok(s.RunList(runs=[run_summary(r) for r in records], total=total, limit=limit,
+                        offset=offset))
 
 
-@endpoint("GET", "/server", "The server: live runs, watchers, and how closely it keeps time",
-          response=s.ServerStatus, errors=())
+@endpoint("GET", "/server", "The server: live runs, watchers, the engine, the store, and how "
+          "closely the engine keeps time", response=s.ServerStatus, errors=())
 async def server_status(request: Request) -> Response:
-    """For operators and benchmarks: is the stepping thread keeping up? Its ticks' lateness
-    over the last minute and the trend of that lateness (the drift of the runs' clocks)."""
-    return ok(s.ServerStatus.model_validate(manager(request).status()))
+    """For operators and benchmarks: is the engine up and keeping up? Its ticks' lateness
+    over the last minute and the trend of that lateness (the drift of the runs' clocks);
+    whether its writes to the store work."""
+    return ok(server_model(manager(request).status()))
+
+
+@endpoint("GET", "/health", "200 when the server can take runs, else 503 and why",
+          response=s.HealthInfo, errors=(503,))
+async def health(request: Request) -> Response:
+    """For a load balancer or a supervisor: the engine is up and ticking and its store
+    writes work."""
+    st = manager(request).status()["engine"]
+    problems = [st.problem] if st.problem else []
+    if not st.up and not problems:
+        problems.append("the engine is not running")
+    body = s.HealthInfo(status="unavailable" if problems else "ok", problems=problems)
+    return ok(body, status=503 if problems else 200)
+
+
+def server_model(status: dict[str, Any]) -> s.ServerStatus:
+    st: EngineStatus = status["engine"]
+    h = st.health
+    timing = h.timing if h is not None else {
+        "ticks": 0, "tick_s": 0.0, "window_s": 0.0, "late_p50_ms": 0.0, "late_p99_ms": 0.0,
+        "late_max_ms": 0.0, "drift_ms_per_min": 0.0}
+    store = h.store if h is not None else StoreHealth()
+    return s.ServerStatus(
+        live_runs=status["live_runs"], watchers=status["watchers"],
+        stepper=s.StepperTiming.model_validate(timing),
+        engine=s.EngineInfo(id=st.engine, up=st.up, problem=st.problem, restarts=st.restarts,
+                            pid=h.pid if h is not None else None,
+                            heartbeat_age_s=st.heartbeat_age),
+        store=s.StoreInfo(ok=store.ok, error=store.error, since=store.since,
+                          transient=store.transient, pending_bytes=store.pending_bytes))
+
+
+def client_of(request: HTTPConnection) -> str | None:
+    """Who a request counts against for per-client limits: its address (one identity per
+    browser comes with accounts; docs/operations.md)."""
+    return request.client.host if request.client else None
 
 
 @endpoint("GET", "/runs/{run_id}", "A run: state, progress, channels, parameter changes",
@@ -94,27 +141,25 @@ async def get_run(request: Request) -> Response:
     return ok(await run_info(request, await manager(request).get(request.path_params["run_id"])))
 
 
-async def _control(request: Request, action: str) -> Response:
-    m = manager(request)
-    run_id = request.path_params["run_id"]
-    record = await getattr(m, action)(run_id)
+async def _control(request: Request, action: Action) -> Response:
+    record = await manager(request).control(request.path_params["run_id"], action)
     return ok(await run_info(request, record))
 
 
 @endpoint("POST", "/runs/{run_id}/stop", "Stop a run; its samples so far stay recorded",
-          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409))
+          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409, 503))
 async def stop_run(request: Request) -> Response:
     return await _control(request, "stop")
 
 
 @endpoint("POST", "/runs/{run_id}/pause", "Pause a run (its clock stops)",
-          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409))
+          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409, 503))
 async def pause_run(request: Request) -> Response:
     return await _control(request, "pause")
 
 
 @endpoint("POST", "/runs/{run_id}/resume", "Resume a paused run",
-          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409))
+          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409, 503))
 async def resume_run(request: Request) -> Response:
     return await _control(request, "resume")
 
@@ -122,7 +167,7 @@ async def resume_run(request: Request) -> Response:
 @endpoint("POST", "/runs/{run_id}/params",
           "Change the controller gains and/or the reference of a live run",
           body=s.ParamsUpdate, response=s.ParamsApplied, params=(RUN_ID,),
-          errors=(404, 409, 413, 422))
+          errors=(404, 409, 413, 422, 503))
 async def set_params(request: Request) -> Response:
     """Applied from the next sample; the change and its sample index are recorded."""
     req = await read_model(request, s.ParamsUpdate)
@@ -160,7 +205,7 @@ async def get_data(request: Request) -> Response:
     m = manager(request)
     record = await m.get(request.path_params["run_id"])
     data = await m.read(record.id)
-    changes = await asyncio.to_thread(m.store.param_changes, record.id)
+    changes = await m.param_changes(record.id)
     table = export.Table(header=_header(record), Ts=record.Ts, k0=0, channels=record.channels,
                          data=data, param_changes=tuple(changes))
     names = request.query_params.get("channels")

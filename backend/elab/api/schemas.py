@@ -156,22 +156,32 @@ class ParamChangeInfo(Model):
     params: dict[str, Any]
 
 
-class RunInfo(Model):
+RunStateName = Literal["created", "running", "paused", "finished", "stopped", "failed",
+                      "interrupted"]
+
+
+class RunSummaryInfo(Model):
+    """A run in a list: without its request and parameter changes (``GET /runs/{id}``
+    has them)."""
+
     id: str
     plant: str
     mode: str
     experiment: str
-    status: Literal["created", "running", "paused", "finished", "stopped", "failed",
-                    "interrupted"]
+    status: RunStateName
     Ts: float
     channels: list[ChannelInfo]
     n_planned: int
     n_samples: int
-    frame_samples: int
     created_at: float
     started_at: float | None
     finished_at: float | None
-    error: str | None
+    error: str | None = Field(description="why it failed, stopped early or was interrupted")
+    url: str
+
+
+class RunInfo(RunSummaryInfo):
+    frame_samples: int
     stream_url: str
     data_url: str
     request: dict[str, Any]
@@ -191,14 +201,45 @@ class StepperTiming(Model):
                                     "drift of real-time runs' clocks")
 
 
+class EngineInfo(Model):
+    """The engine that steps runs, as the web process sees it."""
+
+    id: str
+    up: bool = Field(description="started and answering")
+    problem: str | None = Field(description="why it is not up, or what is wrong while up")
+    restarts: int = Field(description="restarts after its process was lost")
+    pid: int | None
+    heartbeat_age_s: float | None = Field(description="since it last reported (s)")
+
+
+class StoreInfo(Model):
+    """The engine's writes to the run store."""
+
+    ok: bool
+    error: str | None
+    since: float | None = Field(description="failing since (unix s)")
+    transient: bool = Field(description="being retried (a lock held elsewhere); else failed "
+                            "until someone acts: new runs get 503")
+    pending_bytes: int = Field(description="samples waiting in memory to be committed")
+
+
 class ServerStatus(Model):
     live_runs: int
     watchers: int = Field(description="websocket watchers connected, all runs")
     stepper: StepperTiming
+    engine: EngineInfo
+    store: StoreInfo
+
+
+class HealthInfo(Model):
+    """For a load balancer: 200 when every part works, else 503 and what is wrong."""
+
+    status: Literal["ok", "unavailable"]
+    problems: list[str]
 
 
 class RunList(Model):
-    runs: list[RunInfo]
+    runs: list[RunSummaryInfo]
     total: int
     limit: int
     offset: int
@@ -485,7 +526,7 @@ class Frame(Model):
 
 class Status(Model):
     type: Literal["status"] = "status"
-    state: str
+    state: RunStateName
     k: int
     error: str | None = None
 

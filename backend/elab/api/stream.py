@@ -22,10 +22,11 @@ from starlette.types import Receive, Scope, Send
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from elab.api import schemas as s
+from elab.api.frames import pack
 from elab.api.http import error_detail
 from elab.api.runs import apply_params, run_info
 from elab.errors import ElabError, NotFound
-from elab.runs.fanout import Watcher, pack
+from elab.runs.fanout import Watcher
 
 CLOSE_NOT_FOUND = 4404
 CLOSE_BAD_PROTOCOL = 4400
@@ -59,16 +60,15 @@ async def stream(ws: WebSocket, send_bytes: Callable[[bytes], Awaitable[None]]) 
         return
     await ws.accept(subprotocol=s.PROTOCOL)
     channel = m.channel(record)
-    watcher = Watcher(send_bytes, max_frames=ws.app.state.settings.watcher_frames)
+    watcher = Watcher(send_bytes, m.codec, max_frames=ws.app.state.settings.watcher_frames)
     info = await run_info(ws, record)
-    await ws.send_bytes(pack(s.Hello(run=info, live_seq=channel.edge // channel.F)
-                             .model_dump(mode="python")))
+    await ws.send_bytes(pack(s.Hello(run=info, live_seq=channel.edge // channel.F)))
     channel.watchers.add(watcher)
     start = _start_seq(ws, channel.edge // channel.F, record.status)
     if start is not None:
         channel.resume_from(watcher, start)
     if channel.ended:
-        watcher.control(pack({"type": "status", "state": record.status, "k": record.n_stored}))
+        watcher.control(m.codec.status(record.status, record.n_stored, record.error))
     try:
         async with anyio.create_task_group() as tg:
             tg.start_soon(_send, channel, watcher, tg.cancel_scope)
@@ -114,17 +114,15 @@ async def _handle(msg: Any, m: Any, run_id: str, channel: Any, watcher: Watcher)
     elif isinstance(msg, s.SetParams):
         await apply_params(m, run_id, msg.controller, msg.signal)
     else:
-        await getattr(m, msg.type)(run_id)
+        await m.control(run_id, msg.type)
 
 
 def _json(text: str) -> Any:
     return json.loads(text)
 
 
-def _error(exc: Exception) -> dict[str, Any]:
+def _error(exc: Exception) -> s.ErrorMessage:
     if isinstance(exc, ValidationError | ElabError):
         _, detail = error_detail(exc)
-        return {"type": "error", "code": detail.code, "message": detail.message,
-                "field": detail.field}
-    return {"type": "error", "code": "invalid", "message": f"not a message: {exc}",
-            "field": None}
+        return s.ErrorMessage(code=detail.code, message=detail.message, field=detail.field)
+    return s.ErrorMessage(code="invalid", message=f"not a message: {exc}", field=None)

@@ -23,8 +23,8 @@ import scipy.io
 from numpy.typing import NDArray
 
 from elab.errors import DimensionError, InvalidInput
-from elab.runs.store import ParamChange
 from elab.sim.result import Samples
+from elab.store import ParamChange
 
 Array = NDArray[np.float64]
 

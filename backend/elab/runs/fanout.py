@@ -20,20 +20,18 @@ messages in one pass, as ``websockets.broadcast()`` does, without waking a task
 per watcher; a watcher whose connection made a send wait, or which catches up
 from the recording, is served by its own task until its queue is empty.
 
-Everything here runs on the event loop thread; encoding is msgpack with
-float32 columns.
+Everything here runs on the event loop thread. Messages are encoded by a
+:class:`Codec` (the wire protocol is the API layer's: :mod:`elab.api.frames`).
 """
 
 from __future__ import annotations
 
 import asyncio
-import functools
 from collections import deque
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
-import msgpack
 import numpy as np
 from numpy.typing import NDArray
 
@@ -48,54 +46,19 @@ def frame_samples(Ts: float) -> int:
     return max(1, round(FRAME_SECONDS / Ts))
 
 
-def pack(message: dict[str, Any]) -> bytes:
-    return msgpack.packb(message, use_bin_type=True)  # type: ignore[no-any-return]
+class Codec(Protocol):
+    """The stream's messages as bytes."""
 
+    def frames(self, names: tuple[str, ...], F: int, k0: NDArray[np.int64],
+               data: Array) -> list[bytes]:
+        """``frame`` messages of R runs at once: samples ``k0[i] ..`` of run ``i`` are
+        ``data[i]`` (R × n × channels, columns in the order of ``names``)."""
 
-def encode_frame(names: tuple[str, ...], F: int, k0: int, data: Array) -> bytes:
-    """One ``frame`` message of samples ``k0 .. k0+n−1`` (``data``: n × channels)."""
-    return encode_frames(names, F, np.array([k0]), data[np.newaxis])[0]
+    def skipped(self, from_seq: int, to_seq: int) -> bytes: ...
 
+    def status(self, state: str, k: int, error: str | None) -> bytes: ...
 
-def encode_frames(names: tuple[str, ...], F: int, k0: NDArray[np.int64],
-                  data: Array) -> list[bytes]:
-    """``frame`` messages of R runs at once (``data``: R × n × channels, ``k0``: R).
-
-    A frame is the msgpack map ``{type: "frame", seq, k0, n, columns: {name: bin}}``
-    with float32 little-endian bytes per channel. Every message of one shape has the
-    same layout (``seq`` and ``k0`` are written as uint64), so all R are filled into
-    one byte array by a few array copies instead of being packed one by one.
-    """
-    R, n, _ = data.shape
-    template, at_seq, at_k0, at_cols = _layout(names, n)
-    out = np.empty((R, len(template)), np.uint8)
-    out[:] = np.frombuffer(template, np.uint8)
-    k0 = np.asarray(k0, dtype=np.int64)
-    out[:, at_seq:at_seq + 8] = (k0 // F).astype(">u8").view(np.uint8).reshape(R, 8)
-    out[:, at_k0:at_k0 + 8] = k0.astype(">u8").view(np.uint8).reshape(R, 8)
-    cols = np.ascontiguousarray(data.transpose(0, 2, 1), dtype="<f4").view(np.uint8)
-    for i, at in enumerate(at_cols):
-        out[:, at:at + 4 * n] = cols[:, i]
-    return [row.tobytes() for row in out]
-
-
-@functools.lru_cache(maxsize=256)
-def _layout(names: tuple[str, ...], n: int) -> tuple[bytes, int, int, tuple[int, ...]]:
-    """A frame of ``n`` samples with zeros for ``seq``, ``k0`` and the data, and where
-    ``seq``, ``k0`` and each channel's bytes begin."""
-    packer = msgpack.Packer(use_bin_type=True)
-    head = (packer.pack_map_header(5) + packer.pack("type") + packer.pack("frame")
-            + packer.pack("seq"))
-    at_seq = len(head) + 1
-    head += b"\xcf" + bytes(8) + packer.pack("k0")
-    at_k0 = len(head) + 1
-    head += b"\xcf" + bytes(8) + packer.pack("n") + packer.pack(n) + packer.pack("columns")
-    head += packer.pack_map_header(len(names))
-    at_cols = []
-    for name in names:
-        head += packer.pack(name) + packer.pack(bytes(4 * n))
-        at_cols.append(len(head) - 4 * n)
-    return head, at_seq, at_k0, tuple(at_cols)
+    def params(self, k: int, t: float, params: dict[str, Any]) -> bytes: ...
 
 
 @dataclass(eq=False)  # identity: watchers live in sets
@@ -108,6 +71,7 @@ class Watcher:
     """
 
     send: Callable[[bytes], Awaitable[None]]
+    codec: Codec
     max_frames: int = 100
     # (first sample of a frame, or None for a control message, payload)
     items: deque[tuple[int | None, bytes]] = field(default_factory=deque)
@@ -150,9 +114,7 @@ class Watcher:
         """Send a notice of skipped frames if any, else the oldest queued message."""
         if self.skipped is not None:
             (first, last), self.skipped = self.skipped, None
-            payload = pack({"type": "skipped", "from_seq": first, "to_seq": last,
-                            "reason": "slow watcher: frames dropped; send resume_from to "
-                                      "receive them from the recording"})
+            payload = self.codec.skipped(first, last)
         else:
             k0, payload = self.items.popleft()
             self.frames_queued -= k0 is not None
@@ -258,9 +220,10 @@ class Sender:
 class RunChannel:
     """The watchers of one run and the framing of its samples."""
 
-    def __init__(self, names: tuple[str, ...], Ts: float, read: Reader, *, edge: int = 0,
-                 ended: bool = False, sender: Sender | None = None) -> None:
+    def __init__(self, names: tuple[str, ...], Ts: float, read: Reader, codec: Codec, *,
+                 edge: int = 0, ended: bool = False, sender: Sender | None = None) -> None:
         self.names = names
+        self.codec = codec
         self.sender = sender or Sender()
         self.F = frame_samples(Ts)
         self.read = read
@@ -297,7 +260,7 @@ class RunChannel:
         out, rest = data[:n], data[n:]
         self._pending = [rest] if rest.shape[0] else []
         self._pending_n = rest.shape[0]
-        self._deliver(encode_frame(self.names, self.F, self.edge, out), n)
+        self._deliver(self._frame(self.edge, out), n)
 
     def _deliver(self, payload: bytes, n: int) -> None:
         """Offer the message of the next ``n`` samples to every watcher."""
@@ -308,6 +271,13 @@ class RunChannel:
         for w in self.watchers:
             w.offer(payload, k0, seq, frames)
             ready(w)
+        self._poke()
+
+    def _frame(self, k0: int, data: Array) -> bytes:
+        return self.codec.frames(self.names, self.F, np.array([k0]), data[np.newaxis])[0]
+
+    def moved(self) -> None:
+        """More of the recording can be read (pulls waiting for it look again)."""
         self._poke()
 
     def _poke(self) -> None:
@@ -351,7 +321,7 @@ class RunChannel:
                 self._moved = asyncio.Event()
             await self._moved.wait()
             return
-        await w.send(encode_frame(self.names, self.F, w.pull_from, data))
+        await w.send(self._frame(w.pull_from, data))
         w.pull_from += data.shape[0]
 
 
@@ -359,7 +329,7 @@ def publish_block(channels: Sequence[RunChannel | None], data: Array) -> None:
     """:meth:`RunChannel.publish` of ``data[i]`` on ``channels[i]`` (``None``: skipped)
     for the runs of a block (``data``: runs × n × channels). Runs whose new samples are
     whole frames at their channel's edge (the usual real-time case: one frame per tick)
-    get their messages encoded together, one :func:`encode_frames` call per layout."""
+    get their messages encoded together, one :meth:`Codec.frames` call per layout."""
     n = data.shape[1]
     together: dict[tuple[tuple[str, ...], int], list[tuple[int, RunChannel]]] = {}
     for i, ch in enumerate(channels):
@@ -372,5 +342,6 @@ def publish_block(channels: Sequence[RunChannel | None], data: Array) -> None:
     for (names, F), runs in together.items():
         rows = data if len(runs) == data.shape[0] else data[[i for i, _ in runs]]
         k0 = np.array([ch.edge for _, ch in runs], dtype=np.int64)
-        for (_, ch), payload in zip(runs, encode_frames(names, F, k0, rows), strict=True):
+        codec = runs[0][1].codec
+        for (_, ch), payload in zip(runs, codec.frames(names, F, k0, rows), strict=True):
             ch._deliver(payload, n)

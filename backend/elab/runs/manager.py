@@ -1,256 +1,349 @@
-"""Run lifecycle: create, step, record, fan out, pause, resume, stop, change live.
+"""Run lifecycle on the web side: start runs on an engine, follow them, fan them out.
 
-The manager lives on the event loop. The stepping thread hands it each tick's
-samples: they go to the recorder at once (in that thread), then to the run's
-channel on the loop. Every parameter change is applied by the stepper between
-two samples and stored with that sample's index.
+The manager lives on the event loop. It sends commands to the engine that steps
+a run (the engine decides them, records everything and answers) and hears from
+it through :class:`~elab.engines.base.EngineEvents`: new samples go to the
+run's channel (and to a short in-memory tail of what the store has not
+committed yet, so a watcher catching up reads one consecutive recording),
+state changes go to its watchers. A run the engine has ended stays here until
+the engine reports its final record stored; after that the store answers.
 """
 
 from __future__ import annotations
 
 import asyncio
+import logging
 import secrets
-import time
+from collections import Counter
 from dataclasses import dataclass, field, replace
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.errors import Conflict, InvalidInput, TooMany
+from elab.engines.base import Action, Block, Changed, Engine, Health, Pace, RunOrder
+from elab.errors import Conflict, ElabError, TooMany
 from elab.laws import ControlLaw
-from elab.runs.fanout import RunChannel, Sender, pack, publish_block
-from elab.runs.recorder import Recorder
-from elab.runs.state import RunState, transition
-from elab.runs.stepper import Block, Ended, Pace, Stepper
-from elab.runs.store import ParamChange, RunRecord, Store
-from elab.sim.result import Samples
+from elab.lifecycle import RunState
+from elab.runs.fanout import Codec, RunChannel, Sender, publish_block
+from elab.runs.limits import Limits
 from elab.sim.signals import Signal
-from elab.sim.spec import CompiledRun, RunSpec, compile_run
+from elab.sim.spec import RunSpec
+from elab.store.base import ParamChange, RunRecord, RunStore, RunSummary
+
+log = logging.getLogger(__name__)
 
 Array = NDArray[np.float64]
 
 
-@dataclass
-class _Live:
-    record: RunRecord
-    run: CompiledRun
-    state: RunState
-    k: int = 0  # samples published
-    ended: asyncio.Event = field(default_factory=asyncio.Event)
+@dataclass(eq=False)
+class _Run:
+    """A run this process has heard of from its engine and not yet seen stored."""
+
+    record: RunRecord  # as started; status and progress below
+    engine: str
+    channel: RunChannel
+    client: str | None
+    state: RunState = RunState.RUNNING
+    error: str | None = None
+    next_k: int = 0  # the next sample expected from the engine
+    committed: int = 0  # samples [0, committed) are in the store
+    recent: list[tuple[int, Array]] = field(default_factory=list)  # received, not committed
+    changes: list[ParamChange] = field(default_factory=list)
+    filling: list[tuple[int, Array]] | None = None  # blocks held while a gap is read back
+    end_status: bytes | None = None  # the final status, held back while filling
+    stored: bool = False
+    moved: asyncio.Event = field(default_factory=asyncio.Event)  # committed grew / it ended
+
+    def current(self) -> RunRecord:
+        return replace(self.record, status=self.state.value, n_stored=self.next_k,
+                       error=self.error or self.record.error)
 
 
-def channels_of(run: CompiledRun) -> tuple[tuple[str, str], ...]:
-    """Recorded columns ``r, u, y…, x…`` with units (the time column is derived)."""
-    empty = Samples(run.spec.plant, run.Ts, 0, np.zeros(0), np.zeros(0),
-                    np.zeros((0, run.spec.plant.ny)), np.zeros((0, run.spec.plant.nx)))
-    return tuple((c.name, c.unit) for c, _ in empty.channels()[1:])
+def new_run_id() -> str:
+    return f"r-{secrets.token_hex(6)}"
 
 
 class RunManager:
-    """All runs of one server process."""
+    """All runs as this web process sees them; implements ``EngineEvents``."""
 
-    def __init__(self, store: Store, *, max_live: int = 400, max_duration: float = 3600.0,
-                 tick: float = 0.02, flush_interval: float = 0.25) -> None:
+    def __init__(self, store: RunStore, engine: Engine, codec: Codec, *,
+                 limits: Limits | None = None) -> None:
         self.store = store
-        self.max_live = max_live
-        self.max_duration = max_duration
-        self.recorder = Recorder(store, flush_interval)
-        self.stepper = Stepper(self._on_tick, tick=tick)
-        self._live: dict[str, _Live] = {}
+        self.engine = engine
+        self.codec = codec
+        self.limits = limits or Limits()
+        self._runs: dict[str, _Run] = {}
         self._channels: dict[str, RunChannel] = {}
         self._sender = Sender()  # one pass over all watchers per tick
-        self._loop: asyncio.AbstractEventLoop | None = None
-        self.interrupted: list[str] = []
-        self._tasks: set[asyncio.Future[None]] = set()
+        self._clients: dict[str, str | None] = {}  # run id → client, while it starts
+        self._starting: Counter[str | None] = Counter()
+        self._tasks: set[asyncio.Task[None]] = set()
 
     async def start(self) -> None:
-        self._loop = asyncio.get_running_loop()
-        self.interrupted = await asyncio.to_thread(self.store.mark_interrupted)
-        self.recorder.start()
-        self.stepper.start()
+        await self.engine.start(self)
 
     async def close(self) -> None:
-        """Stop stepping; runs cut short are stored as interrupted."""
-        self.stepper.close()
-        await asyncio.to_thread(self.recorder.close)
-        for live in list(self._live.values()):
-            await self._set_state(live, RunState.INTERRUPTED, error="server shut down")
-        self._live.clear()
+        await self.engine.close()
 
     # -- queries ---------------------------------------------------------------
     @property
     def live_count(self) -> int:
-        return len(self._live)
+        return sum(r.state.live for r in self._runs.values())
 
     def status(self) -> dict[str, Any]:
-        """Live runs, connected watchers and the stepping thread's timing."""
-        return {"live_runs": len(self._live),
+        """Live runs, connected watchers, and the engine as it reports itself."""
+        st = self.engine.status()
+        return {"live_runs": self.live_count,
                 "watchers": sum(len(ch.watchers) for ch in self._channels.values()),
-                "stepper": self.stepper.timing()}
+                "engine": st}
 
     async def get(self, run_id: str) -> RunRecord:
-        live = self._live.get(run_id)
-        if live is not None:
-            return replace(live.record, status=live.state.value, n_stored=live.k)
+        run = self._runs.get(run_id)
+        if run is not None:
+            return run.current()
         return await asyncio.to_thread(self.store.get_run, run_id)
 
+    async def page(self, *, plant: str | None, limit: int,
+                   offset: int) -> tuple[list[RunSummary], int]:
+        """A page of runs, newest first (live ones with their current state)."""
+        runs, total = await asyncio.to_thread(self.store.list_runs, plant=plant, limit=limit,
+                                              offset=offset)
+        return [self._runs[r.id].current() if r.id in self._runs else r for r in runs], total
+
+    async def param_changes(self, run_id: str) -> list[ParamChange]:
+        run = self._runs.get(run_id)
+        if run is not None:
+            return list(run.changes)
+        return await asyncio.to_thread(self.store.param_changes, run_id)
+
     async def read(self, run_id: str, k0: int = 0, k1: int | None = None) -> Array:
-        record = await self.get(run_id)
-        end = record.n_stored if k1 is None else min(k1, record.n_stored)
-        return await asyncio.to_thread(self.recorder.read, run_id, k0, end)
+        """Samples ``[k0, k1)`` recorded so far (``None``: to the end), stored or not yet."""
+        run = self._runs.get(run_id)
+        if run is None:
+            return await asyncio.to_thread(self.store.read, run_id, k0, k1)
+        end = run.next_k if k1 is None else min(k1, run.next_k)
+        committed, recent = run.committed, list(run.recent)
+        parts = []
+        if k0 < min(end, committed):
+            parts.append(await asyncio.to_thread(self.store.read, run_id, k0,
+                                                 min(end, committed)))
+        at = k0 + sum(p.shape[0] for p in parts)
+        for c0, rows in recent:
+            if c0 <= at < c0 + rows.shape[0] and at < end:
+                part = rows[at - c0:min(end, c0 + rows.shape[0]) - c0]
+                parts.append(part)
+                at += part.shape[0]
+        if not parts:
+            return np.zeros((0, len(run.record.channels)))
+        return np.concatenate(parts) if len(parts) > 1 else parts[0]
 
     # -- lifecycle ---------------------------------------------------------------
     async def create(self, spec: RunSpec, *, pace: Pace, mode: str, experiment: str,
-                     request: dict[str, Any]) -> RunRecord:
-        if len(self._live) >= self.max_live:
-            raise TooMany(f"{len(self._live)} runs are live, the limit of this server "
-                          f"(ELAB_MAX_LIVE_RUNS = {self.max_live}); wait for one to end")
-        if spec.duration > self.max_duration:
-            raise InvalidInput("duration", spec.duration,
-                               f"a duration in (0, {self.max_duration:g}] s")
-        run = compile_run(spec)
-        # sample 0 just after the stepper's next tick, so each tick completes a frame;
-        # started_at: the wall time of sample 0
-        mono = time.monotonic()
-        origin = self.stepper.origin(mono, run.Ts) if pace == "realtime" else mono
-        now = time.time() + (origin - mono)
-        record = RunRecord(id=f"r-{secrets.token_hex(6)}", plant=spec.plant.id, mode=mode,
-                           experiment=experiment, spec=request, status=RunState.RUNNING.value,
-                           Ts=run.Ts, channels=channels_of(run), n_planned=run.n_samples,
-                           created_at=now, started_at=now)
-        await asyncio.to_thread(self.store.create_run, record)
-        self.recorder.open(record.id, len(record.channels))
-        self._live[record.id] = _Live(record, run, RunState.RUNNING)
-        self._channels[record.id] = RunChannel(
-            tuple(name for name, _ in record.channels), run.Ts, self._reader(record.id),
-            sender=self._sender)
-        self.stepper.add(record.id, run, pace, t_origin=origin)
-        return record
-
-    async def pause(self, run_id: str) -> RunRecord:
-        live = self._require_live(run_id, RunState.PAUSED)
-        await asyncio.wrap_future(self.stepper.pause(run_id))
-        await self._set_state(live, RunState.PAUSED)
+                     request: dict[str, Any], client: str | None = None) -> RunRecord:
+        """Check the run against the limits and start it on the engine."""
+        plant = spec.plant
+        self.limits.check(spec, 2 + plant.ny + plant.nx)
+        self._check_room(client)
+        run_id = new_run_id()
+        self._clients[run_id] = client
+        self._starting[client] += 1
+        try:
+            await self.engine.add(RunOrder(run_id, spec, pace, mode, experiment, request))
+        finally:
+            self._starting[client] -= 1
+            self._clients.pop(run_id, None)
         return await self.get(run_id)
 
-    async def resume(self, run_id: str) -> RunRecord:
-        live = self._require_live(run_id, RunState.RUNNING)
-        await asyncio.wrap_future(self.stepper.resume(run_id))
-        await self._set_state(live, RunState.RUNNING)
-        return await self.get(run_id)
+    def _check_room(self, client: str | None) -> None:
+        live = [r for r in self._runs.values() if r.state.live]
+        total = len(live) + self._starting.total()
+        if total >= self.limits.max_live:
+            raise TooMany(f"{total} runs are live, the limit of this server "
+                          f"(ELAB_MAX_LIVE_RUNS = {self.limits.max_live}); retry when one "
+                          "has ended", retry_after=10.0)
+        mine = sum(r.client == client for r in live) + self._starting[client]
+        if mine >= self.limits.max_live_per_client:
+            raise TooMany(f"you have {mine} live runs, the limit per client "
+                          f"(ELAB_MAX_LIVE_PER_CLIENT = {self.limits.max_live_per_client}); "
+                          "stop one or retry when one has ended", retry_after=10.0)
 
-    async def stop(self, run_id: str) -> RunRecord:
-        live = self._require_live(run_id, RunState.STOPPED)
-        await asyncio.wrap_future(self.stepper.stop(run_id))
-        await live.ended.wait()  # the stepper reports the end through the loop
+    async def control(self, run_id: str, action: Action) -> RunRecord:
+        """Pause, resume or stop; :class:`Conflict` if the run cannot (it has ended)."""
+        await self._require_live(run_id)
+        try:
+            await self.engine.control(run_id, action)
+        except Conflict:
+            run = self._runs.get(run_id)
+            if run is None or not run.state.live:  # it ended meanwhile
+                record = await self.get(run_id)
+                raise Conflict(f"run {run_id} has ended ({record.status}): it cannot "
+                               f"{action}") from None
+            raise
         return await self.get(run_id)
 
     async def set_params(self, run_id: str, *, law: ControlLaw | None, reference: Signal | None,
                          params: dict[str, Any]) -> int:
         """Apply a new law and/or reference from the next sample; returns that sample."""
-        live = self._require_live(run_id, None)
-        spec = live.run.spec
-        new = compile_run(replace(spec, law=law or spec.law, reference=reference or spec.reference))
-        if law is not None and new.controller.nc != live.run.controller.nc:
-            raise InvalidInput("controller", params.get("controller"),
-                               f"a {type(spec.law).__name__} law like the run's (its controller "
-                               "state size cannot change mid-run); start a new run instead")
-        k = await asyncio.wrap_future(self.stepper.replace(run_id, new, controller=law is not None))
-        live.run = new
-        change = ParamChange(k=k, params=params, at=time.time())
-        await asyncio.to_thread(self.store.add_param_change, run_id, change)
-        self._channels[run_id].control(pack({"type": "params", "k": k, "t": k * new.Ts,
-                                             "params": params}))
-        return k
+        await self._require_live(run_id)
+        return await self.engine.replace(run_id, law=law, reference=reference, params=params)
+
+    async def _require_live(self, run_id: str) -> None:
+        run = self._runs.get(run_id)
+        if run is None or not run.state.live:
+            record = await self.get(run_id)  # NotFound for unknown ids
+            raise Conflict(f"run {run_id} has ended ({record.status}): it no longer steps")
 
     def channel(self, record: RunRecord) -> RunChannel:
         """The live channel of a run, or a replay channel over its recording."""
         ch = self._channels.get(record.id)
         if ch is None:
             ch = RunChannel(tuple(n for n, _ in record.channels), record.Ts,
-                            self._reader(record.id), edge=record.n_stored, ended=True,
-                            sender=self._sender)
+                            self._reader(record.id), self.codec, edge=record.n_stored,
+                            ended=True, sender=self._sender)
             self._channels[record.id] = ch
         return ch
 
     def release(self, run_id: str, channel: RunChannel) -> None:
-        """Forget a finished run's channel once nobody watches it."""
-        if not channel.watchers and run_id not in self._live:
+        """Forget a channel once nobody watches it and its run is over."""
+        run = self._runs.get(run_id)
+        if not channel.watchers and (run is None or not run.state.live):
             self._channels.pop(run_id, None)
 
-    # -- internals ---------------------------------------------------------------
     def _reader(self, run_id: str) -> Any:
         async def read(k0: int, k1: int) -> Array:
-            return await asyncio.to_thread(self.recorder.read, run_id, k0, k1)
+            return await self.read(run_id, k0, k1)
         return read
 
-    def _require_live(self, run_id: str, target: RunState | None) -> _Live:
-        live = self._live.get(run_id)
-        if live is None:
-            record = self.store.get_run(run_id)  # NotFound for unknown ids
-            raise Conflict(f"run {run_id} is {record.status}: it no longer steps")
-        if target is not None:
-            transition(live.state, target)
-        return live
+    # -- events from the engines (on the loop) ----------------------------------------
+    def started(self, engine: str, record: RunRecord) -> None:
+        names = tuple(n for n, _ in record.channels)
+        ch = RunChannel(names, record.Ts, self._reader(record.id), self.codec,
+                        sender=self._sender)
+        self._channels[record.id] = ch
+        self._runs[record.id] = _Run(record, engine, ch, self._clients.get(record.id))
 
-    def _on_tick(self, blocks: list[Block], ended: list[Ended]) -> None:
-        """In the stepping thread: record now, publish on the loop."""
-        for b in blocks:
-            self.recorder.append_many(b.run_ids, b.k0, b.data)
-        if self._loop is not None:
-            self._loop.call_soon_threadsafe(self._publish, blocks, ended)
-
-    def _publish(self, blocks: list[Block], ended: list[Ended]) -> None:
+    def blocks(self, engine: str, blocks: list[Block]) -> None:
+        runs = self._runs
         for b in blocks:
             n = b.data.shape[1]
             channels: list[RunChannel | None] = []
-            for run_id, k0 in zip(b.run_ids, b.k0, strict=True):
-                live = self._live.get(run_id)
-                if live is not None:
-                    live.k = k0 + n
-                channels.append(None if live is None else self._channels[run_id])
+            for i, (run_id, k0) in enumerate(zip(b.run_ids, b.k0, strict=True)):
+                run = runs.get(run_id)
+                if run is None or run.filling is not None or k0 != run.next_k:
+                    channels.append(None)
+                    if run is not None:
+                        self._out_of_line(run, k0, b.data[i])
+                    continue
+                run.next_k = k0 + n
+                run.recent.append((k0, b.data[i]))
+                channels.append(run.channel)
             publish_block(channels, b.data)
-        for e in ended:
-            live = self._live.get(e.run_id)
-            if live is not None:
-                task = asyncio.ensure_future(self._finish(live, e))
-                self._tasks.add(task)
-                task.add_done_callback(self._tasks.discard)
 
-    async def _finish(self, live: _Live, e: Ended) -> None:
-        await asyncio.to_thread(self.recorder.finish, e.run_id)
-        state = {"finished": RunState.FINISHED, "stopped": RunState.STOPPED,
-                 "failed": RunState.FAILED}[e.state]
-        await self._set_state(live, state, error=e.error, end=True)
-        self._live.pop(e.run_id, None)
-        live.ended.set()
-        ch = self._channels.get(e.run_id)
-        if ch is not None:
-            self.release(e.run_id, ch)
+    def changed(self, engine: str, change: Changed) -> None:
+        run = self._runs.get(change.run_id)
+        if run is None:
+            return
+        run.state = change.state
+        status = self.codec.status(change.state.value, run.next_k, change.error)
+        if change.state.live:
+            run.channel.control(status)
+            return
+        run.error = change.error
+        run.moved.set()
+        if run.filling is not None:
+            run.end_status = status  # sent once the gap is filled
+        else:
+            self._end(run, status)
 
-    async def _set_state(self, live: _Live, state: RunState, *, error: str | None = None,
-                         end: bool = False) -> None:
-        live.state = transition(live.state, state)
-        finished_at = time.time() if not state.live else None
-        await asyncio.to_thread(self.store.set_status, live.record.id, state.value,
-                                finished_at=finished_at, error=error)
-        status = _status(live, error)
-        ch = self._channels.get(live.record.id)
-        if ch is not None:
-            ch.end(status) if end else ch.control(status)
+    def params(self, engine: str, run_id: str, change: ParamChange) -> None:
+        run = self._runs.get(run_id)
+        if run is None:
+            return
+        run.changes.append(change)
+        run.channel.control(self.codec.params(change.k, change.k * run.record.Ts,
+                                              change.params))
 
+    def committed(self, engine: str, counts: dict[str, int]) -> None:
+        for run_id, n in counts.items():
+            run = self._runs.get(run_id)
+            if run is None:
+                continue
+            run.committed = n
+            run.recent = [(c0, rows) for c0, rows in run.recent if c0 + rows.shape[0] > n]
+            run.moved.set()
+            run.channel.moved()
 
-def _status(live: _Live, error: str | None) -> bytes:
-    msg: dict[str, Any] = {"type": "status", "state": live.state.value, "k": live.k}
-    if error:
-        msg["error"] = error
-    return pack(msg)
+    def stored(self, engine: str, run_id: str) -> None:
+        run = self._runs.get(run_id)
+        if run is not None:
+            run.stored = True
+            if run.filling is None:
+                self._forget(run)
 
+    def health(self, engine: str, health: Health) -> None:
+        pass  # the engine keeps its last heartbeat; GET /server and /health read it there
 
-def status_message(record: RunRecord) -> dict[str, Any]:
-    return {"type": "status", "state": record.status, "k": record.n_stored,
-            **({"error": record.error} if record.error else {})}
+    def lost(self, engine: str, reason: str) -> None:
+        """The engine died: its live runs are interrupted, with what it had committed."""
+        lost = [r for r in self._runs.values() if r.engine == engine and r.state.live]
+        for run in lost:
+            self.changed(engine, Changed(run.record.id, RunState.INTERRUPTED, run.next_k,
+                                         reason))
+        self._spawn(self._store_lost(engine, reason, lost))
 
+    async def _store_lost(self, engine: str, reason: str, runs: list[_Run]) -> None:
+        try:
+            await asyncio.to_thread(self.store.mark_interrupted, engine, reason)
+        except ElabError:  # the engine marks them when it starts again; the log says why
+            log.exception("could not mark the runs of engine %s interrupted", engine)
+            return
+        for run in runs:
+            self.stored(engine, run.record.id)
 
-Stream = Literal["live", "replay"]
+    # -- internals -----------------------------------------------------------------
+    def _end(self, run: _Run, status: bytes) -> None:
+        run.channel.end(status)
+        if run.stored:
+            self._forget(run)
+
+    def _forget(self, run: _Run) -> None:
+        self._runs.pop(run.record.id, None)
+        self.release(run.record.id, run.channel)
+
+    def _out_of_line(self, run: _Run, k0: int, rows: Array) -> None:
+        """Samples that do not follow the last ones: held while the gap before them (the
+        engine dropped blocks while this process did not read) is read from the store."""
+        if run.filling is not None:
+            run.filling.append((k0, rows))
+        elif k0 > run.next_k:
+            log.warning("run %s: samples %d..%d did not arrive; reading them from the store",
+                        run.record.id, run.next_k, k0)
+            run.filling = [(k0, rows)]
+            self._spawn(self._fill(run, k0))
+        # k0 < next_k: samples already published (cannot happen in order); ignored
+
+    async def _fill(self, run: _Run, gap_end: int) -> None:
+        while run.committed < gap_end and run.state.live:
+            run.moved.clear()
+            await run.moved.wait()
+        end = min(gap_end, run.committed)
+        if end > run.next_k:
+            data = await asyncio.to_thread(self.store.read, run.record.id, run.next_k, end)
+            run.channel.publish(data)
+            run.next_k += data.shape[0]
+        held, run.filling = run.filling or [], None
+        for k0, rows in held:
+            if k0 == run.next_k:
+                run.recent.append((k0, rows))
+                run.channel.publish(rows)
+                run.next_k += rows.shape[0]
+        if run.end_status is not None:
+            self._end(run, run.end_status)
+        elif run.stored:
+            self._forget(run)
+
+    def _spawn(self, coro: Any) -> None:
+        task = asyncio.get_running_loop().create_task(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)

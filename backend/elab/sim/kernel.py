@@ -65,7 +65,7 @@ def control_step(s: int, r: float, z: Any, e: float, Ac: Any, Bc: Any, Cc: Any, 
     for c in range(NC):
         v += Cc[s, c] * xc[s, c]
     v += e
-    u = min(max(v, -u_lim[s]), u_lim[s])
+    u: float = min(max(v, -u_lim[s]), u_lim[s])
     for a in range(NC):
         acc = Bc[s, a, 0] * r
         for m in range(NZ):

@@ -1,7 +1,7 @@
 // The gate: every plant × experiment as a card, and the recent runs.
 import { api } from "../api";
 import { fill, h, link } from "../dom";
-import type { RunInfo } from "../protocol.gen";
+import type { RunSummaryInfo } from "../protocol.gen";
 import { fmt } from "../units";
 import { EXPERIMENTS, failure, loading } from "./common";
 
@@ -39,7 +39,7 @@ export async function home(root: HTMLElement): Promise<void> {
   }
 }
 
-export function runTable(runs: RunInfo[]): HTMLElement {
+export function runTable(runs: RunSummaryInfo[]): HTMLElement {
   return h(
     "table.runs",
     h("thead", h("tr", h("th", "Run"), h("th", "Plant"), h("th", "Experiment"), h("th", "Status"), h("th", "Length"), h("th", "Started"))),

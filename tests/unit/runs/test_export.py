@@ -21,8 +21,8 @@ from elab.runs.export import (
     to_json,
     to_mat,
 )
-from elab.runs.store import ParamChange
 from elab.sim.result import Samples
+from elab.store import ParamChange
 
 CHANNELS = (("r", "rad"), ("u", "V"), ("theta", "rad"), ("x_theta_dot", "rad/s"))
 HEADER = {"plant": "flexible_link (Flexible link)", "controller": "StateFeedback(K=[1 2 3 4])",

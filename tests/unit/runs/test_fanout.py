@@ -8,7 +8,11 @@ from collections.abc import Awaitable, Callable
 import msgpack
 import numpy as np
 
-from elab.runs.fanout import RunChannel, Watcher, encode_frame, encode_frames, publish_block
+from elab.api.frames import MsgpackCodec, encode_frame, encode_frames
+from elab.runs.fanout import RunChannel, Watcher, publish_block
+
+CODEC = MsgpackCodec()
+
 
 
 def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
@@ -19,7 +23,7 @@ def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
         async def read(k0: int, k1: int) -> np.ndarray:
             return np.concatenate(recording)[k0:k1]
 
-        ch = RunChannel(("a", "b"), Ts=0.001, read=read)  # F = 20 samples per frame
+        ch = RunChannel(("a", "b"), Ts=0.001, codec=CODEC, read=read)  # F = 20 samples
         gate = asyncio.Event()
         got_fast: list[dict] = []
         got_slow: list[dict] = []
@@ -31,7 +35,8 @@ def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
             await gate.wait()  # a client that stopped reading
             got_slow.append(msgpack.unpackb(b))
 
-        fast, slow = Watcher(send_fast, max_frames=5), Watcher(send_slow, max_frames=5)
+        fast = Watcher(send_fast, CODEC, max_frames=5)
+        slow = Watcher(send_slow, CODEC, max_frames=5)
         ch.watchers |= {fast, slow}
         tasks = [asyncio.create_task(ch.serve(w)) for w in (fast, slow)]
         for k0 in range(0, 1000, 20):  # 50 frames, published as the stepper would
@@ -71,7 +76,8 @@ def test_catching_up_while_the_edge_moves_ends_in_push_mode_with_every_sample_on
         data = np.arange(4000, dtype=np.float64).reshape(-1, 2) / 3  # 2000 samples
         published = [0]  # samples published so far
         reads = [0]
-        ch = RunChannel(("a", "b"), Ts=0.001, read=lambda k0, k1: read(k0, k1))  # F = 20
+        ch = RunChannel(("a", "b"), Ts=0.001, codec=CODEC,  # F = 20
+                        read=lambda k0, k1: read(k0, k1))
 
         def publish_frame() -> None:
             k0 = published[0]
@@ -92,7 +98,7 @@ def test_catching_up_while_the_edge_moves_ends_in_push_mode_with_every_sample_on
 
         for _ in range(30):  # 600 samples before the watcher joins
             publish_frame()
-        w = Watcher(send, max_frames=100)
+        w = Watcher(send, CODEC, max_frames=100)
         ch.watchers.add(w)
         ch.resume_from(w, 0)
         task = asyncio.create_task(ch.serve(w))
@@ -140,10 +146,10 @@ def test_publish_block_gives_each_channel_what_publish_would() -> None:
         data = [rng.standard_normal((sum(s), 2)) for s in sizes]
         got: list[list[list[dict]]] = [[], []]
         for mode in (0, 1):
-            chans = [RunChannel(("a", "b"), Ts=0.001, read=read) for _ in sizes]
+            chans = [RunChannel(("a", "b"), Ts=0.001, codec=CODEC, read=read) for _ in sizes]
             sinks: list[list[dict]] = [[] for _ in sizes]
             for ch, sink in zip(chans, sinks, strict=True):
-                w = Watcher(lambda b: None)  # type: ignore[arg-type, return-value]
+                w = Watcher(lambda b: None, CODEC)  # type: ignore[arg-type, return-value]
                 w.control = lambda p: None  # type: ignore[method-assign]
                 w.offer = lambda p, *_, sink=sink: sink.append(msgpack.unpackb(p))  # type: ignore
                 ch.watchers.add(w)
@@ -184,7 +190,7 @@ def test_one_pass_sends_to_every_watcher_and_a_send_that_waits_delays_nobody() -
         async def read(k0: int, k1: int) -> np.ndarray:
             raise AssertionError("not reading")
 
-        ch = RunChannel(("a",), Ts=0.001, read=read)  # F = 20
+        ch = RunChannel(("a",), Ts=0.001, codec=CODEC, read=read)  # F = 20
         got: dict[str, list[tuple[int, object]]] = {"f1": [], "f2": [], "slow": []}
         gate = asyncio.Event()
 
@@ -195,8 +201,8 @@ def test_one_pass_sends_to_every_watcher_and_a_send_that_waits_delays_nobody() -
                     await gate.wait()  # written, then the connection's buffer is full
             return send
 
-        watchers = [Watcher(sender("f1", False)), Watcher(sender("f2", False)),
-                    Watcher(sender("slow", True), max_frames=1000)]
+        watchers = [Watcher(sender("f1", False), CODEC), Watcher(sender("f2", False), CODEC),
+                    Watcher(sender("slow", True), CODEC, max_frames=1000)]
         ch.watchers |= set(watchers)
         tasks = [asyncio.create_task(ch.serve(w)) for w in watchers]
         fast_while_blocked = []

@@ -1,4 +1,5 @@
-"""The stepping thread: mixed plants, and a failure that must not hang the others."""
+"""The stepping thread: mixed plants, a failure that must not hang the others, and the run
+state machine (every command decided in the thread, one at a time)."""
 
 from __future__ import annotations
 
@@ -9,23 +10,29 @@ from collections.abc import Callable, Iterator
 import numpy as np
 import pytest
 
+from elab.engines.base import Block, Changed
+from elab.engines.stepper import Stepper
+from elab.errors import Conflict
 from elab.laws import StateFeedback
+from elab.lifecycle import RunState
 from elab.plants import get_plant
-from elab.runs.stepper import Block, Ended, Stepper
 from elab.sim import RunSpec, Square, Step, compile_run, simulate
 
 
 class Sink:
     def __init__(self) -> None:
         self.data: dict[str, list[np.ndarray]] = {}  # each run's samples, as they came
-        self.ended: dict[str, Ended] = {}
+        self.ended: dict[str, Changed] = {}
+        self.changes: list[Changed] = []
 
-    def __call__(self, blocks: list[Block], ended: list[Ended]) -> None:
+    def __call__(self, blocks: list[Block], changes: list[Changed]) -> None:
         for b in blocks:
             for run_id, rows in zip(b.run_ids, b.data, strict=True):
                 self.data.setdefault(run_id, []).append(rows)
-        for e in ended:
-            self.ended[e.run_id] = e
+        self.changes += changes
+        for c in changes:
+            if not c.state.live:
+                self.ended[c.run_id] = c
 
     def wait_ended(self, *ids: str, timeout: float = 30.0) -> None:
         assert _until(lambda: all(i in self.ended for i in ids), timeout), self.ended
@@ -97,7 +104,7 @@ def test_a_real_time_run_gets_whole_frames_at_ticks_never_before_they_are_due() 
     at 1 kHz) — no frame waits for the next tick — and no sample comes before it is due."""
     got: list[tuple[float, int, int]] = []  # (clock at delivery, k0, n)
 
-    def sink(blocks: list[Block], ended: list[Ended]) -> None:
+    def sink(blocks: list[Block], ended: list[Changed]) -> None:
         got.extend((time.monotonic(), k0, b.data.shape[1]) for b in blocks for k0 in b.k0)
 
     stepper = Stepper(sink)
@@ -153,3 +160,38 @@ def test_a_diverging_run_fails_at_its_divergence_and_its_neighbours_go_on(
     assert sink.ended["good"].state == "finished"
     data = np.concatenate(sink.data["good"])
     np.testing.assert_array_equal(data[:, 2:2 + flex.ny], simulate(good).y)
+
+
+def test_of_simultaneous_commands_each_is_decided_once_in_order(
+        sink_stepper: tuple[Sink, Stepper]) -> None:
+    """Five stops at once: exactly one stops the run, four get Conflict; a pause of a paused
+    run, a resume of a running one and any command after the end get Conflict too."""
+    sink, stepper = sink_stepper
+    stepper.add("a", compile_run(spec("flexible_link", 600.0)), "realtime")
+    assert stepper.control("a", "pause").result(5) >= 0
+    with pytest.raises(Conflict, match="paused: cannot become paused"):
+        stepper.control("a", "pause").result(5)
+    stepper.control("a", "resume").result(5)
+    with pytest.raises(Conflict, match="running: cannot become running"):
+        stepper.control("a", "resume").result(5)
+    stops = [stepper.control("a", "stop") for _ in range(5)]
+    outcomes = [f.exception(5) for f in stops]
+    assert sum(e is None for e in outcomes) == 1
+    assert all(isinstance(e, Conflict) and "has ended" in str(e)
+               for e in outcomes if e is not None)
+    for action in ("pause", "resume", "stop"):
+        with pytest.raises(Conflict, match="run a has ended"):
+            stepper.control("a", action).result(5)
+    assert [c.state for c in sink.changes if c.run_id == "a"] == [
+        RunState.PAUSED, RunState.RUNNING, RunState.STOPPED]
+
+
+def test_end_interrupts_the_given_live_runs_with_the_reason(
+        sink_stepper: tuple[Sink, Stepper]) -> None:
+    sink, stepper = sink_stepper
+    for run_id in ("a", "b", "c"):
+        stepper.add(run_id, compile_run(spec("belt_conveyor", 600.0)), "realtime")
+    assert stepper.end(["a", "nope"], RunState.FAILED, "disk full").result(5) == ["a"]
+    assert sorted(stepper.end(None, RunState.INTERRUPTED, "shut down").result(5)) == ["b", "c"]
+    assert (sink.ended["a"].state, sink.ended["a"].error) == (RunState.FAILED, "disk full")
+    assert sink.ended["c"].state == RunState.INTERRUPTED and stepper.live_count == 0

@@ -1,5 +1,6 @@
-"""The run store keeps runs, parameter changes and samples exactly, across threads,
-reopenings and a killed process (real SQLite files in ``tmp_path``; no mocks)."""
+"""The SQLite run store keeps runs, parameter changes and samples exactly, across threads,
+reopenings, a killed process and schema versions (real SQLite files in ``tmp_path``; no
+mocks)."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ import numpy as np
 import pytest
 
 from elab.errors import Conflict, DimensionError, ElabError, InvalidInput, NotFound
-from elab.runs.store import ParamChange, RunRecord, Store
+from elab.store import ParamChange, RunRecord, SQLiteStore
 
 CHANNELS = (("r", "rad"), ("u", "V"), ("theta", "rad"), ("alpha", "rad"), ("x_theta", "rad"))
 NCH = len(CHANNELS)
@@ -29,7 +30,7 @@ def record(run_id: str, *, plant: str = "flexible_link", status: str = "running"
                      spec={"plant": plant, "signal": {"kind": "square", "amplitude": 0.5},
                            "K": [1.5, -2.0, 0.25, 1e-3]},
                      status=status, Ts=1e-3, channels=CHANNELS, n_planned=10_000,
-                     created_at=created_at, **kw)
+                     created_at=created_at, **{"engine": "sim-0", **kw})
 
 
 def chunks(seed: int, sizes: tuple[int, int] = (20, 400)) -> Iterator[np.ndarray]:
@@ -39,7 +40,7 @@ def chunks(seed: int, sizes: tuple[int, int] = (20, 400)) -> Iterator[np.ndarray
         yield rng.standard_normal((int(rng.integers(*sizes)), NCH)) * 10.0 ** rng.integers(-5, 5)
 
 
-def fill(store: Store, run_id: str, parts: list[np.ndarray]) -> np.ndarray:
+def fill(store: SQLiteStore, run_id: str, parts: list[np.ndarray]) -> np.ndarray:
     k = 0
     for data in parts:
         store.append(run_id, k, data)
@@ -48,19 +49,19 @@ def fill(store: Store, run_id: str, parts: list[np.ndarray]) -> np.ndarray:
 
 
 @pytest.fixture
-def store(tmp_path: Path) -> Iterator[Store]:
-    with Store(tmp_path / "db" / "runs.sqlite") as s:
+def store(tmp_path: Path) -> Iterator[SQLiteStore]:
+    with SQLiteStore(tmp_path / "db" / "runs.sqlite") as s:
         yield s
 
 
 # -- runs ----------------------------------------------------------------------
-def test_a_created_run_reads_back_equal(store: Store) -> None:
+def test_a_created_run_reads_back_equal(store: SQLiteStore) -> None:
     rec = record("r-3f2a9c1b", started_at=1.7e9 + 0.5)
     store.create_run(rec)
     assert store.get_run("r-3f2a9c1b") == rec
 
 
-def test_a_run_id_is_used_once(store: Store) -> None:
+def test_a_run_id_is_used_once(store: SQLiteStore) -> None:
     store.create_run(record("r-1"))
     with pytest.raises(Conflict, match="r-1"):
         store.create_run(record("r-1", plant="belt_conveyor"))
@@ -74,19 +75,19 @@ def test_a_run_id_is_used_once(store: Store) -> None:
     lambda s: s.add_param_change("r-nope", ParamChange(0, {}, 0.0)),
     lambda s: s.param_changes("r-nope"),
 ])
-def test_an_unknown_run_is_not_found(store: Store, call: Any) -> None:
+def test_an_unknown_run_is_not_found(store: SQLiteStore, call: Any) -> None:
     store.create_run(record("r-1"))
     with pytest.raises(NotFound, match="unknown run 'r-nope'"):
         call(store)
 
 
-def test_status_must_be_a_run_state(store: Store) -> None:
+def test_status_must_be_a_run_state(store: SQLiteStore) -> None:
     with pytest.raises(InvalidInput, match="finished") as err:
         store.create_run(record("r-1", status="done"))
     assert err.value.field == "status"
 
 
-def test_set_status_updates_only_the_given_fields(store: Store) -> None:
+def test_set_status_updates_only_the_given_fields(store: SQLiteStore) -> None:
     store.create_run(record("r-1", status="created"))
     store.set_status("r-1", "running", started_at=10.0)
     assert (store.get_run("r-1").started_at, store.get_run("r-1").finished_at) == (10.0, None)
@@ -96,7 +97,7 @@ def test_set_status_updates_only_the_given_fields(store: Store) -> None:
         "failed", 10.0, 12.5, "diverged at t = 2.5 s")
 
 
-def test_runs_are_listed_newest_first_in_pages(store: Store) -> None:
+def test_runs_are_listed_newest_first_in_pages(store: SQLiteStore) -> None:
     created = [5.0, 1.0, 3.0, 7.0, 2.0, 6.0, 4.0]
     for i, t in enumerate(created):
         plant = "belt_conveyor" if i % 3 == 0 else "flexible_link"
@@ -111,25 +112,29 @@ def test_runs_are_listed_newest_first_in_pages(store: Store) -> None:
 
 
 @pytest.mark.parametrize(("kw", "field"), [({"limit": -1}, "limit"), ({"offset": -2}, "offset")])
-def test_bad_paging_is_refused(store: Store, kw: dict[str, int], field: str) -> None:
+def test_bad_paging_is_refused(store: SQLiteStore, kw: dict[str, int], field: str) -> None:
     with pytest.raises(InvalidInput) as err:
         store.list_runs(**kw)
     assert err.value.field == field
 
 
-def test_mark_interrupted_ends_every_live_run(store: Store) -> None:
+def test_mark_interrupted_ends_every_live_run_of_that_engine_only(store: SQLiteStore) -> None:
     for i, status in enumerate(["created", "running", "paused", "finished", "failed"]):
         store.create_run(record(f"r-{status}", status=status, created_at=float(i)))
-    assert store.mark_interrupted() == ["r-created", "r-running", "r-paused"]
+    store.create_run(record("r-other", engine="sim-1", created_at=9.0))
+    assert store.mark_interrupted("sim-0", "it crashed") == ["r-created", "r-running",
+                                                             "r-paused"]
     runs = {r.id: r for r in store.list_runs()[0]}
     assert [runs[f"r-{s}"].status for s in ("created", "running", "paused", "finished")] == [
         "interrupted"] * 3 + ["finished"]
     assert runs["r-running"].finished_at is not None and runs["r-finished"].finished_at is None
-    assert store.mark_interrupted() == []
+    assert runs["r-running"].error == "it crashed" and runs["r-finished"].error is None
+    assert runs["r-other"].status == "running"  # another engine's run is its own business
+    assert store.mark_interrupted("sim-0", "again") == []
 
 
 # -- parameter changes ---------------------------------------------------------
-def test_parameter_changes_come_back_ordered_by_k(store: Store) -> None:
+def test_parameter_changes_come_back_ordered_by_k(store: SQLiteStore) -> None:
     store.create_run(record("r-1"))
     changes = [ParamChange(4000, {"controller": {"K": [1.0, 2.5]}}, 3.0),
                ParamChange(1200, {"signal": {"amplitude": 0.25}}, 1.0),
@@ -139,7 +144,7 @@ def test_parameter_changes_come_back_ordered_by_k(store: Store) -> None:
     assert store.param_changes("r-1") == [changes[1], changes[2], changes[0]]
 
 
-def test_parameters_must_be_json(store: Store) -> None:
+def test_parameters_must_be_json(store: SQLiteStore) -> None:
     store.create_run(record("r-1"))
     with pytest.raises(InvalidInput) as err:
         store.add_param_change("r-1", ParamChange(3, {"K": float("nan")}, 0.0))
@@ -153,7 +158,7 @@ N = BOUNDS[-1]
 
 
 @pytest.fixture
-def filled(store: Store) -> tuple[Store, np.ndarray]:
+def filled(store: SQLiteStore) -> tuple[SQLiteStore, np.ndarray]:
     rng = np.random.default_rng(12)
     store.create_run(record("r-1"))
     return store, fill(store, "r-1", [rng.standard_normal((n, NCH)) for n in SIZES])
@@ -164,7 +169,7 @@ def filled(store: Store) -> tuple[Store, np.ndarray]:
     (BOUNDS[2] - 1, BOUNDS[2] + 1), (BOUNDS[3], BOUNDS[9]), (BOUNDS[3] + 1, BOUNDS[9] - 1),
     (N - 3, N + 100), (N, None), (N + 5, N + 10), (30, 20),
 ])
-def test_any_range_reads_back_exactly(filled: tuple[Store, np.ndarray], k0: int,
+def test_any_range_reads_back_exactly(filled: tuple[SQLiteStore, np.ndarray], k0: int,
                                       k1: int | None) -> None:
     store, source = filled
     got = store.read("r-1", k0, k1)
@@ -172,19 +177,19 @@ def test_any_range_reads_back_exactly(filled: tuple[Store, np.ndarray], k0: int,
     assert np.array_equal(got, source[k0:k1][: max(0, (k1 if k1 is not None else N) - k0)])
 
 
-def test_n_stored_counts_the_appended_samples(filled: tuple[Store, np.ndarray]) -> None:
+def test_n_stored_counts_the_appended_samples(filled: tuple[SQLiteStore, np.ndarray]) -> None:
     store, _ = filled
     assert store.get_run("r-1").n_stored == N
 
 
-def test_a_run_without_samples_reads_as_an_empty_array(store: Store) -> None:
+def test_a_run_without_samples_reads_as_an_empty_array(store: SQLiteStore) -> None:
     store.create_run(record("r-1"))
     store.append("r-1", 0, np.zeros((0, NCH)))
     assert store.read("r-1").shape == (0, NCH) and store.get_run("r-1").n_stored == 0
 
 
 @pytest.mark.parametrize("k0", [0, 5, 11])
-def test_a_chunk_must_start_where_the_stored_samples_end(store: Store, k0: int) -> None:
+def test_a_chunk_must_start_where_the_stored_samples_end(store: SQLiteStore, k0: int) -> None:
     store.create_run(record("r-1"))
     store.append("r-1", 0, np.ones((10, NCH)))
     with pytest.raises(ValueError, match=rf"k0: got {k0}; allowed: 10.*expected 10"):
@@ -192,19 +197,19 @@ def test_a_chunk_must_start_where_the_stored_samples_end(store: Store, k0: int) 
     assert store.get_run("r-1").n_stored == 10
 
 
-def test_a_chunk_has_one_column_per_channel(store: Store) -> None:
+def test_a_chunk_has_one_column_per_channel(store: SQLiteStore) -> None:
     store.create_run(record("r-1"))
     with pytest.raises(DimensionError, match=f"shape \\(n, {NCH}\\)"):
         store.append("r-1", 0, np.ones((4, NCH + 1)))
 
 
-def test_read_refuses_a_negative_start(filled: tuple[Store, np.ndarray]) -> None:
+def test_read_refuses_a_negative_start(filled: tuple[SQLiteStore, np.ndarray]) -> None:
     with pytest.raises(InvalidInput) as err:
         filled[0].read("r-1", -1)
     assert err.value.field == "k0"
 
 
-def test_append_many_stores_chunks_of_several_runs_in_one_call(store: Store) -> None:
+def test_append_many_stores_chunks_of_several_runs_in_one_call(store: SQLiteStore) -> None:
     rng = np.random.default_rng(13)
     for rid in ("r-a", "r-b", "r-c"):
         store.create_run(record(rid))
@@ -217,7 +222,7 @@ def test_append_many_stores_chunks_of_several_runs_in_one_call(store: Store) -> 
     assert store.read("r-c").shape == (0, NCH)
 
 
-def test_append_many_stores_all_chunks_or_none(store: Store) -> None:
+def test_append_many_stores_all_chunks_or_none(store: SQLiteStore) -> None:
     store.create_run(record("r-a"))
     store.create_run(record("r-b"))
     with pytest.raises(ValueError, match="r-b"):
@@ -232,13 +237,13 @@ def test_everything_is_there_after_reopening(tmp_path: Path) -> None:
     path = tmp_path / "runs.sqlite"
     parts = list(islice(chunks(21), 12))
     change = ParamChange(100, {"controller": {"K": [1.0, 2.0, 3.0, 4.0]}}, 1.7e9 + 0.1)
-    with Store(path) as store:
+    with SQLiteStore(path) as store:
         store.create_run(record("r-1"))
         source = fill(store, "r-1", parts)
         store.add_param_change("r-1", change)
         store.set_status("r-1", "finished", finished_at=1.7e9 + 9.0)
         before = store.get_run("r-1")
-    with Store(path) as store:
+    with SQLiteStore(path) as store:
         assert store.get_run("r-1") == before
         assert before.n_stored == source.shape[0] and before.status == "finished"
         assert store.param_changes("r-1") == [change]
@@ -251,17 +256,17 @@ def test_a_file_of_another_schema_version_is_refused(tmp_path: Path) -> None:
         conn.execute("PRAGMA user_version = 99")
     conn.close()
     with pytest.raises(ElabError, match="schema version 99"):
-        Store(path)
+        SQLiteStore(path)
 
 
 # -- a killed writer -----------------------------------------------------------
 CHILD = """
 import sys
 from pathlib import Path
-from elab.runs.store import Store
-from tests.unit.runs.test_store import chunks, record
+from elab.store import SQLiteStore
+from tests.unit.store.test_sqlite import chunks, record
 
-store = Store(Path(sys.argv[1]))
+store = SQLiteStore(Path(sys.argv[1]))
 store.create_run(record("r-crash"))
 k = 0
 for data in chunks(seed=31):
@@ -290,7 +295,7 @@ def test_committed_chunks_survive_a_killed_process(tmp_path: Path) -> None:
             proc.kill()  # SIGKILL, mid-way through its appends
             watchdog.cancel()
     assert proc.returncode == -9
-    with Store(path) as store:
+    with SQLiteStore(path) as store:
         n = store.get_run("r-crash").n_stored
         assert n >= committed[-1]
         parts = []
@@ -299,12 +304,12 @@ def test_committed_chunks_survive_a_killed_process(tmp_path: Path) -> None:
             if sum(p.shape[0] for p in parts) >= n:
                 break
         assert np.array_equal(store.read("r-crash"), np.concatenate(parts)[:n])
-        assert store.mark_interrupted() == ["r-crash"]
+        assert store.mark_interrupted("sim-0", "killed") == ["r-crash"]
         assert store.get_run("r-crash").status == "interrupted"
 
 
 # -- threads -------------------------------------------------------------------
-def test_reads_during_appends_see_a_consistent_prefix(store: Store) -> None:
+def test_reads_during_appends_see_a_consistent_prefix(store: SQLiteStore) -> None:
     parts = list(islice(chunks(41, sizes=(20, 300)), 200))
     source = np.concatenate(parts)
     bounds = {0, *accumulate(p.shape[0] for p in parts)}

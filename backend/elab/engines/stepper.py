@@ -1,4 +1,4 @@
-"""The stepping thread: advances every live run, paced to the wall clock.
+"""The stepping thread: advances every live run of an engine, paced to the wall clock.
 
 All live runs share one :class:`~elab.sim.batch.Batch`; each tick (20 ms, on a
 fixed grid of the monotonic clock) the thread applies queued commands (add,
@@ -6,8 +6,12 @@ pause, resume, stop, parameter changes), steps each real-time run by the
 samples due at the tick's scheduled time (sample ``k`` is due at
 ``t_origin + k Ts``, so the run's clock never drifts, and a late wake-up does
 not change which samples a tick holds) and each fast run by a block, then hands
-the new samples to ``on_tick`` in one call. The compiled loop
-releases the GIL, so stepping does not stall the web event loop.
+the new samples and the runs that ended to ``on_tick`` in one call.
+
+It is where every command on a run is decided: the run's state lives here, and
+commands are applied one at a time in arrival order, so of two simultaneous
+stops exactly one succeeds and the other gets :class:`~elab.errors.Conflict`, as
+does any command for a run that has ended.
 """
 
 from __future__ import annotations
@@ -21,12 +25,15 @@ from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
-from typing import Literal, NamedTuple
+from typing import Literal, TypeVar
 
 import numpy as np
 import scipy.stats
 from numpy.typing import NDArray
 
+from elab.engines.base import Block, Changed, Pace
+from elab.errors import Conflict
+from elab.lifecycle import RunState, transition
 from elab.sim.batch import Batch
 from elab.sim.engine import DIVERGENCE_LIMIT, first_divergence
 from elab.sim.spec import CompiledRun
@@ -34,27 +41,7 @@ from elab.sim.spec import CompiledRun
 log = logging.getLogger(__name__)
 
 Array = NDArray[np.float64]
-Pace = Literal["realtime", "fast"]
-
-
-class Block(NamedTuple):
-    """New samples of runs stepped together (one per plant and tick, not one per run: at
-    300 runs the per-run objects and copies were a sixth of the server's CPU): run
-    ``run_ids[i]`` has rows ``k0[i] .. k0[i]+n-1`` in ``data[i]`` (runs × n × columns)."""
-
-    run_ids: list[str]
-    k0: list[int]
-    data: Array
-
-
-@dataclass(frozen=True)
-class Ended:
-    """A run left the stepper: ``finished`` (all samples), ``stopped`` or ``failed``."""
-
-    run_id: str
-    state: Literal["finished", "stopped", "failed"]
-    k: int
-    error: str | None = None
+T = TypeVar("T")
 
 
 @dataclass
@@ -65,23 +52,31 @@ class _Live:
     slot: int
     t_origin: float
     k: int = 0
+    state: RunState = RunState.RUNNING
     paused_at: float | None = None
     cols: tuple[int, ...] = ()  # its columns [r, u, y…, x…] in the batch's block
 
 
 Command = Callable[[], None]
+Final = Literal[RunState.FINISHED, RunState.STOPPED, RunState.FAILED, RunState.INTERRUPTED]
 
 
 class Stepper:
-    """Owns the batch and the thread; every method is safe to call from any thread."""
+    """Owns the batch and the thread; every method is safe to call from any thread.
 
-    def __init__(self, on_tick: Callable[[list[Block], list[Ended]], None], *,
+    ``on_tick(blocks, changes)`` is called in the thread with each tick's new samples and
+    the state changes (pauses, resumes, ends) since the last call; ``backlog()`` true holds
+    fast runs back (their samples would only pile up in front of a slow consumer)."""
+
+    def __init__(self, on_tick: Callable[[list[Block], list[Changed]], None], *,
                  tick: float = 0.02, fast_block: int = 1024,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic,
+                 backlog: Callable[[], bool] = lambda: False) -> None:
         self._on_tick = on_tick
         self.tick = tick
         self._fast_block = fast_block
         self._clock = clock
+        self._backlog = backlog
         self._grid = clock()  # ticks fall on _grid + i · tick
         self._batch = Batch(capacity=16, block=max(fast_block, 1024))
         self._runs: dict[str, _Live] = {}
@@ -89,6 +84,7 @@ class Stepper:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name="elab-stepper", daemon=True)
         self.ticks = 0
+        self.last_tick = clock()  # when the thread last began a tick (its watchdog reads it)
         # (scheduled time, how late the tick began) of the last minute's ticks
         self._late: deque[tuple[float, float]] = deque(maxlen=round(60.0 / tick))
 
@@ -99,27 +95,37 @@ class Stepper:
         self._stop.set()
         self._thread.join(timeout=5)
 
+    @property
+    def live_count(self) -> int:
+        return len(self._runs)
+
+    @property
+    def alive(self) -> bool:
+        return self._thread.is_alive()
+
     # -- commands (any thread) -------------------------------------------------
     def add(self, run_id: str, run: CompiledRun, pace: Pace, t_origin: float | None = None) -> None:
         """Step ``run`` from the next tick; sample 0 is due at ``t_origin`` (on this stepper's
         clock; default: when the command is applied)."""
         self._commands.put(lambda: self._add(run_id, run, pace, t_origin))
 
-    def pause(self, run_id: str) -> Future[int]:
-        return self._call(lambda: self._pause(run_id))
-
-    def resume(self, run_id: str) -> Future[int]:
-        return self._call(lambda: self._resume(run_id))
-
-    def stop(self, run_id: str) -> Future[int]:
-        return self._call(lambda: self._stop_run(run_id))
+    def control(self, run_id: str, action: str) -> Future[int]:
+        """Pause, resume or stop; the sample index it happened at, or :class:`Conflict`."""
+        target = {"pause": RunState.PAUSED, "resume": RunState.RUNNING,
+                  "stop": RunState.STOPPED}[action]
+        return self._call(lambda: self._control(run_id, target))
 
     def replace(self, run_id: str, run: CompiledRun, *, controller: bool) -> Future[int]:
         """New spec from the next sample on; returns that sample's index."""
         return self._call(lambda: self._replace(run_id, run, controller))
 
-    def _call(self, fn: Callable[[], int]) -> Future[int]:
-        fut: Future[int] = Future()
+    def end(self, run_ids: list[str] | None, state: Final, reason: str) -> Future[list[str]]:
+        """End the given live runs (``None``: all) in ``state`` with ``reason``; returns
+        those that were still live."""
+        return self._call(lambda: self._end_many(run_ids, state, reason))
+
+    def _call(self, fn: Callable[[], T]) -> Future[T]:
+        fut: Future[T] = Future()
 
         def command() -> None:
             try:
@@ -137,33 +143,44 @@ class Stepper:
         self._runs[run_id] = _Live(run_id, run, pace, slot, origin)
         self._refresh_columns()
 
-    def _pause(self, run_id: str) -> int:
-        live = self._runs[run_id]
-        if live.paused_at is None:
-            live.paused_at = self._clock()
-        return live.k
+    def _live(self, run_id: str) -> _Live:
+        live = self._runs.get(run_id)
+        if live is None:
+            raise Conflict(f"run {run_id} has ended: it no longer steps")
+        return live
 
-    def _resume(self, run_id: str) -> int:
-        live = self._runs[run_id]
-        if live.paused_at is not None:  # the clock stops for whole ticks: frames stay aligned
+    def _control(self, run_id: str, target: RunState) -> int:
+        live = self._live(run_id)
+        transition(live.state, target)  # Conflict if not allowed
+        if target is RunState.STOPPED:
+            self._on_tick([], [self._end(live, RunState.STOPPED)])
+            return live.k
+        if target is RunState.PAUSED:
+            live.paused_at = self._clock()
+        else:  # the clock stops for whole ticks: frames stay aligned
+            assert live.paused_at is not None
             paused = self._clock() - live.paused_at
             live.t_origin += math.ceil(paused / self.tick - 1e-9) * self.tick
             live.paused_at = None
+        live.state = target
+        self._on_tick([], [Changed(run_id, target, live.k)])
         return live.k
 
-    def _stop_run(self, run_id: str) -> int:
-        ended = self._end(self._runs[run_id], "stopped")
-        self._on_tick([], [ended])
-        return ended.k
-
     def _replace(self, run_id: str, run: CompiledRun, controller: bool) -> int:
-        live = self._runs[run_id]
+        live = self._live(run_id)
         if controller:
             self._batch.set_controller(live.slot, run)
         else:
             self._batch.set_run(live.slot, run)
         live.run = run
         return live.k
+
+    def _end_many(self, run_ids: list[str] | None, state: Final, reason: str) -> list[str]:
+        lives = list(self._runs.values()) if run_ids is None else [
+            self._runs[i] for i in run_ids if i in self._runs]
+        if lives:
+            self._on_tick([], [self._end(live, state, reason) for live in lives])
+        return [live.id for live in lives]
 
     def _refresh_columns(self) -> None:
         for live in self._runs.values():
@@ -184,16 +201,17 @@ class Stepper:
                     log.exception("stepper command failed")
             now = self._clock()
             self.ticks += 1
+            self.last_tick = now
             self._late.append((deadline, max(0.0, now - deadline)))
             try:  # the tick's scheduled time, unless it is early (the first pass, fast runs)
                 blocks, ended = self._step(min(now, deadline))
             except Exception as exc:  # a bug must not stop the thread and hang every run
                 log.exception("stepping failed; ending the live runs")
-                blocks, ended = [], [self._end(live, "failed", f"internal error: {exc!r}")
+                blocks, ended = [], [self._end(live, RunState.FAILED, f"internal error: {exc!r}")
                                      for live in list(self._runs.values())]
             if blocks or ended:
                 self._on_tick(blocks, ended)
-            fast = any(r.pace == "fast" and r.paused_at is None for r in self._runs.values())
+            fast = self._fast_due()
             deadline = self.align(max(deadline + self.tick, self._clock()))  # stay on the grid
             time.sleep(0.0005 if fast else max(0.0, deadline - self._clock()))
 
@@ -226,14 +244,17 @@ class Stepper:
         one frame per tick, sent at the tick its last sample is due."""
         return self.align(t) + Ts
 
-    def _step(self, now: float) -> tuple[list[Block], list[Ended]]:
+    def _fast_due(self) -> bool:
+        return any(r.pace == "fast" and r.paused_at is None for r in self._runs.values())
+
+    def _step(self, now: float) -> tuple[list[Block], list[Changed]]:
         groups: dict[int, list[_Live]] = {}
         for live in self._runs.values():
             n = self._due(live, now)
             if n > 0:
                 groups.setdefault(n, []).append(live)
         blocks: list[Block] = []
-        ended: list[Ended] = []
+        ended: list[Changed] = []
         for n, lives in groups.items():
             block = self._batch.advance(n, [live.slot for live in lives])
             # runs with the same columns (the same plant) are cut out of the block with
@@ -257,7 +278,7 @@ class Stepper:
                     for live in group:
                         live.k += n
         for live in [r for r in self._runs.values() if r.k >= r.run.n_samples]:
-            ended.append(self._end(live, "finished"))
+            ended.append(self._end(live, RunState.FINISHED))
         return blocks, ended
 
     def _due(self, live: _Live, now: float) -> int:
@@ -265,12 +286,12 @@ class Stepper:
             return 0
         left = live.run.n_samples - live.k
         if live.pace == "fast":
-            return min(self._fast_block, left)
+            return 0 if self._backlog() else min(self._fast_block, left)
         # + 1e-6: a sample due at the tick, up to rounding of the float times
         due = math.floor((now - live.t_origin) / live.run.Ts + 1e-6) + 1 - live.k
         return max(0, min(due, left, self._batch.block))
 
-    def _record(self, live: _Live, data: Array, ended: list[Ended]) -> Block:
+    def _record(self, live: _Live, data: Array, ended: list[Changed]) -> Block:
         """The samples of a run whose block failed the divergence check: those before it
         diverged (and the run fails), or all (a false alarm)."""
         i = first_divergence(data[:, 1:])  # u, y, x
@@ -278,16 +299,16 @@ class Stepper:
         if i is not None:
             live.k += i
             msg = f"diverged at t = {live.k * live.run.Ts:.4g} s: the closed loop is unstable"
-            ended.append(self._end(live, "failed", msg))
+            ended.append(self._end(live, RunState.FAILED, msg))
         else:
             live.k += data.shape[0]
         return block
 
-    def _end(self, live: _Live, state: Literal["finished", "stopped", "failed"],
-             error: str | None = None) -> Ended:
+    def _end(self, live: _Live, state: Final, error: str | None = None) -> Changed:
+        transition(live.state, state)
         del self._runs[live.id]
         self._batch.remove(live.slot)
-        return Ended(live.id, state, live.k, error)
+        return Changed(live.id, state, live.k, error)
 
 
 def _trend(t: Array, y: Array, parts: int = 12) -> float:

@@ -1,16 +1,21 @@
-"""Runs, their parameter changes and their samples in one SQLite file.
+"""The embedded :class:`~elab.store.base.RunStore`: one SQLite file.
 
-A run's recording is a float64 array ``(n, nch)`` whose columns are the run's
-channels (``r, u, y…, x…``); row ``k`` is sample ``k`` at time ``k·Ts``. It
-arrives in consecutive chunks, each stored as one row of ``chunks`` holding the
-raw little-endian float64 bytes of its rows (C order).
+Each chunk of a recording is one row of ``chunks`` holding the raw
+little-endian float64 bytes of its rows (C order).
 
 Durability: WAL journal, ``synchronous = NORMAL``. Every committed transaction
 survives a crash of the process (``kill -9``); a power cut may lose the last
-transactions, never the file's consistency (see :mod:`elab.runs._db`).
+transactions, never the file's consistency (see :mod:`elab.store._db`).
 
-Threads: one connection for writes and one for reads, each behind its own lock,
-so a reader sees the last committed state while the writer thread appends.
+Processes: the web process opens the file first and migrates it; engines open it
+after (``migrate=False``) and write their runs; anyone reads. Threads: one
+connection for writes and one for reads, each behind its own lock, so a reader
+sees the last committed state while a writer appends.
+
+Faults: every :class:`sqlite3.Error` leaves as a
+:class:`~elab.store.base.StoreError`; a busy or locked database (another writer
+past the busy timeout) is transient, anything else (full, read-only, I/O error,
+damaged file) is not.
 """
 
 from __future__ import annotations
@@ -21,22 +26,20 @@ import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from elab.errors import Conflict, DimensionError, ElabError, InvalidInput, NotFound
-from elab.runs._db import Checkpointer, connect, migrate
-from elab.runs.state import RunState
+from elab.lifecycle import RunState
+from elab.store import _db
+from elab.store.base import Array, ParamChange, RunRecord, RunSummary, StoreError
 
-Array = NDArray[np.float64]
-
-_COLUMNS = ("id, plant, mode, experiment, spec, status, Ts, channels, n_planned, n_stored, "
-            "created_at, started_at, finished_at, error")
+_SUMMARY = ("id, plant, mode, experiment, status, Ts, channels, n_planned, n_stored, "
+            "created_at, started_at, finished_at, error, engine")
+_COLUMNS = _SUMMARY + ", spec"
 _NEWEST_FIRST = "ORDER BY created_at DESC, rowid DESC"
 # the chunk holding ``start`` and every later one starting before ``stop``
 _OVERLAPPING = """SELECT k0, n, data FROM chunks
@@ -45,47 +48,26 @@ _OVERLAPPING = """SELECT k0, n, data FROM chunks
         0)
     ORDER BY k0"""
 _LIVE = tuple(s.value for s in RunState if s.live)
+_TRANSIENT = ("SQLITE_BUSY", "SQLITE_LOCKED")
 
 
-@dataclass(frozen=True)
-class RunRecord:
-    """What the store keeps about a run besides its samples (times in unix seconds)."""
-
-    id: str
-    plant: str
-    mode: str  # "simulation" | "rig"
-    experiment: str  # "analysis" | "identification" | "design"
-    spec: dict[str, Any]  # the run request, JSON-able
-    status: str  # a RunState value
-    Ts: float  # s
-    channels: tuple[tuple[str, str], ...]  # (name, unit) of the recorded columns
-    n_planned: int  # samples of the run if it completes
-    n_stored: int = 0  # samples stored so far (maintained by the store)
-    created_at: float = 0.0
-    started_at: float | None = None
-    finished_at: float | None = None
-    error: str | None = None
-
-
-@dataclass(frozen=True)
-class ParamChange:
-    """New parameters of a run, in force from sample ``k`` on (``at`` in unix seconds)."""
-
-    k: int
-    params: dict[str, Any]  # JSON-able
-    at: float
-
-
-class Store:
+class SQLiteStore:
     """Runs, parameter changes and samples in one SQLite file (WAL mode)."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, *, migrate: bool = True, busy_timeout: float = 5.0) -> None:
+        """Open (creating if needed) the file; ``migrate``: bring it to this version's
+        schema, else refuse a file of another version. A write waits ``busy_timeout``
+        seconds for another writer before it fails (transiently)."""
         path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
-        self._writer = connect(path)
-        migrate(self._writer, path)
-        self._reader = connect(path)
-        self._checkpointer = Checkpointer(path)
+        with _faults():
+            self._writer = _db.connect(path, busy_timeout)
+            if migrate:
+                _db.migrate(self._writer, path)
+            else:
+                _db.check_version(self._writer, path)
+            self._reader = _db.connect(path)
+            self._checkpointer = _db.Checkpointer(path)
         self._write_lock = threading.Lock()
         self._read_lock = threading.Lock()
         self._channel_counts: dict[str, int] = {}  # run id → channels (used by the writer)
@@ -96,7 +78,7 @@ class Store:
             self._reader.close()
             self._writer.close()
 
-    def __enter__(self) -> Store:
+    def __enter__(self) -> SQLiteStore:
         return self
 
     def __exit__(self, kind: type[BaseException] | None, value: BaseException | None,
@@ -109,19 +91,18 @@ class Store:
             raise InvalidInput("n_stored", record.n_stored, "0 for a new run (the store counts)")
         if not record.channels:
             raise InvalidInput("channels", record.channels, "at least one (name, unit) pair")
-        row = (record.id, record.plant, record.mode, record.experiment,
-               _json("spec", record.spec), _status(record.status), record.Ts,
-               json.dumps([list(c) for c in record.channels]), record.n_planned, 0,
-               record.created_at, record.started_at, record.finished_at, record.error)
+        row = (record.id, record.plant, record.mode, record.experiment, _status(record.status),
+               record.Ts, json.dumps([list(c) for c in record.channels]), record.n_planned, 0,
+               record.created_at, record.started_at, record.finished_at, record.error,
+               record.engine, _json("spec", record.spec))
         with self._transaction() as conn:
             try:
-                conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 14)})", row)
+                conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 15)})", row)
             except sqlite3.IntegrityError:
                 raise Conflict(f"run {record.id!r} already exists; choose another id") from None
 
     def set_status(self, run_id: str, status: str, *, started_at: float | None = None,
                    finished_at: float | None = None, error: str | None = None) -> None:
-        """Set ``status`` and those of the other fields that are given."""
         given = {"started_at": started_at, "finished_at": finished_at, "error": error}
         values = {"status": _status(status)} | {k: v for k, v in given.items() if v is not None}
         sets = ", ".join(f"{k} = :{k}" for k in values)
@@ -135,11 +116,10 @@ class Store:
             row = conn.execute(f"SELECT {_COLUMNS} FROM runs WHERE id = ?", (run_id,)).fetchone()
         if row is None:
             raise NotFound("run", run_id)
-        return _record(row)
+        return RunRecord(**_summary_fields(row[:-1]), spec=json.loads(row[-1]))
 
     def list_runs(self, *, plant: str | None = None, limit: int = 50,
-                  offset: int = 0) -> tuple[list[RunRecord], int]:
-        """A page of runs, newest first, and how many runs match in all."""
+                  offset: int = 0) -> tuple[list[RunSummary], int]:
         if limit < 0:
             raise InvalidInput("limit", limit, "an integer >= 0")
         if offset < 0:
@@ -147,18 +127,18 @@ class Store:
         where, args = ("WHERE plant = ?", (plant,)) if plant is not None else ("", ())
         with self._snapshot() as conn:
             total = conn.execute(f"SELECT count(*) FROM runs {where}", args).fetchone()[0]
-            rows = conn.execute(f"SELECT {_COLUMNS} FROM runs {where} {_NEWEST_FIRST} "
+            rows = conn.execute(f"SELECT {_SUMMARY} FROM runs {where} {_NEWEST_FIRST} "
                                 "LIMIT ? OFFSET ?", (*args, limit, offset)).fetchall()
-        return [_record(r) for r in rows], int(total)
+        return [RunSummary(**_summary_fields(r)) for r in rows], int(total)
 
-    def mark_interrupted(self) -> list[str]:
-        """At start-up: every run still created, running or paused becomes interrupted."""
+    def mark_interrupted(self, engine: str, reason: str) -> list[str]:
         marks = ", ".join("?" * len(_LIVE))
+        mine = f"engine = ? AND status IN ({marks})"
         with self._transaction() as conn:
             ids = [r[0] for r in conn.execute(
-                f"SELECT id FROM runs WHERE status IN ({marks}) ORDER BY created_at", _LIVE)]
-            conn.execute(f"UPDATE runs SET status = ?, finished_at = ? WHERE status IN ({marks})",
-                         (RunState.INTERRUPTED.value, time.time(), *_LIVE))
+                f"SELECT id FROM runs WHERE {mine} ORDER BY created_at", (engine, *_LIVE))]
+            conn.execute(f"UPDATE runs SET status = ?, finished_at = ?, error = ? WHERE {mine}",
+                         (RunState.INTERRUPTED.value, time.time(), reason, engine, *_LIVE))
         return ids
 
     # -- parameter changes -----------------------------------------------------
@@ -172,7 +152,6 @@ class Store:
                          (run_id, change.k, change.at, params))
 
     def param_changes(self, run_id: str) -> list[ParamChange]:
-        """The run's parameter changes ordered by ``k`` (then by arrival)."""
         with self._snapshot() as conn:
             _size(conn, run_id)
             rows = conn.execute("SELECT k, params, at FROM param_changes WHERE run_id = ? "
@@ -185,7 +164,6 @@ class Store:
         self.append_many([(run_id, k0, data)])
 
     def append_many(self, items: list[tuple[str, int, Array]]) -> None:
-        """Store several chunks (of any runs, in order) in one transaction: all or none."""
         sizes: dict[str, tuple[int, int]] = {}
         with self._transaction() as conn:
             for run_id, k0, data in items:
@@ -218,7 +196,6 @@ class Store:
         return int(row[0]), nch
 
     def read(self, run_id: str, k0: int = 0, k1: int | None = None) -> Array:
-        """Rows ``[k0, min(k1, n_stored))`` as a new ``(n, nch)`` array (``n`` may be 0)."""
         if k0 < 0:
             raise InvalidInput("k0", k0, "a sample index >= 0")
         with self._snapshot() as conn:
@@ -239,10 +216,15 @@ class Store:
                             f"[{start}, {stop}) missing; the file is damaged")
         return out
 
+    # -- health ----------------------------------------------------------------
+    def probe(self) -> None:
+        with self._transaction() as conn:
+            conn.execute("INSERT OR REPLACE INTO probe (id, at) VALUES (1, ?)", (time.time(),))
+
     # -- connections -----------------------------------------------------------
     @contextmanager
     def _transaction(self) -> Iterator[sqlite3.Connection]:
-        with self._write_lock:
+        with self._write_lock, _faults():
             conn = self._writer
             conn.execute("BEGIN IMMEDIATE")
             try:
@@ -251,19 +233,37 @@ class Store:
                 if conn.in_transaction:  # SQLite may have rolled back already (disk full)
                     conn.execute("ROLLBACK")
                 raise
-            conn.execute("COMMIT")
+            try:
+                conn.execute("COMMIT")
+            except sqlite3.Error:
+                if conn.in_transaction:
+                    conn.execute("ROLLBACK")
+                raise
         self._checkpointer.poke()
 
     @contextmanager
     def _snapshot(self) -> Iterator[sqlite3.Connection]:
         """One read transaction: every query inside sees the same committed state."""
-        with self._read_lock:
+        with self._read_lock, _faults():
             conn = self._reader
             conn.execute("BEGIN")
             try:
                 yield conn
             finally:
                 conn.execute("COMMIT")
+
+
+@contextmanager
+def _faults() -> Iterator[None]:
+    """SQLite's errors as :class:`StoreError`, transient or not."""
+    try:
+        yield
+    except sqlite3.Error as exc:
+        if isinstance(exc, sqlite3.IntegrityError | sqlite3.ProgrammingError):
+            raise  # a bug or a constraint the caller handles, not a fault of the store
+        name = getattr(exc, "sqlite_errorname", "") or type(exc).__name__
+        transient = name.startswith(_TRANSIENT)
+        raise StoreError(f"{exc} ({name})", transient=transient) from exc
 
 
 def _size(conn: sqlite3.Connection, run_id: str) -> tuple[int, int]:
@@ -274,12 +274,15 @@ def _size(conn: sqlite3.Connection, run_id: str) -> tuple[int, int]:
     return int(row[0]), len(json.loads(row[1]))
 
 
-def _record(row: tuple[Any, ...]) -> RunRecord:
-    (id_, plant, mode, experiment, spec, status, Ts, channels, n_planned, n_stored,
-     created_at, started_at, finished_at, error) = row
-    return RunRecord(id_, plant, mode, experiment, json.loads(spec), status, Ts,
-                     tuple((name, unit) for name, unit in json.loads(channels)), n_planned,
-                     n_stored, created_at, started_at, finished_at, error)
+def _summary_fields(row: tuple[Any, ...]) -> dict[str, Any]:
+    (id_, plant, mode, experiment, status, Ts, channels, n_planned, n_stored,
+     created_at, started_at, finished_at, error, engine) = row
+    return {"id": id_, "plant": plant, "mode": mode, "experiment": experiment,
+            "status": status, "Ts": Ts,
+            "channels": tuple((name, unit) for name, unit in json.loads(channels)),
+            "n_planned": n_planned, "n_stored": n_stored, "created_at": created_at,
+            "started_at": started_at, "finished_at": finished_at, "error": error,
+            "engine": engine}
 
 
 def _status(status: str) -> str:

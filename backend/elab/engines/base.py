@@ -1,0 +1,162 @@
+"""What steps runs: the :class:`Engine` protocol, what it is given and what it reports.
+
+The run manager (web side) talks to every engine through :class:`Engine` and hears
+from it through :class:`EngineEvents`. An engine owns its runs while they are
+live: it decides every command on them (one state machine, in one thread), steps
+them, and records every sample and every change in the store itself, so nothing
+the web process does can delay or lose a sample. The messages are plain data
+(:mod:`elab.engines.wire` carries them between processes), so the boundary can
+later cross machines through a broker without changing the run manager.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal, NamedTuple, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.laws import ControlLaw
+from elab.lifecycle import RunState
+from elab.sim.signals import Signal
+from elab.sim.spec import RunSpec
+from elab.store.base import ParamChange, RunRecord
+
+Array = NDArray[np.float64]
+Pace = Literal["realtime", "fast"]
+Action = Literal["pause", "resume", "stop"]
+
+
+class Block(NamedTuple):
+    """New samples of runs stepped together (one per plant and tick, not one per run: at
+    300 runs the per-run objects and copies were a sixth of the server's CPU): run
+    ``run_ids[i]`` has rows ``k0[i] .. k0[i]+n-1`` in ``data[i]`` (runs × n × columns)."""
+
+    run_ids: list[str]
+    k0: list[int]
+    data: Array
+
+
+@dataclass(frozen=True)
+class RunOrder:
+    """A run for an engine to start: its id (chosen by the caller), what to step, how fast,
+    and what to record about it (``request``: the client's request, JSON-able)."""
+
+    id: str
+    spec: RunSpec
+    pace: Pace
+    mode: str
+    experiment: str
+    request: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Changed:
+    """Run ``run_id`` entered ``state`` at sample ``k`` (``error``: why it failed, stopped
+    early or was interrupted)."""
+
+    run_id: str
+    state: RunState
+    k: int
+    error: str | None = None
+
+
+@dataclass(frozen=True)
+class StoreHealth:
+    """The engine's writes: ``ok``, or failing since ``since`` (unix s) with ``error``;
+    ``transient``: being retried (a lock held elsewhere), else failed until someone acts.
+    ``pending_bytes``: samples held in memory, not yet committed."""
+
+    ok: bool = True
+    error: str | None = None
+    since: float | None = None
+    transient: bool = False
+    pending_bytes: int = 0
+
+
+@dataclass(frozen=True)
+class Health:
+    """What an engine says about itself (every heartbeat)."""
+
+    engine: str
+    pid: int
+    live_runs: int
+    timing: dict[str, float | int]  # the stepping thread's timing (see Stepper.timing)
+    store: StoreHealth = field(default_factory=StoreHealth)
+    stepping: bool = True  # the stepping thread ticked recently
+    at: float = 0.0  # unix s, when it was said
+
+
+@dataclass(frozen=True)
+class EngineStatus:
+    """An engine as its user sees it: ``up`` (started and answering), else ``problem`` says
+    why; ``problem`` also names what is wrong while up (a failing store, a stalled thread).
+    ``heartbeat_age``: seconds since it last reported (``None``: never)."""
+
+    engine: str
+    up: bool
+    problem: str | None = None
+    restarts: int = 0
+    heartbeat_age: float | None = None
+    health: Health | None = None
+
+
+class EngineEvents(Protocol):
+    """What an engine reports, delivered on the web process's event loop, in order."""
+
+    def started(self, engine: str, record: RunRecord) -> None:
+        """A run is stored and about to step (before any of its samples)."""
+
+    def blocks(self, engine: str, blocks: list[Block]) -> None:
+        """New samples (already handed to the engine's recorder)."""
+
+    def changed(self, engine: str, change: Changed) -> None:
+        """A run paused, resumed or ended."""
+
+    def params(self, engine: str, run_id: str, change: ParamChange) -> None:
+        """A run's parameters changed from sample ``change.k`` on."""
+
+    def committed(self, engine: str, counts: dict[str, int]) -> None:
+        """Samples ``[0, n)`` of each run are in the store."""
+
+    def stored(self, engine: str, run_id: str) -> None:
+        """An ended run's final record is in the store."""
+
+    def health(self, engine: str, health: Health) -> None:
+        """A heartbeat."""
+
+    def lost(self, engine: str, reason: str) -> None:
+        """The engine is gone (its process died or stopped answering); its live runs are
+        over. It restarts by itself if it can."""
+
+
+class Engine(Protocol):
+    """Steps runs. Commands are decided in the engine, one at a time, in the order they
+    arrive: of two stops of one run exactly one succeeds, the other raises
+    :class:`~elab.errors.Conflict`; a command for a run that has ended raises it too.
+    :class:`~elab.errors.Unavailable` when the engine (or its store) cannot take it."""
+
+    id: str
+
+    async def start(self, events: EngineEvents) -> None:
+        """Ready to take runs; runs this engine left live before (a crash) are marked
+        interrupted first."""
+
+    async def close(self) -> None:
+        """Stop: live runs are interrupted ("server shut down"), everything is stored."""
+
+    async def add(self, order: RunOrder) -> RunRecord:
+        """Start stepping a run; its record, as stored."""
+
+    async def control(self, run_id: str, action: Action) -> int:
+        """Pause, resume or stop a run; returns the sample index it happened at."""
+
+    async def replace(self, run_id: str, *, law: ControlLaw | None, reference: Signal | None,
+                      params: dict[str, Any]) -> int:
+        """A new law and/or reference from the next sample on (recorded with ``params``, what
+        the client asked for); returns that sample's index. :class:`InvalidInput` for a law
+        whose controller state differs in size from the run's."""
+
+    def status(self) -> EngineStatus:
+        """Up or not, why, and its last heartbeat."""

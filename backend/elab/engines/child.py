@@ -1,0 +1,247 @@
+"""The engine process: ``python -m elab.engines.child --fd N --engine ID --database PATH``.
+
+It runs a :class:`~elab.engines.simulation.SimulationEngine` and speaks
+:mod:`elab.engines.wire` over the socket ``N`` it inherits from the web process:
+commands in; events, heartbeats and replies out, all through one queue, in the
+order they happen (an event is always out before the reply to the command that
+caused it). A dedicated thread sends, so a web process that stops reading never
+delays a sample: sample blocks beyond ``max_queue`` bytes are dropped (the store
+has them; the web side reads the gap back), nothing else is.
+
+When the web process goes away (end of file on the socket) or asks it to close,
+it interrupts its live runs, stores everything and exits.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import socket
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from elab.engines import wire
+from elab.engines.base import Block, Changed, Health
+from elab.engines.simulation import EngineSettings, SimulationEngine
+from elab.errors import ElabError
+from elab.store.base import ParamChange, RunRecord
+from elab.store.sqlite import SQLiteStore
+
+log = logging.getLogger("elab.engine")
+
+HEARTBEAT = 0.5  # s
+
+
+class Outbox:
+    """Messages to the web process, sent in order by a thread of their own."""
+
+    def __init__(self, sock: socket.socket, max_bytes: int, backlog_bytes: int) -> None:
+        self._sock = sock
+        self.max_bytes = max_bytes
+        self.backlog_bytes = backlog_bytes
+        self._items: deque[bytes] = deque()
+        self._bytes = 0
+        self._cond = threading.Condition()
+        self._closing = False
+        self.dropped = 0  # sample messages dropped while the web process did not read
+        self._thread = threading.Thread(target=self._send, name="elab-engine-out", daemon=True)
+        self._thread.start()
+
+    def put(self, message: bytes, droppable: bool = False) -> None:
+        with self._cond:
+            if droppable and self._bytes + len(message) > self.max_bytes:
+                self.dropped += 1
+                return
+            self._items.append(message)
+            self._bytes += len(message)
+            self._cond.notify()
+
+    def backlogged(self) -> bool:
+        """More queued than a fast run should add to."""
+        return self._bytes > self.backlog_bytes
+
+    def close(self, timeout: float = 10.0) -> None:
+        """Send what is queued (for at most ``timeout`` seconds), then stop."""
+        with self._cond:
+            self._closing = True
+            self._cond.notify()
+        self._thread.join(timeout)
+
+    def _send(self) -> None:
+        while True:
+            with self._cond:
+                while not self._items and not self._closing:
+                    self._cond.wait()
+                if not self._items:
+                    return
+                message = self._items.popleft()
+            try:
+                self._sock.sendall(message)
+            except OSError:  # the web process is gone: nobody to tell
+                return
+            with self._cond:
+                self._bytes -= len(message)
+
+
+class WireEvents:
+    """:class:`~elab.engines.base.EngineEvents` that go out through an :class:`Outbox`."""
+
+    def __init__(self, outbox: Outbox) -> None:
+        self._out = outbox
+
+    def started(self, engine: str, record: RunRecord) -> None:
+        self._out.put(wire.frame({"ev": "started", "record": wire.record_out(record)}))
+
+    def blocks(self, engine: str, blocks: list[Block]) -> None:
+        self._out.put(wire.blocks_out(blocks), droppable=True)
+
+    def changed(self, engine: str, change: Changed) -> None:
+        self._out.put(wire.frame(wire.changed_out(change)))
+
+    def params(self, engine: str, run_id: str, change: ParamChange) -> None:
+        self._out.put(wire.frame({"ev": "params", "run": run_id, "k": change.k,
+                                  "params": change.params, "at": change.at}))
+
+    def committed(self, engine: str, counts: dict[str, int]) -> None:
+        self._out.put(wire.frame({"ev": "committed", "counts": counts}))
+
+    def stored(self, engine: str, run_id: str) -> None:
+        self._out.put(wire.frame({"ev": "stored", "run": run_id}))
+
+    def health(self, engine: str, health: Health) -> None:
+        self._out.put(wire.frame(wire.health_out(health)))
+
+    def lost(self, engine: str, reason: str) -> None:  # the web side's to say
+        raise NotImplementedError
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    logging.basicConfig(stream=sys.stderr, level=logging.WARNING,
+                        format="elab engine %(process)d: %(levelname)s %(message)s")
+    options = json.loads(args.settings)
+    _prioritise(int(options.pop("nice", 0)))
+    max_queue = int(options.pop("max_queue", 64 << 20))
+    settings = EngineSettings(**options)
+    sock = socket.socket(fileno=args.fd)
+    outbox = Outbox(sock, max_queue, backlog_bytes=min(4 << 20, max_queue // 4))
+    store = SQLiteStore(Path(args.database), migrate=False)
+    engine = SimulationEngine(args.engine, store, WireEvents(outbox), settings,
+                              backlog=outbox.backlogged)
+    interrupted = engine.start()
+    outbox.put(wire.frame({"ev": "ready", "engine": engine.id, "pid": os.getpid(),
+                           "interrupted": interrupted}))
+    beat = threading.Thread(target=_heartbeat, args=(engine, outbox), name="elab-engine-beat",
+                            daemon=True)
+    beat.start()
+    reason = "the web server process ended"
+    workers = ThreadPoolExecutor(2, thread_name_prefix="elab-engine-cmd")
+    try:
+        reason = _serve(sock, engine, outbox, workers) or reason
+    finally:
+        workers.shutdown(wait=True)
+        engine.close(reason)
+        outbox.close()
+        store.close()
+    return 0
+
+
+def _serve(sock: socket.socket, engine: SimulationEngine, outbox: Outbox,
+           workers: ThreadPoolExecutor) -> str | None:
+    """Commands until the web process closes us (its reason) or goes away (``None``)."""
+    while True:
+        message = _receive(sock)
+        if message is None:
+            return None
+        h = message
+        op, cid = h["op"], h.get("id")
+        if op == "close":
+            return str(h.get("reason") or "server shut down")
+        if op == "add":
+            order = wire.order_in(h["order"])
+            _reply_when(workers.submit(engine.add, order), outbox, cid, wire.record_out)
+        elif op == "control":
+            _reply_when(engine.control(h["run"], h["action"]), outbox, cid, int)
+        elif op == "replace":
+            _reply_when(workers.submit(engine.replace, h["run"], law=wire.typed(h["law"]),
+                                       reference=wire.typed(h["reference"]),
+                                       params=h["params"]), outbox, cid, int)
+        else:
+            outbox.put(wire.frame({"ev": "reply", "id": cid, "error": wire.error_out(
+                ElabError(f"unknown engine command {op!r}"))}))
+
+
+def _reply_when(fut: Future[Any], outbox: Outbox, cid: Any, out: Callable[[Any], Any]) -> None:
+    def reply(f: Future[Any]) -> None:
+        exc = f.exception()
+        if exc is None:
+            outbox.put(wire.frame({"ev": "reply", "id": cid, "ok": out(f.result())}))
+            return
+        if not isinstance(exc, ElabError):
+            log.error("engine command failed", exc_info=exc)
+            exc = ElabError(f"internal error in the engine: {exc!r}")
+        outbox.put(wire.frame({"ev": "reply", "id": cid, "error": wire.error_out(exc)}))
+
+    fut.add_done_callback(reply)
+
+
+def _receive(sock: socket.socket) -> dict[str, Any] | None:
+    prefix = _exactly(sock, wire.HEADER_BYTES)
+    if prefix is None:
+        return None
+    head, payload = wire.lengths(prefix)
+    header = _exactly(sock, head)
+    if header is None or (payload and _exactly(sock, payload) is None):
+        return None
+    return json.loads(header)  # type: ignore[no-any-return]
+
+
+def _exactly(sock: socket.socket, n: int) -> bytes | None:
+    buf = bytearray()
+    while len(buf) < n:
+        part = sock.recv(n - len(buf))
+        if not part:
+            return None
+        buf += part
+    return bytes(buf)
+
+
+def _heartbeat(engine: SimulationEngine, outbox: Outbox) -> None:
+    while True:
+        time.sleep(HEARTBEAT)
+        try:
+            outbox.put(wire.frame(wire.health_out(engine.health())))
+        except Exception:  # reported by the missing heartbeats; the log says why
+            log.exception("heartbeat failed")
+
+
+def _prioritise(nice: int) -> None:
+    """Run ahead of the web process: a lower nice value when allowed (root or
+    CAP_SYS_NICE); otherwise as is, which the server status shows as late ticks."""
+    if nice:
+        try:
+            os.setpriority(os.PRIO_PROCESS, 0, nice)
+        except OSError as exc:
+            log.warning("could not set the engine's priority to nice %d: %s", nice, exc)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m elab.engines.child")
+    p.add_argument("--fd", type=int, required=True, help="the socket to the web process")
+    p.add_argument("--engine", required=True, help="this engine's id (its runs in the store)")
+    p.add_argument("--database", required=True, help="the SQLite store")
+    p.add_argument("--settings", default="{}", help="EngineSettings as JSON, plus nice, "
+                   "max_queue")
+    return p
+
+
+if __name__ == "__main__":
+    sys.exit(main())

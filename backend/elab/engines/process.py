@@ -1,0 +1,283 @@
+"""An engine in a process of its own, started and supervised by the web process.
+
+:class:`ProcessEngine` is the :class:`~elab.engines.base.Engine` the run manager
+talks to; the process (:mod:`elab.engines.child`) runs the stepping, the
+recording and the run state machine, so nothing in the web process (a big
+download, an upload, an identification, garbage collection, even a stopped
+process) can delay a sample or lose one. They speak :mod:`elab.engines.wire`
+over a socket pair; samples cross in blocks (a pipe at 100 runs carries about
+6 MB/s; docs/architecture.md has the measured cost).
+
+Supervision: a process that dies (or stops sending heartbeats for
+``stall_timeout`` seconds, when it is killed) is *lost*: its live runs are over
+(the run manager marks them interrupted), waiting commands fail with
+:class:`~elab.errors.Unavailable`, and a new process starts after a back-off.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import json
+import logging
+import signal
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from elab.engines import wire
+from elab.engines.base import Action, EngineEvents, EngineStatus, Health, RunOrder
+from elab.engines.simulation import EngineSettings
+from elab.errors import ElabError, Unavailable
+from elab.laws import ControlLaw
+from elab.sim.signals import Signal
+from elab.store.base import ParamChange, RunRecord
+
+log = logging.getLogger(__name__)
+
+_BACKOFF = (0.5, 1.0, 2.0, 5.0, 10.0, 30.0)  # s before each restart after a loss
+_STARTUP = 120.0  # s an engine may take to load (numpy, scipy, the compiled loop)
+
+
+class ProcessEngine:
+    """Starts ``python -m elab.engines.child`` and forwards commands and events."""
+
+    def __init__(self, engine_id: str, database: Path, settings: EngineSettings, *,
+                 nice: int = 0, max_queue: int = 64 << 20, command_timeout: float = 10.0,
+                 stall_timeout: float = 30.0) -> None:
+        self.id = engine_id
+        self.database = database
+        self.settings = settings
+        self.nice = nice
+        self.max_queue = max_queue
+        self.command_timeout = command_timeout
+        self.stall_timeout = stall_timeout
+        self._events: EngineEvents | None = None
+        self._proc: subprocess.Popen[bytes] | None = None
+        self._writer: asyncio.StreamWriter | None = None
+        self._ready = False
+        self._closing = False
+        self._problem: str | None = "not started"
+        self._pending: dict[int, asyncio.Future[Any]] = {}
+        self._ids = itertools.count()
+        self._health: Health | None = None
+        self._beat: float | None = None  # monotonic time of the last heartbeat
+        self._restarts = 0
+        self._tasks: set[asyncio.Task[None]] = set()
+        self._reading: asyncio.Task[None] | None = None
+
+    # -- lifecycle ---------------------------------------------------------------
+    async def start(self, events: EngineEvents) -> None:
+        self._events = events
+        await self._spawn()
+        self._spawn_task(self._supervise())
+
+    async def close(self) -> None:
+        self._closing = True
+        for task in list(self._tasks):
+            if task is not self._reading:
+                task.cancel()
+        proc = self._proc
+        if self._ready and self._writer is not None:
+            try:
+                self._writer.write(wire.frame({"op": "close", "reason": "server shut down"}))
+                await self._writer.drain()
+            except (ConnectionError, OSError):
+                pass
+        if proc is not None:
+            try:
+                await asyncio.wait_for(asyncio.to_thread(proc.wait), 30)
+            except TimeoutError:
+                log.error("engine %s did not stop in 30 s; killing it", self.id)
+                proc.kill()
+                await asyncio.to_thread(proc.wait)
+        if self._reading is not None:
+            await asyncio.gather(self._reading, return_exceptions=True)
+
+    def status(self) -> EngineStatus:
+        age = None if self._beat is None else time.monotonic() - self._beat
+        problem = self._problem
+        if problem is None and age is not None and age > 2.0:
+            problem = f"the engine has not reported for {age:.1f} s"
+        if problem is None and self._health is not None:
+            h = self._health
+            if not h.stepping:
+                problem = "the engine's stepping thread is not ticking"
+            elif not h.store.ok:
+                problem = f"the run store fails: {h.store.error}"
+        return EngineStatus(engine=self.id, up=self._ready, problem=problem,
+                            restarts=self._restarts, heartbeat_age=age, health=self._health)
+
+    # -- commands ------------------------------------------------------------------
+    async def add(self, order: RunOrder) -> RunRecord:
+        return wire.record_in(await self._call({"op": "add", "order": wire.order_out(order)}))
+
+    async def control(self, run_id: str, action: Action) -> int:
+        return int(await self._call({"op": "control", "run": run_id, "action": action}))
+
+    async def replace(self, run_id: str, *, law: ControlLaw | None, reference: Signal | None,
+                      params: dict[str, Any]) -> int:
+        return int(await self._call({"op": "replace", "run": run_id, "law": wire.plain(law),
+                                     "reference": wire.plain(reference), "params": params}))
+
+    async def _call(self, header: dict[str, Any]) -> Any:
+        if not self._ready or self._writer is None:
+            raise Unavailable(f"the simulation engine is not running ({self._problem}); it "
+                              "restarts by itself, try again shortly", retry_after=2.0)
+        cid = next(self._ids)
+        fut: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
+        self._pending[cid] = fut
+        try:
+            self._writer.write(wire.frame({**header, "id": cid}))
+            return await asyncio.wait_for(self._answer(fut), self.command_timeout)
+        except TimeoutError:
+            raise Unavailable(f"the simulation engine did not answer within "
+                              f"{self.command_timeout:g} s", retry_after=5.0) from None
+        finally:
+            self._pending.pop(cid, None)
+
+    async def _answer(self, fut: asyncio.Future[Any]) -> Any:
+        assert self._writer is not None
+        await self._writer.drain()
+        return await fut
+
+    # -- the process -----------------------------------------------------------------
+    async def _spawn(self) -> None:
+        parent, child = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        options = {**asdict(self.settings), "nice": self.nice, "max_queue": self.max_queue}
+        cmd = [sys.executable, "-m", "elab.engines.child", "--fd", str(child.fileno()),
+               "--engine", self.id, "--database", str(self.database),
+               "--settings", json.dumps(options)]
+        # its own session: a Ctrl-C at the terminal reaches the web process, which then
+        # closes the engine in order (runs interrupted, everything stored)
+        self._proc = subprocess.Popen(cmd, pass_fds=(child.fileno(),), start_new_session=True,
+                                      stdin=subprocess.DEVNULL)
+        child.close()
+        reader, self._writer = await asyncio.open_unix_connection(sock=parent)
+        try:
+            header, _ = await asyncio.wait_for(_read(reader), _STARTUP)
+        except (TimeoutError, asyncio.IncompleteReadError, ConnectionError) as exc:
+            self._proc.kill()
+            code = await asyncio.to_thread(self._proc.wait)
+            raise ElabError(f"the simulation engine did not start ({_ended(code)}; its "
+                            f"messages are in the server's log)") from exc
+        if header.get("ev") != "ready":
+            raise ElabError(f"the simulation engine said {header!r} instead of ready")
+        self._ready, self._problem, self._beat = True, None, time.monotonic()
+        if header["interrupted"]:
+            log.warning("engine %s: runs interrupted by its earlier end: %s", self.id,
+                        ", ".join(header["interrupted"]))
+        self._reading = self._spawn_task(self._read_loop(reader))
+
+    async def _read_loop(self, reader: asyncio.StreamReader) -> None:
+        try:
+            while True:
+                header, payload = await _read(reader)
+                try:
+                    self._dispatch(header, payload)
+                except Exception:  # a bug in a handler must not cut the engine off
+                    log.exception("engine %s: handling %s failed", self.id, header.get("ev"))
+        except (asyncio.IncompleteReadError, ConnectionError, OSError):
+            pass
+        await self._lost()
+
+    def _dispatch(self, h: dict[str, Any], payload: bytes) -> None:
+        ev, events = h["ev"], self._events
+        assert events is not None
+        if ev == "blocks":
+            events.blocks(self.id, wire.blocks_in(h, payload))
+        elif ev == "reply":
+            fut = self._pending.get(h["id"])
+            if fut is not None and not fut.done():
+                if "error" in h:
+                    fut.set_exception(wire.error_in(h["error"]))
+                else:
+                    fut.set_result(h["ok"])
+        elif ev == "changed":
+            events.changed(self.id, wire.changed_in(h))
+        elif ev == "started":
+            events.started(self.id, wire.record_in(h["record"]))
+        elif ev == "params":
+            events.params(self.id, h["run"], ParamChange(h["k"], h["params"], h["at"]))
+        elif ev == "committed":
+            events.committed(self.id, h["counts"])
+        elif ev == "stored":
+            events.stored(self.id, h["run"])
+        elif ev == "health":
+            self._health, self._beat = wire.health_in(h), time.monotonic()
+            events.health(self.id, self._health)
+        else:
+            log.error("engine %s sent an unknown message %r", self.id, ev)
+
+    async def _lost(self) -> None:
+        self._ready = False
+        proc = self._proc
+        code = None
+        if proc is not None:
+            try:
+                code = await asyncio.wait_for(asyncio.to_thread(proc.wait), 5)
+            except TimeoutError:  # it closed its socket but lives on: make sure
+                proc.kill()
+                code = await asyncio.to_thread(proc.wait)
+        reason = f"the engine process ended ({_ended(code)})"
+        self._problem = None if self._closing else reason
+        for fut in self._pending.values():
+            if not fut.done():
+                fut.set_exception(Unavailable(reason, retry_after=2.0))
+        if not self._closing:
+            log.error("engine %s: %s", self.id, reason)
+            assert self._events is not None
+            self._events.lost(self.id, reason)
+
+    async def _supervise(self) -> None:
+        """Kill a stalled process; start a new one after a loss."""
+        failures = 0
+        while not self._closing:
+            await asyncio.sleep(1.0)
+            proc, beat = self._proc, self._beat
+            if self._ready and beat is not None and proc is not None:
+                if time.monotonic() - beat > self.stall_timeout:
+                    log.error("engine %s sent nothing for %g s: killing it", self.id,
+                              self.stall_timeout)
+                    proc.send_signal(signal.SIGKILL)
+                continue
+            if self._ready or (self._reading is not None and not self._reading.done()):
+                continue
+            await asyncio.sleep(_BACKOFF[min(failures, len(_BACKOFF) - 1)])
+            try:
+                await self._spawn()
+                self._restarts += 1
+                failures = 0
+            except (ElabError, OSError) as exc:
+                failures += 1
+                self._problem = str(exc)
+                log.error("engine %s: %s", self.id, exc)
+
+    def _spawn_task(self, coro: Any) -> asyncio.Task[None]:
+        task = asyncio.get_running_loop().create_task(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+        return task
+
+
+async def _read(reader: asyncio.StreamReader) -> tuple[dict[str, Any], bytes]:
+    head, size = wire.lengths(await reader.readexactly(wire.HEADER_BYTES))
+    header = json.loads(await reader.readexactly(head))
+    payload = await reader.readexactly(size) if size else b""
+    return header, payload
+
+
+def _ended(code: int | None) -> str:
+    if code is None:
+        return "still running"
+    if code < 0:
+        try:
+            name = signal.Signals(-code).name
+        except ValueError:
+            name = str(-code)
+        return f"killed by {name}"
+    return f"exit status {code}"

@@ -1,0 +1,240 @@
+"""An engine's writes: every sample and record change of its runs, kept until committed.
+
+The stepping thread appends samples and queues record changes (pause, resume,
+parameters, the end); a writer thread commits them every ``interval`` seconds
+(the samples of all runs in one transaction, then the changes in order), so a
+crash loses at most that interval.
+
+Faults: a transient :class:`~elab.store.base.StoreError` (another writer holds
+the lock) is retried with back-off while the data wait in memory. One that is
+not transient, or a transient one that lasts ``retry_for`` seconds or lets
+``max_pending`` bytes pile up, is a *failure*: ``on_fault`` hears of it (the
+engine fails its live runs with the reason), samples not yet committed are
+dropped — the recordings keep everything committed before — and the changes
+still queued (the runs' final states) are retried every second, as is a probe
+write when nothing is queued, until the store works again.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.engines.base import StoreHealth
+from elab.errors import ElabError
+from elab.lifecycle import RunState
+from elab.store.base import ParamChange, RunStore, StoreError
+
+log = logging.getLogger(__name__)
+
+Array = NDArray[np.float64]
+_RETRY_CAP = 2.0  # s: the longest back-off between two tries
+_FAILED_RETRY = 1.0  # s: how often a failed store is tried again
+
+
+@dataclass
+class _Tail:
+    nch: int
+    stored: int = 0  # samples committed to the store
+    chunks: list[tuple[int, Array]] = field(default_factory=list)  # not yet committed
+
+    @property
+    def pending_bytes(self) -> int:
+        return sum(d.nbytes for _, d in self.chunks)
+
+
+@dataclass(frozen=True)
+class _Status:
+    run_id: str
+    state: RunState
+    error: str | None
+    final: bool
+
+
+@dataclass(frozen=True)
+class _Param:
+    run_id: str
+    change: ParamChange
+
+
+class Recorder:
+    """The writer thread of one engine and what waits for it."""
+
+    def __init__(self, store: RunStore, *, interval: float = 0.25, retry_for: float = 30.0,
+                 max_pending: int = 256 << 20,
+                 on_committed: Callable[[dict[str, int]], None] = lambda counts: None,
+                 on_stored: Callable[[str], None] = lambda run_id: None,
+                 on_fault: Callable[[StoreHealth], None] = lambda health: None) -> None:
+        self.store = store
+        self.interval = interval
+        self.retry_for = retry_for
+        self.max_pending = max_pending
+        self._on_committed = on_committed
+        self._on_stored = on_stored
+        self._on_fault = on_fault
+        self._lock = threading.Lock()
+        self._tails: dict[str, _Tail] = {}
+        self._ops: deque[_Status | _Param] = deque()
+        self._flushing = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name="elab-writer", daemon=True)
+        self.health = StoreHealth()
+        self.last_flush = time.monotonic()  # the end of the writer's last try (its watchdog)
+
+    @property
+    def failed(self) -> bool:
+        """The store has failed (not a transient fault being retried)."""
+        return not self.health.ok and not self.health.transient
+
+    @property
+    def alive(self) -> bool:
+        return self._thread.is_alive()
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def close(self) -> None:
+        """Stop the thread and make a last try to commit everything."""
+        self._stop.set()
+        self._thread.join(timeout=30)
+        try:
+            self.flush()
+        except StoreError as exc:
+            log.error("closing with data not stored: %s", exc)
+
+    # -- from the engine (any thread) -------------------------------------------
+    def open(self, run_id: str, nch: int) -> None:
+        with self._lock:
+            self._tails[run_id] = _Tail(nch)
+
+    def append_many(self, run_ids: list[str], k0: list[int], data: Array) -> None:
+        """Rows ``k0[i] ..`` of run ``run_ids[i]``: ``data[i]`` (runs × n × channels).
+        Dropped while the store has failed (those runs are being failed)."""
+        with self._lock:
+            if self.failed:
+                return
+            tails = self._tails
+            for run_id, k, rows in zip(run_ids, k0, data, strict=True):
+                tail = tails.get(run_id)
+                if tail is not None:
+                    tail.chunks.append((k, rows))
+
+    def status(self, run_id: str, state: RunState, error: str | None = None) -> None:
+        """Record a change of state; ``state`` final: the run's last write (its samples
+        not yet committed go first)."""
+        with self._lock:
+            self._ops.append(_Status(run_id, state, error, final=not state.live))
+            if self.failed and not state.live:
+                tail = self._tails.get(run_id)
+                if tail is not None:
+                    tail.chunks = []
+
+    def param(self, run_id: str, change: ParamChange) -> None:
+        with self._lock:
+            self._ops.append(_Param(run_id, change))
+
+    def pending_bytes(self) -> int:
+        with self._lock:
+            return sum(t.pending_bytes for t in self._tails.values())
+
+    # -- the writer ---------------------------------------------------------------
+    def flush(self) -> None:
+        """Commit every pending chunk (one transaction), then the queued changes in order;
+        raises :class:`StoreError` (what is not committed stays queued)."""
+        with self._flushing:
+            self._flush_samples()
+            self._flush_ops()
+
+    def _flush_samples(self) -> None:
+        with self._lock:  # one row per run per flush: its pending chunks joined
+            batch = [(rid, t.chunks[0][0], _joined([d for _, d in t.chunks]))
+                     for rid, t in self._tails.items() if t.chunks]
+            counts = {rid: len(t.chunks) for rid, t in self._tails.items()}
+        if not batch:
+            return
+        self.store.append_many(batch)
+        stored: dict[str, int] = {}
+        with self._lock:
+            for rid, n in counts.items():
+                tail = self._tails.get(rid)
+                if tail is None or not n:
+                    continue
+                done, tail.chunks = tail.chunks[:n], tail.chunks[n:]
+                tail.stored += sum(d.shape[0] for _, d in done)
+                stored[rid] = tail.stored
+        self._on_committed(stored)
+
+    def _flush_ops(self) -> None:
+        while True:
+            with self._lock:
+                if not self._ops:
+                    return
+                op = self._ops[0]
+            try:
+                if isinstance(op, _Param):
+                    self.store.add_param_change(op.run_id, op.change)
+                else:
+                    self.store.set_status(op.run_id, op.state.value, error=op.error,
+                                          finished_at=time.time() if op.final else None)
+            except StoreError:
+                raise
+            except ElabError:  # the run is not in the store (a bug): nothing to retry
+                log.exception("dropping a record change of run %s", op.run_id)
+            with self._lock:
+                self._ops.popleft()
+                if isinstance(op, _Status) and op.final:
+                    self._tails.pop(op.run_id, None)
+            if isinstance(op, _Status) and op.final:
+                self._on_stored(op.run_id)
+
+    def _loop(self) -> None:
+        delay = self.interval
+        while not self._stop.wait(delay):
+            try:
+                self.flush()
+                if not self.health.ok:
+                    self.store.probe()  # nothing was queued: show that writing works
+                    self._set_health(StoreHealth())
+                delay = self.interval
+            except StoreError as exc:
+                delay = self._fault(exc, delay)
+            except Exception:  # a bug: reported, and the thread goes on trying
+                log.exception("the writer failed")
+                self._set_health(StoreHealth(ok=False, error="internal error in the writer "
+                                             "(see the server log)", since=time.time()))
+                delay = _FAILED_RETRY
+            finally:
+                self.last_flush = time.monotonic()
+
+    def _fault(self, exc: StoreError, delay: float) -> float:
+        now = time.time()
+        since = self.health.since or now
+        pending = self.pending_bytes()
+        give_up = (not exc.transient or now - since >= self.retry_for
+                   or pending > self.max_pending)
+        if give_up:
+            with self._lock:  # the runs fail; what was not committed cannot be
+                for tail in self._tails.values():
+                    tail.chunks = []
+                pending = 0
+        self._set_health(StoreHealth(ok=False, error=str(exc), since=since,
+                                     transient=not give_up, pending_bytes=pending))
+        return _FAILED_RETRY if give_up else min(max(self.interval, 2 * delay), _RETRY_CAP)
+
+    def _set_health(self, health: StoreHealth) -> None:
+        changed = (health.ok, health.transient) != (self.health.ok, self.health.transient)
+        self.health = health
+        if changed:
+            log.warning("store: %s", "ok" if health.ok else health.error)
+            self._on_fault(health)
+
+
+def _joined(parts: list[Array]) -> Array:
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)

@@ -1,0 +1,196 @@
+"""The batched simulation engine: a stepping thread and a writer thread over one store.
+
+:class:`SimulationEngine` is what runs inside an engine process (see
+:mod:`elab.engines.process`): runs are added, controlled and changed through it,
+it steps them in one :class:`~elab.engines.stepper.Stepper`, records every sample
+and change through its :class:`~elab.engines.recorder.Recorder`, and reports
+everything to an :class:`~elab.engines.base.EngineEvents` (called from its
+threads; the process forwards each call over its socket).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from elab.engines.base import Action, Block, Changed, EngineEvents, Health, RunOrder, StoreHealth
+from elab.engines.recorder import Recorder
+from elab.engines.stepper import Stepper
+from elab.errors import Conflict, InvalidInput, Unavailable
+from elab.laws import ControlLaw
+from elab.lifecycle import RunState
+from elab.plants import get_plant
+from elab.sim.batch import Batch
+from elab.sim.result import Samples
+from elab.sim.signals import Signal
+from elab.sim.spec import CompiledRun, RunSpec, compile_run
+from elab.store.base import ParamChange, RunRecord, RunStore
+
+log = logging.getLogger(__name__)
+
+#: why runs an engine left live are interrupted when it starts again
+CRASHED = "the engine stopped while the run was live (its process ended unexpectedly)"
+
+
+@dataclass(frozen=True)
+class EngineSettings:
+    """``tick``: the stepper's period (one 20 ms frame per run per tick);
+    ``flush_interval``: how often samples are committed (what a crash may lose);
+    ``retry_for``: how long a busy store is retried before its runs fail;
+    ``max_pending``: bytes of samples that may wait for a busy store."""
+
+    tick: float = 0.02
+    flush_interval: float = 0.25
+    retry_for: float = 30.0
+    max_pending: int = 256 << 20
+
+
+def channels_of(run: CompiledRun) -> tuple[tuple[str, str], ...]:
+    """Recorded columns ``r, u, y…, x…`` with units (the time column is derived)."""
+    p = run.spec.plant
+    empty = Samples(p, run.Ts, 0, np.zeros(0), np.zeros(0), np.zeros((0, p.ny)),
+                    np.zeros((0, p.nx)))
+    return tuple((c.name, c.unit) for c, _ in empty.channels()[1:])
+
+
+class SimulationEngine:
+    """Steps and records runs; every method is safe to call from any thread."""
+
+    def __init__(self, engine_id: str, store: RunStore, events: EngineEvents,
+                 settings: EngineSettings | None = None, *,
+                 backlog: Callable[[], bool] = lambda: False) -> None:
+        self.id = engine_id
+        self.store = store
+        self._events = events
+        self.settings = settings = settings or EngineSettings()
+        self.recorder = Recorder(store, interval=settings.flush_interval,
+                                 retry_for=settings.retry_for, max_pending=settings.max_pending,
+                                 on_committed=lambda counts: events.committed(self.id, counts),
+                                 on_stored=lambda run_id: events.stored(self.id, run_id),
+                                 on_fault=self._on_fault)
+        self.stepper = Stepper(self._on_tick, tick=settings.tick, backlog=backlog)
+        self._runs: dict[str, CompiledRun] = {}  # live runs as last changed
+        self._changing = threading.Lock()
+
+    # -- lifecycle -----------------------------------------------------------------
+    def start(self) -> list[str]:
+        """Mark the runs this engine left live interrupted, load the compiled loop, and
+        start stepping; returns the interrupted runs."""
+        interrupted = self.store.mark_interrupted(self.id, CRASHED)
+        _warm()  # the first call loads the compiled loop from disk: not on a live tick
+        self.recorder.start()
+        self.stepper.start()
+        return interrupted
+
+    def close(self, reason: str = "server shut down") -> None:
+        """Interrupt the live runs with ``reason`` and store everything."""
+        try:
+            self.stepper.end(None, RunState.INTERRUPTED, reason).result(timeout=10)
+        except TimeoutError:
+            log.error("the stepping thread did not answer; closing anyway")
+        self.stepper.close()
+        self.recorder.close()
+
+    # -- commands ---------------------------------------------------------------------
+    def add(self, order: RunOrder) -> RunRecord:
+        """Check, store and start a run; its record."""
+        if self.recorder.failed:
+            h = self.recorder.health
+            raise Unavailable(f"new runs are refused while the run store fails: {h.error}",
+                              retry_after=5.0)
+        run = compile_run(order.spec)
+        mono = time.monotonic()
+        # sample 0 just after the stepper's next tick, so each tick completes a frame;
+        # started_at: the wall time of sample 0
+        origin = self.stepper.origin(mono, run.Ts) if order.pace == "realtime" else mono
+        now = time.time() + (origin - mono)
+        record = RunRecord(id=order.id, plant=order.spec.plant.id, mode=order.mode,
+                           experiment=order.experiment, spec=order.request,
+                           status=RunState.RUNNING.value, Ts=run.Ts, channels=channels_of(run),
+                           n_planned=run.n_samples, created_at=now, started_at=now,
+                           engine=self.id)
+        self.store.create_run(record)
+        self.recorder.open(record.id, len(record.channels))
+        self._runs[record.id] = run
+        self._events.started(self.id, record)
+        self.stepper.add(record.id, run, order.pace, t_origin=origin)
+        return record
+
+    def control(self, run_id: str, action: Action) -> Future[int]:
+        return self.stepper.control(run_id, action)
+
+    def replace(self, run_id: str, *, law: ControlLaw | None, reference: Signal | None,
+                params: dict[str, Any]) -> int:
+        """A new law and/or reference from the next sample on; the change is recorded and
+        reported; returns that sample's index."""
+        with self._changing:  # one change at a time: each starts from the last
+            old = self._runs.get(run_id)
+            if old is None:
+                raise Conflict(f"run {run_id} has ended: it no longer steps")
+            spec = replace(old.spec, law=law or old.spec.law,
+                           reference=reference or old.spec.reference)
+            run = compile_run(spec)
+            if law is not None and run.controller.nc != old.controller.nc:
+                raise InvalidInput("controller", params.get("controller"),
+                                   f"a {type(old.spec.law).__name__} law like the run's (its "
+                                   "controller state size cannot change mid-run); start a new "
+                                   "run instead")
+            k = self.stepper.replace(run_id, run, controller=law is not None).result()
+            self._runs[run_id] = run
+        change = ParamChange(k=k, params=params, at=time.time())
+        self.recorder.param(run_id, change)
+        self._events.params(self.id, run_id, change)
+        return k
+
+    # -- health ---------------------------------------------------------------------
+    def health(self) -> Health:
+        """Live runs, the stepping thread's timing, the store, and whether both threads are
+        alive and working (the stepper began a tick within a second, the writer finished a
+        try within its longest wait)."""
+        now = time.monotonic()
+        quiet = now - self.stepper.last_tick
+        stepping = self.stepper.alive and quiet < max(1.0, 10 * self.stepper.tick)
+        store = self.recorder.health
+        if not (self.recorder.alive and now - self.recorder.last_flush < 10.0):
+            store = StoreHealth(ok=False, error="the writer thread is not working",
+                                since=store.since or time.time())
+        store = replace(store, pending_bytes=self.recorder.pending_bytes())
+        return Health(engine=self.id, pid=os.getpid(), live_runs=self.stepper.live_count,
+                      timing=self.stepper.timing(), store=store, stepping=stepping,
+                      at=time.time())
+
+    # -- from the threads ------------------------------------------------------------
+    def _on_tick(self, blocks: list[Block], changes: list[Changed]) -> None:
+        """In the stepping thread: record, then report."""
+        for b in blocks:
+            self.recorder.append_many(b.run_ids, b.k0, b.data)
+        if blocks:
+            self._events.blocks(self.id, blocks)
+        for c in changes:
+            self.recorder.status(c.run_id, c.state, c.error)
+            if not c.state.live:
+                self._runs.pop(c.run_id, None)
+            self._events.changed(self.id, c)
+
+    def _on_fault(self, health: StoreHealth) -> None:
+        """In the writer thread: a failed store fails the live runs."""
+        if not health.ok and not health.transient:
+            self.stepper.end(None, RunState.FAILED,
+                             f"storage failed: {health.error}; the recording keeps the "
+                             "samples stored before")
+        self._events.health(self.id, self.health())
+
+
+def _warm() -> None:
+    batch = Batch(capacity=1, block=8)
+    plant = get_plant("flexible_link")
+    batch.add(compile_run(RunSpec(plant, plant.predefined, duration=0.008)))
+    batch.advance(8)

@@ -1,0 +1,109 @@
+"""What the lab keeps about runs, and the protocol every store implements.
+
+A run's recording is a float64 array ``(n, nch)`` whose columns are the run's
+channels (``r, u, y…, x…``); row ``k`` is sample ``k`` at time ``k·Ts``. It
+arrives in consecutive chunks. Records and samples are written by the engine
+that steps the run (it owns the run: ``engine``) and read by anyone.
+
+Failures are :class:`StoreError`: ``transient`` ones (another writer holds the
+lock) are worth retrying; the others (disk full, read-only or damaged file, I/O
+error) are not until an operator acts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.errors import Unavailable
+
+Array = NDArray[np.float64]
+
+
+class StoreError(Unavailable):
+    """The store could not do what was asked. ``transient``: retrying may succeed soon
+    (a lock held by another writer); otherwise it fails until someone acts (space, file
+    permissions, a damaged file)."""
+
+    def __init__(self, message: str, *, transient: bool) -> None:
+        self.transient = transient
+        super().__init__(f"the run store failed: {message}", retry_after=1.0 if transient else None)
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunSummary:
+    """What the store keeps about a run besides its samples and its request (times in unix
+    seconds)."""
+
+    id: str
+    plant: str
+    mode: str  # "simulation" | "rig"
+    experiment: str  # "analysis" | "identification" | "design"
+    status: str  # a RunState value
+    Ts: float  # s
+    channels: tuple[tuple[str, str], ...]  # (name, unit) of the recorded columns
+    n_planned: int  # samples of the run if it completes
+    n_stored: int = 0  # samples stored so far (maintained by the store)
+    created_at: float = 0.0
+    started_at: float | None = None
+    finished_at: float | None = None
+    error: str | None = None  # why it failed, stopped early or was interrupted
+    engine: str | None = None  # the engine that steps (or stepped) it
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunRecord(RunSummary):
+    """A run with the request it was started from (JSON-able, as the client sent it with
+    the defaults filled in)."""
+
+    spec: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ParamChange:
+    """New parameters of a run, in force from sample ``k`` on (``at`` in unix seconds)."""
+
+    k: int
+    params: dict[str, Any]  # JSON-able
+    at: float
+
+
+class RunStore(Protocol):
+    """Runs, their parameter changes and their samples. Every method is safe to call from
+    any thread; each write is a transaction of its own (all or nothing)."""
+
+    def create_run(self, record: RunRecord) -> None: ...
+
+    def set_status(self, run_id: str, status: str, *, started_at: float | None = None,
+                   finished_at: float | None = None, error: str | None = None) -> None:
+        """Set ``status`` and those of the other fields that are given."""
+
+    def get_run(self, run_id: str) -> RunRecord: ...
+
+    def list_runs(self, *, plant: str | None = None, limit: int = 50,
+                  offset: int = 0) -> tuple[list[RunSummary], int]:
+        """A page of runs, newest first, and how many match in all."""
+
+    def mark_interrupted(self, engine: str, reason: str) -> list[str]:
+        """Every run of ``engine`` still created, running or paused becomes interrupted
+        (``error``: ``reason``); returns their ids. Runs of other engines are left alone."""
+
+    def add_param_change(self, run_id: str, change: ParamChange) -> None: ...
+
+    def param_changes(self, run_id: str) -> list[ParamChange]:
+        """The run's parameter changes ordered by ``k`` (then by arrival)."""
+
+    def append_many(self, items: list[tuple[str, int, Array]]) -> None:
+        """Store chunks ``(run id, k0, rows)`` in one transaction: all or none. ``k0`` must
+        be the number of samples stored so far of that run."""
+
+    def read(self, run_id: str, k0: int = 0, k1: int | None = None) -> Array:
+        """Rows ``[k0, min(k1, n_stored))`` as a new ``(n, nch)`` array."""
+
+    def probe(self) -> None:
+        """A small real write: raises :class:`StoreError` if writing fails now."""
+
+    def close(self) -> None: ...
