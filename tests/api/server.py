@@ -9,9 +9,10 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import httpx
 import msgpack
@@ -19,6 +20,7 @@ import numpy as np
 from websockets.asyncio.client import ClientConnection, connect
 
 ELAB = str(Path(sys.executable).parent / "elab")
+T = TypeVar("T")
 
 
 def free_port() -> int:
@@ -81,6 +83,29 @@ class Server:
 
     def client(self) -> httpx.Client:
         return httpx.Client(base_url=self.url + "/api/v1", timeout=30)
+
+    def status(self) -> dict[str, Any]:
+        """``GET /api/v1/server``."""
+        return httpx.get(self.url + "/api/v1/server", timeout=30).json()  # type: ignore[no-any-return]
+
+    @property
+    def engine_pid(self) -> int:
+        pid = self.status()["engine"]["pid"]
+        assert isinstance(pid, int), "the engine is not up"
+        return pid
+
+
+def until(cond: Callable[[], T | None], timeout: float = 60.0, every: float = 0.05) -> T:
+    """Poll ``cond`` until it returns something truthy (then that), or fail after
+    ``timeout`` seconds: tests wait on state, never on the clock alone."""
+    deadline = time.monotonic() + timeout
+    while True:
+        got = cond()
+        if got:
+            return got
+        if time.monotonic() > deadline:
+            raise AssertionError(f"not reached in {timeout} s: {cond}")
+        time.sleep(every)
 
 
 @dataclass

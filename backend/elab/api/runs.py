@@ -123,7 +123,7 @@ def server_model(status: dict[str, Any]) -> s.ServerStatus:
         live_runs=status["live_runs"], watchers=status["watchers"],
         stepper=s.StepperTiming.model_validate(timing),
         engine=s.EngineInfo(id=st.engine, up=st.up, problem=st.problem, restarts=st.restarts,
-                            pid=h.pid if h is not None else None,
+                            pid=st.pid,
                             heartbeat_age_s=st.heartbeat_age),
         store=s.StoreInfo(ok=store.ok, error=store.error, since=store.since,
                           transient=store.transient, pending_bytes=store.pending_bytes))

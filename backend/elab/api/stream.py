@@ -68,7 +68,7 @@ async def stream(ws: WebSocket, send_bytes: Callable[[bytes], Awaitable[None]]) 
     if start is not None:
         channel.resume_from(watcher, start)
     if channel.ended:
-        watcher.control(m.codec.status(record.status, record.n_stored, record.error))
+        channel.tell(watcher, m.codec.status(record.status, record.n_stored, record.error))
     try:
         async with anyio.create_task_group() as tg:
             tg.start_soon(_send, channel, watcher, tg.cancel_scope)
@@ -105,7 +105,7 @@ async def _receive(ws: WebSocket, m: Any, run_id: str, channel: Any, watcher: Wa
             data = msgpack.unpackb(raw) if isinstance(raw, bytes) else _json(raw)
             await _handle(CLIENT.validate_python(data), m, run_id, channel, watcher)
         except (ValidationError, ElabError, ValueError) as exc:
-            watcher.control(pack(_error(exc)))
+            channel.tell(watcher, pack(_error(exc)))
 
 
 async def _handle(msg: Any, m: Any, run_id: str, channel: Any, watcher: Watcher) -> None:

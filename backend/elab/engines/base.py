@@ -97,6 +97,7 @@ class EngineStatus:
     engine: str
     up: bool
     problem: str | None = None
+    pid: int | None = None
     restarts: int = 0
     heartbeat_age: float | None = None
     health: Health | None = None

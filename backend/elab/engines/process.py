@@ -109,7 +109,8 @@ class ProcessEngine:
                 problem = "the engine's stepping thread is not ticking"
             elif not h.store.ok:
                 problem = f"the run store fails: {h.store.error}"
-        return EngineStatus(engine=self.id, up=self._ready, problem=problem,
+        pid = self._proc.pid if self._proc is not None and self._ready else None
+        return EngineStatus(engine=self.id, up=self._ready, problem=problem, pid=pid,
                             restarts=self._restarts, heartbeat_age=age, health=self._health)
 
     # -- commands ------------------------------------------------------------------

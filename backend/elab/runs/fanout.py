@@ -250,10 +250,15 @@ class RunChannel:
         self.control(status)
 
     def control(self, payload: bytes) -> None:
+        """A message for every watcher (after what is queued for each)."""
         for w in self.watchers:
-            w.control(payload)
-            self.sender.ready(w)
+            self.tell(w, payload)
         self._poke()
+
+    def tell(self, w: Watcher, payload: bytes) -> None:
+        """A message for one watcher (an answer to it), sent even when no frame follows."""
+        w.control(payload)
+        self.sender.ready(w)
 
     def _emit(self, n: int) -> None:
         data = np.concatenate(self._pending) if len(self._pending) > 1 else self._pending[0]

@@ -1,0 +1,205 @@
+"""The engine in its own process, for real: the web process stopped mid-run loses nothing,
+a killed engine interrupts its runs (keeping their data) and comes back, a stopped engine
+resumes, and commands racing on one run are decided once (no 500, never a dropped
+connection)."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import os
+import signal
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+
+from elab.plants import get_plant
+from elab.sim import RunSpec, Square, simulate
+from tests.api.server import Server, Watcher, until
+from tests.api.test_live_runs import NAMES, downloads
+
+FLEX = get_plant("flexible_link")
+SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
+
+
+def offline(duration: float) -> np.ndarray:
+    res = simulate(RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 2.0),
+                           duration=duration))
+    return np.column_stack([res.r, res.u, res.y, res.x])
+
+
+async def follow(w: Watcher, states: set[str], timeout: float = 60) -> dict[str, Any]:
+    """Receive until a status in ``states``, asking for skipped frames again."""
+    deadline = time.monotonic() + timeout
+    while True:
+        msg = await w.next(max(0.1, deadline - time.monotonic()))
+        if msg["type"] == "skipped":
+            await w.conn.send(json.dumps({"type": "resume_from", "seq": msg["from_seq"]}))
+        if msg["type"] == "status" and msg["state"] in states:
+            return msg
+
+
+def received(w: Watcher) -> int:
+    return sum(len(next(iter(c.values()))) for c in w.columns.values())
+
+
+async def until_async(cond: Any, timeout: float = 30) -> None:
+    deadline = time.monotonic() + timeout
+    while not cond():
+        assert time.monotonic() < deadline, "not reached"
+        await asyncio.sleep(0.02)
+
+
+def test_the_web_process_stopped_for_2_s_mid_run_loses_no_sample(tmp_path: Path) -> None:
+    srv = Server(tmp_path / "data").start()
+    try:
+        with srv.client() as c:
+            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
+                                        "duration": 6.0}).json()["id"]
+
+            async def scenario() -> Watcher:
+                w = await Watcher.open(srv.ws_url, rid, "?from_seq=0")
+                done = asyncio.create_task(follow(w, {"finished"}))
+                await until_async(lambda: received(w) >= 1000)
+                assert srv.proc is not None
+                os.kill(srv.proc.pid, signal.SIGSTOP)  # the web process, not the engine
+                time.sleep(2.0)  # this thread too: nothing is read meanwhile
+                os.kill(srv.proc.pid, signal.SIGCONT)
+                await done
+                await w.conn.close()
+                return w
+
+            w = asyncio.run(scenario())
+            want = offline(6.0)
+            recorded = downloads(c, rid)["csv"]
+            np.testing.assert_array_equal(recorded, want)  # the engine recorded every sample
+            got = w.assemble(6000)  # and the watcher received every one
+            for i, name in enumerate(NAMES):
+                np.testing.assert_array_equal(got[name], want[:, i].astype("<f4"))
+    finally:
+        srv.stop()
+
+
+def test_a_killed_engine_interrupts_its_runs_with_their_data_and_starts_again(
+        tmp_path: Path) -> None:
+    srv = Server(tmp_path / "data").start()
+    try:
+        with srv.client() as c:
+            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
+                                        "duration": 60.0}).json()["id"]
+            pid = srv.engine_pid
+
+            async def scenario() -> dict[str, Any]:
+                w = await Watcher.open(srv.ws_url, rid, "?from_seq=0")
+                end = asyncio.create_task(follow(w, {"interrupted"}))
+                await until_async(lambda: received(w) >= 1000)
+                os.kill(pid, signal.SIGKILL)
+                await end
+                await w.conn.close()
+                return end.result()
+
+            end = asyncio.run(scenario())
+            assert "SIGKILL" in end["error"]
+            info = until(lambda: (i := c.get(f"/runs/{rid}").json())["n_samples"] == len(
+                downloads(c, rid)["csv"]) and i)
+            assert info["status"] == "interrupted" and "killed by SIGKILL" in info["error"]
+            got = downloads(c, rid)["csv"]
+            assert 500 <= got.shape[0] < 60_000  # what was committed (every 0.25 s)
+            np.testing.assert_array_equal(got, offline(60.0)[:got.shape[0]])
+            # a new engine takes over and new runs work
+            until(lambda: c.get("/health").status_code == 200)
+            st = srv.status()["engine"]
+            assert st["restarts"] == 1 and st["pid"] != pid and st["up"]
+            again = c.post("/runs", json={"plant": "belt_conveyor", "duration": 0.5,
+                                          "pace": "fast"}).json()["id"]
+            until(lambda: c.get(f"/runs/{again}").json()["status"] == "finished")
+    finally:
+        srv.stop()
+
+
+def test_a_stopped_engine_is_reported_and_its_runs_complete_after_it_goes_on(
+        tmp_path: Path) -> None:
+    srv = Server(tmp_path / "data").start()
+    try:
+        with srv.client() as c:
+            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
+                                        "duration": 4.0}).json()["id"]
+            pid = srv.engine_pid
+            until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] > 500)
+            os.kill(pid, signal.SIGSTOP)
+            try:
+                r = until(lambda: (h := c.get("/health")).status_code == 503 and h)
+                assert "has not reported" in r.json()["problems"][0]
+                r = c.post(f"/runs/{rid}/pause")  # the engine cannot answer: 503, not a hang
+                assert r.status_code == 503 and "did not answer" in r.json()["error"]["message"]
+            finally:
+                os.kill(pid, signal.SIGCONT)
+            until(lambda: c.get("/health").status_code == 200)
+            # the pause was decided when the engine went on: resume, then let it finish
+            until(lambda: c.get(f"/runs/{rid}").json()["status"] in ("paused", "running"))
+            if c.get(f"/runs/{rid}").json()["status"] == "paused":
+                assert c.post(f"/runs/{rid}/resume").status_code == 200
+            until(lambda: c.get(f"/runs/{rid}").json()["status"] == "finished")
+            assert srv.status()["engine"]["restarts"] == 0
+    finally:
+        srv.stop()
+
+
+@pytest.fixture
+def long_run(server: Server) -> str:
+    with server.client() as c:
+        r = c.post("/runs", json={"plant": "belt_conveyor", "duration": 600})
+        assert r.status_code == 201, r.text
+        return str(r.json()["id"])
+
+
+def test_of_five_simultaneous_stops_one_succeeds_and_four_get_409(server: Server,
+                                                                   long_run: str) -> None:
+    url = f"{server.url}/api/v1/runs/{long_run}/stop"
+    with ThreadPoolExecutor(5) as ex:
+        replies = list(ex.map(lambda _: httpx.post(url, timeout=30), range(5)))
+    assert sorted(r.status_code for r in replies) == [200, 409, 409, 409, 409]
+    for r in replies:
+        if r.status_code == 409:
+            assert "has ended (stopped)" in r.json()["error"]["message"], r.text
+    with server.client() as c:
+        for action in ("pause", "resume", "stop"):
+            r = c.post(f"/runs/{long_run}/{action}")
+            assert r.status_code == 409 and "has ended" in r.json()["error"]["message"]
+        r = c.post(f"/runs/{long_run}/params", json={"signal": {"kind": "step",
+                                                                "amplitude": 0.1}})
+        assert r.status_code == 409
+
+
+def test_commands_racing_over_rest_and_the_websocket_keep_the_connection(
+        server: Server, long_run: str) -> None:
+    async def scenario() -> list[dict[str, Any]]:
+        w = await Watcher.open(server.ws_url, long_run)
+        async with httpx.AsyncClient(base_url=server.url + "/api/v1") as c:
+            sends = [w.conn.send(json.dumps({"type": t}))
+                     for t in ("pause", "stop", "resume", "stop", "pause")]
+            rest = [c.post(f"/runs/{long_run}/{a}") for a in ("stop", "pause", "stop")]
+            results = await asyncio.gather(*sends, *rest)
+        codes = [r.status_code for r in results[5:]]
+        assert set(codes) <= {200, 409}, codes
+        msgs: list[dict[str, Any]] = []
+        while not any(m["type"] == "status" and m["state"] == "stopped" for m in msgs):
+            m = await w.next()
+            if m["type"] != "frame":
+                msgs.append(m)
+        await w.conn.send(json.dumps({"type": "pause"}))  # after the end: an error, kept
+        while (m := await w.next())["type"] != "error":
+            pass
+        msgs.append(m)
+        await w.conn.close()
+        return msgs
+
+    msgs = asyncio.run(scenario())
+    assert msgs[-1]["code"] == "conflict" and "has ended" in msgs[-1]["message"]
+    assert [m for m in msgs if m["type"] == "status" and m["state"] == "stopped"]
