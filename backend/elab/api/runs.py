@@ -105,11 +105,12 @@ async def health(request: Request) -> Response:
     """For a load balancer or a supervisor: the engine is up and ticking and its store
     writes work."""
     st = manager(request).status()["engine"]
-    problems = [st.problem] if st.problem else []
-    if not st.up and not problems:
-        problems.append("the engine is not running")
-    body = s.HealthInfo(status="unavailable" if problems else "ok", problems=problems)
-    return ok(body, status=503 if problems else 200)
+    down = st.problem or (None if st.up else "the engine is not running")
+    if down:
+        return ok(s.HealthInfo(status="unavailable", problems=[down]), status=503)
+    if st.warning:
+        return ok(s.HealthInfo(status="degraded", problems=[st.warning]))
+    return ok(s.HealthInfo(status="ok", problems=[]))
 
 
 def server_model(status: dict[str, Any]) -> s.ServerStatus:

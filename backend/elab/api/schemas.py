@@ -232,9 +232,11 @@ class ServerStatus(Model):
 
 
 class HealthInfo(Model):
-    """For a load balancer: 200 when every part works, else 503 and what is wrong."""
+    """For a load balancer: ``ok`` (200); ``degraded`` (200: runs work, something is being
+    retried, e.g. a store locked by another writer); ``unavailable`` (503: new runs would
+    fail: the engine is down or stalled, or the store has failed). ``problems`` says what."""
 
-    status: Literal["ok", "unavailable"]
+    status: Literal["ok", "degraded", "unavailable"]
     problems: list[str]
 
 

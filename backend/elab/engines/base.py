@@ -91,12 +91,14 @@ class Health:
 @dataclass(frozen=True)
 class EngineStatus:
     """An engine as its user sees it: ``up`` (started and answering), else ``problem`` says
-    why; ``problem`` also names what is wrong while up (a failing store, a stalled thread).
-    ``heartbeat_age``: seconds since it last reported (``None``: never)."""
+    why; ``problem`` also names what is wrong while up (a failed store, a stalled thread),
+    ``warning`` what is being retried (a busy store). ``heartbeat_age``: seconds since it
+    last reported (``None``: never)."""
 
     engine: str
     up: bool
     problem: str | None = None
+    warning: str | None = None
     pid: int | None = None
     restarts: int = 0
     heartbeat_age: float | None = None

@@ -100,18 +100,19 @@ class ProcessEngine:
 
     def status(self) -> EngineStatus:
         age = None if self._beat is None else time.monotonic() - self._beat
-        problem = self._problem
+        problem, warning, h = self._problem, None, self._health
         if problem is None and age is not None and age > 2.0:
             problem = f"the engine has not reported for {age:.1f} s"
-        if problem is None and self._health is not None:
-            h = self._health
+        if problem is None and h is not None:
             if not h.stepping:
                 problem = "the engine's stepping thread is not ticking"
+            elif not h.store.ok and not h.store.transient:
+                problem = f"the run store has failed: {h.store.error}"
             elif not h.store.ok:
-                problem = f"the run store fails: {h.store.error}"
+                warning = f"the run store is busy, retrying: {h.store.error}"
         pid = self._proc.pid if self._proc is not None and self._ready else None
-        return EngineStatus(engine=self.id, up=self._ready, problem=problem, pid=pid,
-                            restarts=self._restarts, heartbeat_age=age, health=self._health)
+        return EngineStatus(engine=self.id, up=self._ready, problem=problem, warning=warning,
+                            pid=pid, restarts=self._restarts, heartbeat_age=age, health=h)
 
     # -- commands ------------------------------------------------------------------
     async def add(self, order: RunOrder) -> RunRecord:
