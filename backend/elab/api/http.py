@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
-from starlette.requests import Request
+from starlette.requests import HTTPConnection, Request
 from starlette.responses import JSONResponse, Response
 
 from elab.api.schemas import ErrorBody, ErrorDetail, FieldError
@@ -72,25 +72,27 @@ def endpoint(method: str, path: str, summary: str, **meta: Any) -> Callable[[Han
 
 async def read_model(request: Request, model: type[M], upload: bool = False) -> M:
     """The body as ``model``: 413 over the limit (``upload``: the larger upload limit),
-    422 for bad JSON or fields."""
+    422 for bad JSON or fields. The JSON is parsed by pydantic's parser, which bounds the
+    nesting (200 levels) and the size of numbers, so no body can crash the parser."""
+    body = await read_body(request, upload)
+    return model.model_validate_json(body)
+
+
+async def read_body(request: Request, upload: bool = False) -> bytes:
+    """The raw body, refused with 413 past ``ELAB_MAX_BODY`` (``upload``: ``ELAB_MAX_UPLOAD``)
+    before it is all read."""
     settings = request.app.state.settings
     limit: int = settings.max_upload if upload else settings.max_body
     setting = "ELAB_MAX_UPLOAD" if upload else "ELAB_MAX_BODY"
     length = request.headers.get("content-length")
-    if length is not None and length.isdigit() and int(length) > limit:
+    if length is not None and length.isascii() and length.isdigit() and int(length) > limit:
         raise TooLarge(limit, setting)
     body = bytearray()
     async for part in request.stream():
         body += part
         if len(body) > limit:
             raise TooLarge(limit, setting)
-    try:
-        data = json.loads(body) if body.strip() else None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InvalidInput("body", bytes(body[:40]), f"a JSON object ({exc})") from None
-    if not isinstance(data, dict):
-        raise InvalidInput("body", data, f"a JSON object ({model.__name__})")
-    return model.model_validate(data)
+    return bytes(body)
 
 
 def ok(model: BaseModel | list[Any], status: int = 200) -> JSONResponse:
@@ -111,7 +113,7 @@ def error_response(exc: Exception) -> JSONResponse:
 def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
     """Status code and body of a known exception (re-raises anything else)."""
     if isinstance(exc, ValidationError):
-        errors = [FieldError(field=_loc(e["loc"]), message=_msg(e)) for e in exc.errors()]
+        errors = [FieldError(field=_loc(e["loc"]), message=_msg(e)) for e in exc.errors()[:20]]
         return 422, ErrorDetail(code="invalid", message="; ".join(
             f"{e.field}: {e.message}" for e in errors), field=errors[0].field if errors else None,
             errors=errors)
@@ -136,7 +138,10 @@ def _loc(loc: tuple[int | str, ...]) -> str:
 
 
 def _msg(e: Any) -> str:
-    value = json.dumps(e.get("input"), default=str)
+    raw = e.get("input")
+    if isinstance(raw, bytes | bytearray):  # the body itself (it was not valid JSON)
+        raw = bytes(raw[:80]).decode("utf-8", "replace")
+    value = json.dumps(raw, default=str)
     value = value if len(value) <= 60 else value[:57] + "..."
     return f"{e['msg']} (got {value})"
 
@@ -154,10 +159,14 @@ def query_float(request: Request, name: str) -> float | None:
     return value
 
 
-def query_int(request: Request, name: str, default: int, lo: int, hi: int) -> int:
+def query_int(request: HTTPConnection, name: str, default: int, lo: int, hi: int) -> int:
+    """An integer query parameter in ``[lo, hi]`` written in ASCII digits (Python's ``int``
+    would also take ``٣``, and ``"²".isdigit()`` is true)."""
     raw = request.query_params.get(name)
     if raw is None:
         return default
-    if not raw.lstrip("-").isdigit() or not lo <= int(raw) <= hi:
+    digits = raw[1:] if raw[:1] == "-" else raw
+    if not (digits.isascii() and digits.isdigit() and len(digits) <= 19
+            and lo <= int(raw) <= hi):
         raise InvalidInput(name, raw, f"an integer in [{lo}, {hi}]")
     return int(raw)

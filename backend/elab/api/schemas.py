@@ -7,6 +7,7 @@ from them (a test fails when the committed copies drift).
 
 from __future__ import annotations
 
+from enum import IntEnum
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -509,6 +510,16 @@ class ErrorBody(Model):
 
 
 # -- websocket messages ------------------------------------------------------------
+class CloseCode(IntEnum):
+    """Why the server closes a stream (the close frame's reason says more): 4400 the
+    request was wrong (no ``elab.v1`` subprotocol, a bad ``from_seq``), 4404 no such run.
+    A client should not reconnect after either."""
+
+    BAD_REQUEST = 4400
+    NOT_FOUND = 4404
+
+
+
 class Hello(Model):
     type: Literal["hello"] = "hello"
     protocol: Literal["elab.v1"] = "elab.v1"

@@ -11,8 +11,7 @@ Query ``from_seq=N`` starts the watcher at frame N from the recording
 from __future__ import annotations
 
 import contextlib
-import json
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Mapping
 from typing import Any
 
 import anyio
@@ -23,13 +22,11 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from elab.api import schemas as s
 from elab.api.frames import pack
-from elab.api.http import error_detail
+from elab.api.http import error_detail, query_int
 from elab.api.runs import apply_params, run_info
-from elab.errors import ElabError, NotFound
+from elab.errors import ElabError, InvalidInput, NotFound
 from elab.runs.fanout import Watcher
 
-CLOSE_NOT_FOUND = 4404
-CLOSE_BAD_PROTOCOL = 4400
 CLIENT = TypeAdapter(s.ClientMessage)
 
 
@@ -49,27 +46,28 @@ class Stream:
 async def stream(ws: WebSocket, send_bytes: Callable[[bytes], Awaitable[None]]) -> None:
     if s.PROTOCOL not in ws.scope.get("subprotocols", []):
         await ws.accept()
-        await ws.close(CLOSE_BAD_PROTOCOL, f"use the websocket subprotocol {s.PROTOCOL}")
+        await ws.close(s.CloseCode.BAD_REQUEST, f"use the websocket subprotocol {s.PROTOCOL}")
         return
     m = ws.app.state.manager
     try:
+        from_seq = query_int(ws, "from_seq", -1, 0, 2**62)
         record = await m.get(ws.path_params["run_id"])
-    except NotFound as exc:
+    except (NotFound, InvalidInput) as exc:
         await ws.accept(subprotocol=s.PROTOCOL)
-        await ws.close(CLOSE_NOT_FOUND, str(exc)[:120])
+        code = s.CloseCode.NOT_FOUND if isinstance(exc, NotFound) else s.CloseCode.BAD_REQUEST
+        await ws.close(code, str(exc)[:120])  # a close reason holds 123 bytes
         return
     await ws.accept(subprotocol=s.PROTOCOL)
     channel = m.channel(record)
     watcher = Watcher(send_bytes, m.codec, max_frames=ws.app.state.settings.watcher_frames)
-    info = await run_info(ws, record)
-    await ws.send_bytes(pack(s.Hello(run=info, live_seq=channel.edge // channel.F)))
-    channel.watchers.add(watcher)
-    start = _start_seq(ws, channel.edge // channel.F, record.status)
-    if start is not None:
-        channel.resume_from(watcher, start)
-    if channel.ended:
-        channel.tell(watcher, m.codec.status(record.status, record.n_stored, record.error))
     try:
+        info = await run_info(ws, record)
+        await ws.send_bytes(pack(s.Hello(run=info, live_seq=channel.edge // channel.F)))
+        channel.watchers.add(watcher)
+        if from_seq >= 0 or channel.ended:  # a finished run replays from its start
+            channel.resume_from(watcher, max(from_seq, 0))
+        if channel.ended:
+            channel.tell(watcher, m.codec.status(record.status, record.n_stored, record.error))
         async with anyio.create_task_group() as tg:
             tg.start_soon(_send, channel, watcher, tg.cancel_scope)
             await _receive(ws, m, record.id, channel, watcher)
@@ -80,13 +78,6 @@ async def stream(ws: WebSocket, send_bytes: Callable[[bytes], Awaitable[None]]) 
         watcher.closed = True
         channel.watchers.discard(watcher)
         m.release(record.id, channel)
-
-
-def _start_seq(ws: WebSocket, live_seq: int, status: str) -> int | None:
-    raw = ws.query_params.get("from_seq")
-    if raw is not None and raw.isdigit():
-        return int(raw)
-    return 0 if status not in ("running", "paused", "created") else None
 
 
 async def _send(channel: Any, watcher: Watcher, scope: anyio.CancelScope) -> None:
@@ -100,12 +91,20 @@ async def _receive(ws: WebSocket, m: Any, run_id: str, channel: Any, watcher: Wa
         message = await ws.receive()
         if message["type"] == "websocket.disconnect":
             return
-        raw = message.get("bytes") or message.get("text") or b""
         try:
-            data = msgpack.unpackb(raw) if isinstance(raw, bytes) else _json(raw)
-            await _handle(CLIENT.validate_python(data), m, run_id, channel, watcher)
+            await _handle(_message(message), m, run_id, channel, watcher)
         except (ValidationError, ElabError, ValueError) as exc:
             channel.tell(watcher, pack(_error(exc)))
+
+
+def _message(message: Mapping[str, Any]) -> Any:
+    """A client message: msgpack (binary) or JSON (text), validated. Both parsers bound
+    the nesting (msgpack's StackError, pydantic's recursion limit) and the numbers (64-bit
+    in msgpack; pydantic refuses out-of-range JSON numbers): a ValueError at worst."""
+    raw = message.get("bytes")
+    if raw is not None:
+        return CLIENT.validate_python(msgpack.unpackb(raw))
+    return CLIENT.validate_json(message.get("text") or "")
 
 
 async def _handle(msg: Any, m: Any, run_id: str, channel: Any, watcher: Watcher) -> None:
@@ -115,10 +114,6 @@ async def _handle(msg: Any, m: Any, run_id: str, channel: Any, watcher: Watcher)
         await apply_params(m, run_id, msg.controller, msg.signal)
     else:
         await m.control(run_id, msg.type)
-
-
-def _json(text: str) -> Any:
-    return json.loads(text)
 
 
 def _error(exc: Exception) -> s.ErrorMessage:

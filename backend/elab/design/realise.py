@@ -15,6 +15,7 @@ knows its integrator (anti-windup) and a live gain change keeps the state size.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import control as ct
@@ -82,19 +83,27 @@ def pid_tf(law: PID) -> ct.TransferFunction:
     return C
 
 
+MIN_TF, MAX_TF = 1e-9, 1e9  # s: a derivative filter outside is a typo, not a design
+
+
 def _pid_parameters(law: PID) -> tuple[float, float, float, float]:
     Kp = finite_float("controller.Kp", law.Kp)
     Ki = finite_float("controller.Ki", law.Ki)
     Kd = finite_float("controller.Kd", law.Kd)
     N = finite_float("controller.N", law.N, 0.0, lo_open=True)
-    Tf = Kd / (N * Kp) if Kp != 0.0 and Kd != 0.0 else 0.01  # 0.01 s: unused or undefined
-    if Kd != 0.0 and Tf <= 0.0:
+    if Kp == 0.0 or Kd == 0.0:
+        return Kp, Ki, Kd, 0.01  # T_f unused (no D) or undefined (no P): 0.01 s
+    if Kd / Kp < 0.0:
         raise InvalidInput(
             "controller.Kd",
             Kd,
             f"the sign of Kp = {Kp:g}, so that the "
             "derivative filter time T_f = Kd / (N Kp) is positive",
         )
+    Tf = abs(Kd) / (N * abs(Kp)) if N * abs(Kp) > 0.0 else math.inf
+    if not MIN_TF <= Tf <= MAX_TF:
+        raise InvalidInput("controller.N", N, f"a filter N giving T_f = Kd / (N Kp) in "
+                           f"[{MIN_TF:g}, {MAX_TF:g}] s (here T_f = {Tf:.3g} s)")
     return Kp, Ki, Kd, Tf
 
 

@@ -29,6 +29,8 @@ from elab.validate import finite_array
 _SYMMETRY_TOL = 1e-12  # relative
 _MODE_TOL = 1e-9  # relative to ||A||: eigenvalue on the axis, PBH rank deficiency
 
+MAX_POLE = 1e6  # rad/s: the largest pole |p| place() accepts
+
 
 @dataclass(frozen=True)
 class LQR:
@@ -74,7 +76,8 @@ def lqr(A: Any, B: Any, Q: Any, R: Any) -> LQR:
     R = _weight("R", R, B.shape[1], definite=True)
     _check_modes(A, B, Q)
     try:
-        K, S, _ = ct.lqr(A, B, Q, R)
+        with np.errstate(all="ignore"):  # weights near the float range: the solver says so
+            K, S, _ = ct.lqr(A, B, Q, R)
     except np.linalg.LinAlgError as exc:
         raise InvalidInput(
             "Q, R", (Q, R), f"weights for which the Riccati equation is solvable (solver: {exc})"
@@ -98,7 +101,7 @@ def _weight(field: str, value: Any, n: int, *, definite: bool) -> Matrix:
     largest = float(np.max(np.abs(W)))
     if np.max(np.abs(W - W.T)) > _SYMMETRY_TOL * largest:
         raise InvalidInput(field, value, f"{allowed}; this one is not symmetric")
-    eigenvalues = np.linalg.eigvalsh((W + W.T) / 2)
+    eigenvalues = np.linalg.eigvalsh(W / 2 + W.T / 2)  # not (W + W.T) / 2: no overflow
     floor = _SYMMETRY_TOL * float(np.max(np.abs(eigenvalues)))
     if eigenvalues[0] < -floor or (definite and eigenvalues[0] <= floor):
         raise InvalidInput(
@@ -188,6 +191,9 @@ def place(A: Any, B: Any, poles: Any) -> Placement:
     A = square("A", A)
     B = columns("B", B, A.shape[0])
     p = _conjugate_pairs(complex_vector("poles", poles), A.shape[0])
+    if np.max(np.abs(p)) > MAX_POLE:
+        raise InvalidInput("poles", poles, f"poles with |p| ≤ {MAX_POLE:g} rad/s (beyond, the "
+                           "gains overflow double precision)")
     report = controllability(A, B)
     if not report.full:
         raise InvalidInput(
@@ -202,11 +208,24 @@ def place(A: Any, B: Any, poles: Any) -> Placement:
                 poles,
                 f"each pole repeated at most rank B = {np.linalg.matrix_rank(B)} times",
             )
-        K = ct.acker(A, B, p)
+        K = _placed(ct.acker, A, B, p, poles)
     else:
-        K = ct.place(A, B, p)
+        K = _placed(ct.place, A, B, p, poles)
     K = np.asarray(K, dtype=np.float64).reshape(B.shape[1], A.shape[0])
     return Placement(readonly(K), readonly(sort_eigenvalues(np.linalg.eigvals(A - B @ K))))
+
+
+def _placed(method: Any, A: Matrix, B: Matrix, p: ComplexVector, poles: Any) -> Any:
+    """``method(A, B, p)``, with a numerical failure (far or clustered poles) as the poles'
+    fault: python-control raises LinAlgError or ValueError, or returns non-finite gains."""
+    try:
+        with np.errstate(all="ignore"):
+            K = method(A, B, p)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        raise InvalidInput("poles", poles, f"poles that can be placed ({exc})") from None
+    if not np.all(np.isfinite(K)):
+        raise InvalidInput("poles", poles, "poles whose gains are finite numbers")
+    return K
 
 
 def _conjugate_pairs(p: ComplexVector, n: int) -> ComplexVector:

@@ -64,7 +64,7 @@ def read_csv(text: str) -> Table:
     body = [ln for ln in lines if ln.strip() and not ln.startswith("#")]
     if not body:
         raise InvalidInput("data", "no rows", "CSV with one row of numbers per sample")
-    rows = [_cells(ln) for ln in body]
+    rows = [_cells(ln, i + 1) for i, ln in enumerate(body)]
     names: list[str]
     if _numeric(rows[0]):
         names = [f"c{i + 1}" for i in range(len(rows[0]))]
@@ -84,22 +84,24 @@ def read_csv(text: str) -> Table:
             data[i] = [float(v) for v in row]
         except ValueError:
             raise InvalidInput(f"data row {i + 1}", ",".join(row)[:60], "numbers") from None
+        if not np.isfinite(data[i]).all():
+            raise InvalidInput(f"data row {i + 1}", ",".join(row)[:60], "finite numbers")
     units = _units(header, names)
     Ts = _header_Ts(header)
     return _table(names, units, data, Ts)
 
 
 def read_json(text: str | bytes) -> Table:
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InvalidInput("data", f"invalid JSON ({exc.msg} at {exc.pos})", "JSON") from None
+    doc = _parse_json(text)
     if not isinstance(doc, dict):
         raise InvalidInput("data", type(doc).__name__, "a JSON object")
     Ts = doc.get("Ts")
     if "data" in doc and isinstance(doc["data"], dict):  # E-Lab's own download
         cols: dict[str, Any] = doc["data"]
-        units = {c.get("name"): c.get("unit", "") for c in doc.get("channels", [])
+        channels = doc.get("channels", [])
+        if not isinstance(channels, list):
+            raise InvalidInput("data.channels", channels, "a list of {name, unit} objects")
+        units = {str(c.get("name")): str(c.get("unit", "")) for c in channels
                  if isinstance(c, dict)}
         if "t" in doc:
             cols = {"t": doc["t"], **cols}
@@ -107,6 +109,8 @@ def read_json(text: str | bytes) -> Table:
     else:
         cols = {k: v for k, v in doc.items() if k not in ("Ts", "units")}
         units = doc.get("units") or {}
+        if not isinstance(units, dict):
+            raise InvalidInput("data.units", units, "an object of column name → unit")
     names = [str(k) for k in cols]
     arrays = []
     for name in names:
@@ -116,6 +120,8 @@ def read_json(text: str | bytes) -> Table:
             raise InvalidInput(f"data.{name}", str(cols[name])[:60], "a list of numbers") from None
         if a.ndim != 1:
             raise InvalidInput(f"data.{name}", f"shape {a.shape}", "a flat list of numbers")
+        if not np.isfinite(a).all():
+            raise InvalidInput(f"data.{name}", str(cols[name])[:60], "finite numbers")
         arrays.append(a)
     if not arrays:
         raise InvalidInput("data", "no columns", "at least one input and one output column")
@@ -141,10 +147,31 @@ def _table(names: list[str], units: list[str], data: Array, Ts: float | None) ->
     return Table(tuple(names), tuple(units), data, Ts)
 
 
-def _cells(line: str) -> list[str]:
-    """The values of one line: comma-separated (quotes allowed), else whitespace-separated
-    (tab or space, as MATLAB's and DaISy's ``.dat`` files); trailing empty cells dropped."""
-    cells = next(csv.reader([line])) if "," in line else line.split()
+def _parse_json(text: str | bytes) -> Any:
+    """JSON with every number a float (an integer of 5,000 digits is ``inf``, refused later
+    as not finite, instead of Python's ValueError past 4,300 digits); nesting too deep for
+    the parser is refused, not a crash."""
+    try:
+        return json.loads(text, parse_int=float, parse_constant=_no_constant)
+    except json.JSONDecodeError as exc:
+        raise InvalidInput("data", f"invalid JSON ({exc.msg} at {exc.pos})", "JSON") from None
+    except RecursionError:
+        raise InvalidInput("data", "JSON nested too deeply", "a JSON object of columns "
+                           "(lists of numbers)") from None
+
+
+def _no_constant(name: str) -> float:
+    raise InvalidInput("data", name, "finite numbers (JSON has no NaN or Infinity)")
+
+
+def _cells(line: str, row: int) -> list[str]:
+    """The values of line ``row`` (of those not comments): comma-separated (quotes allowed),
+    else whitespace-separated (tab or space, as MATLAB's and DaISy's ``.dat`` files);
+    trailing empty cells dropped."""
+    try:
+        cells = next(csv.reader([line])) if "," in line else line.split()
+    except csv.Error as exc:  # e.g. a field longer than the csv module's 128 KiB limit
+        raise InvalidInput(f"data line {row}", line[:60], f"CSV cells ({exc})") from None
     cells = [c.strip() for c in cells]
     while cells and not cells[-1]:
         cells.pop()
@@ -161,9 +188,13 @@ def _numeric(row: list[str]) -> bool:
 
 def _header_Ts(header: list[str]) -> float | None:
     for line in header:
-        m = re.match(r"sample time:\s*([0-9.eE+-]+)\s*s", line)
+        m = re.match(r"sample time:\s*(\S+)\s*s\b", line)
         if m:
-            return float(m.group(1))
+            try:
+                return float(m.group(1))
+            except ValueError:
+                raise InvalidInput("data", f"# {line[:60]}", "a header line '# sample time: "
+                                   "<seconds> s', e.g. '# sample time: 0.001 s'") from None
     return None
 
 
