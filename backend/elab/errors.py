@@ -32,6 +32,9 @@ class InvalidInput(ElabError, ValueError):
         self.allowed = allowed
         super().__init__(f"{field}: got {_short(value)}; allowed: {allowed}")
 
+    def __reduce__(self) -> tuple[Any, ...]:  # pickled between a worker process and the server
+        return type(self), (self.field, self.value, self.allowed)
+
 
 class DimensionError(InvalidInput):
     """An array has the wrong shape (python-control's ``ControlDimension``)."""
@@ -44,7 +47,11 @@ class NotFound(ElabError, LookupError):
         self.kind = kind
         self.id = id_
         hint = f"; known: {', '.join(known)}" if known else ""
+        self.known = known
         super().__init__(f"unknown {kind} {id_!r}{hint}")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return type(self), (self.kind, self.id, self.known)
 
     def __str__(self) -> str:  # LookupError would quote the message like a key
         return str(self.args[0])
@@ -66,6 +73,9 @@ class TooMany(ElabError, RuntimeError):
     def __init__(self, message: str, retry_after: float = 5.0) -> None:
         self.retry_after = retry_after
         super().__init__(message)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return type(self), (str(self), self.retry_after)
 
 
 class Unavailable(ElabError, RuntimeError):

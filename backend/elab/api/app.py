@@ -20,12 +20,13 @@ from starlette.staticfiles import StaticFiles
 
 from elab.api import ident, plants, runs  # noqa: F401  (registers their endpoints)
 from elab.api.frames import MsgpackCodec
-from elab.api.http import ENDPOINTS, error_response
+from elab.api.http import ENDPOINTS, Uploads, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
 from elab.api.stream import Stream
 from elab.engines.process import ProcessEngine
 from elab.errors import ElabError
+from elab.jobs import JobPool
 from elab.runs.manager import RunManager
 from elab.store.sqlite import SQLiteStore
 
@@ -48,15 +49,21 @@ def create_app(settings: Settings | None = None) -> Starlette:
                                stall_timeout=settings.engine_stall)
         manager = RunManager(store, engine, MsgpackCodec(), limits=settings.limits)
         app.state.manager = manager
+        jobs = JobPool(workers=settings.ident_workers, timeout=settings.ident_timeout,
+                       wait=settings.ident_wait)
+        app.state.jobs = jobs
+        app.state.uploads = Uploads(settings.max_uploads)
         # Everything imported so far (numpy, scipy, control, numba: ~160,000 objects) lives
         # as long as the process. Frozen, the collector stops scanning it: a full collection
         # held the GIL for ~110 ms on a slow host, stalling every stream at once.
         gc.collect()
         gc.freeze()
         await manager.start()
+        await jobs.start()
         try:
             yield
         finally:
+            await jobs.close()
             await manager.close()
             store.close()
 

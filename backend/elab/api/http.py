@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Iterator
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -78,20 +79,41 @@ async def read_model(request: Request, model: type[M], upload: bool = False) -> 
     return model.model_validate_json(body)
 
 
+class Uploads:
+    """How many large bodies are being read at once (``ELAB_MAX_UPLOADS``)."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self.reading = 0
+
+    @contextmanager
+    def slot(self) -> Iterator[None]:
+        if self.reading >= self.limit:
+            raise TooMany(f"{self.reading} uploads are being received, the limit of this "
+                          f"server (ELAB_MAX_UPLOADS = {self.limit}); retry shortly",
+                          retry_after=2.0)
+        self.reading += 1
+        try:
+            yield
+        finally:
+            self.reading -= 1
+
+
 async def read_body(request: Request, upload: bool = False) -> bytes:
-    """The raw body, refused with 413 past ``ELAB_MAX_BODY`` (``upload``: ``ELAB_MAX_UPLOAD``)
-    before it is all read."""
+    """The raw body, refused with 413 past ``ELAB_MAX_BODY`` (``upload``: ``ELAB_MAX_UPLOAD``,
+    and 429 while ``ELAB_MAX_UPLOADS`` others are being received) before it is all read."""
     settings = request.app.state.settings
     limit: int = settings.max_upload if upload else settings.max_body
     setting = "ELAB_MAX_UPLOAD" if upload else "ELAB_MAX_BODY"
     length = request.headers.get("content-length")
     if length is not None and length.isascii() and length.isdigit() and int(length) > limit:
         raise TooLarge(limit, setting)
-    body = bytearray()
-    async for part in request.stream():
-        body += part
-        if len(body) > limit:
-            raise TooLarge(limit, setting)
+    with request.app.state.uploads.slot() if upload else nullcontext():
+        body = bytearray()
+        async for part in request.stream():
+            body += part
+            if len(body) > limit:
+                raise TooLarge(limit, setting)
     return bytes(body)
 
 

@@ -5,14 +5,19 @@ With ``Accept: application/x-ndjson`` the answer is a stream of lines, ``{"progr
 {"stage", "done"}}`` while it works, then ``{"result": …}`` or ``{"error": …}``. The data
 are checked before anything is computed, so bad data get a 422 in either mode; only an
 error found while estimating arrives as the stream's last line. Nothing is stored.
+
+The work runs in the server's identification workers (:mod:`elab.jobs`): at most
+``ELAB_IDENT_WORKERS`` at once, each within ``ELAB_IDENT_TIMEOUT`` seconds, a request
+waiting for a worker at most ``ELAB_IDENT_WAIT`` seconds (then 429); a request whose
+client goes away stops its job.
 """
 
 from __future__ import annotations
 
 import asyncio
 import json
-from collections.abc import AsyncIterator
-from typing import Any
+from collections.abc import AsyncIterator, Coroutine
+from typing import Any, TypeVar
 
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response, StreamingResponse
@@ -23,39 +28,71 @@ from elab.errors import ElabError, InvalidInput
 from elab.ident import IdData
 from elab.ident import workflow as wf
 from elab.ident.files import read_table
+from elab.jobs import JobPool
 from elab.plants import get_plant
 from elab.runs.manager import RunManager
 
-#: identification jobs computing at once (each may take seconds; 2 cores)
-_JOBS = asyncio.Semaphore(1)
+T = TypeVar("T")
 
 
 @endpoint("POST", "/ident", "Identify models from a run's data or an uploaded table",
-          body=s.IdentRequest, response=s.IdentOut, errors=(404, 413, 422))
+          body=s.IdentRequest, response=s.IdentOut, errors=(404, 413, 422, 429))
 async def identify(request: Request) -> Response:
     """Correlation, spectral and sine analysis, ARX order search, subspace singular values
     and the requested ARX, ARMAX, OE and n4sid models with their validation fit % and
     residual analysis (see docs/identification.md). The body may be as large as
     ``ELAB_MAX_UPLOAD`` (16 MiB)."""
     req = await read_model(request, s.IdentRequest, upload=True)
-    data, sine = await _dataset(request, req.data)
-    plan = _plan(req, sine)
-    if "application/x-ndjson" in request.headers.get("accept", ""):
-        return StreamingResponse(_progress_lines(data, plan), media_type="application/x-ndjson")
-    async with _JOBS:
-        result = await asyncio.to_thread(wf.run, data, plan)
+    try:
+        data, sine = await _dataset(request, req.data)
+        plan = _plan(req, sine)
+        if "application/x-ndjson" in request.headers.get("accept", ""):
+            return StreamingResponse(_progress_lines(jobs(request), data, plan),
+                                     media_type="application/x-ndjson")
+        result = await _unless_gone(request, jobs(request).run(wf.run, data, plan))
+        if result is None:
+            raise ClientGone
+    except ClientGone:
+        return Response(status_code=499)  # nginx's "client closed request": nobody reads it
     return JSONResponse(result.as_dict())
 
 
-async def _progress_lines(data: IdData, plan: wf.Plan) -> AsyncIterator[bytes]:
-    loop = asyncio.get_running_loop()
+class ClientGone(Exception):
+    """The client went away while its request was worked on: nobody to answer."""
+
+
+def jobs(request: Request) -> JobPool:
+    return request.app.state.jobs  # type: ignore[no-any-return]
+
+
+async def _unless_gone(request: Request, job: Coroutine[Any, Any, T]) -> T | None:
+    """The job's result, or ``None`` (and the job stopped) if the client goes away first."""
+    work = asyncio.ensure_future(job)
+    gone = asyncio.ensure_future(_disconnected(request))
+    try:
+        await asyncio.wait({work, gone}, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        gone.cancel()
+    if not work.done():
+        work.cancel()
+        await asyncio.gather(work, return_exceptions=True)
+        return None
+    return work.result()
+
+
+async def _disconnected(request: Request) -> None:
+    """Until the client disconnects (its body has been read: nothing else can come)."""
+    while (await request.receive())["type"] != "http.disconnect":
+        pass
+
+
+async def _progress_lines(pool: JobPool, data: IdData, plan: wf.Plan) -> AsyncIterator[bytes]:
+    """Progress, then the result: the job's reports as they come. When the client goes
+    away, the response is cancelled here, which stops the job."""
     queue: asyncio.Queue[tuple[str, float]] = asyncio.Queue()
-
-    def progress(stage: str, done: float) -> None:
-        loop.call_soon_threadsafe(queue.put_nowait, (stage, done))
-
-    async with _JOBS:
-        job = asyncio.ensure_future(asyncio.to_thread(wf.run, data, plan, progress))
+    job = asyncio.ensure_future(pool.run(wf.run, data, plan, progress=lambda stage, done:
+                                         queue.put_nowait((stage, done))))
+    try:
         while not job.done() or not queue.empty():
             getter = asyncio.ensure_future(queue.get())
             await asyncio.wait({job, getter}, return_when=asyncio.FIRST_COMPLETED)
@@ -68,6 +105,8 @@ async def _progress_lines(data: IdData, plan: wf.Plan) -> AsyncIterator[bytes]:
             yield _line({"result": job.result().as_dict()})
         except ElabError as exc:
             yield _line({"error": error_detail(exc)[1].model_dump(mode="json")})
+    finally:
+        job.cancel()
 
 
 def _line(obj: dict[str, Any]) -> bytes:
@@ -76,8 +115,11 @@ def _line(obj: dict[str, Any]) -> bytes:
 
 async def _dataset(request: Request, src: s.RunData | s.FileData) -> tuple[IdData, float | None]:
     """The data set and, for a run excited by a sine, its frequency (Hz)."""
-    if isinstance(src, s.FileData):
-        table = await asyncio.to_thread(read_table, src.text.encode(), src.format)
+    if isinstance(src, s.FileData):  # parsed by a worker: a huge file stalls no stream
+        table = await _unless_gone(request, jobs(request).run(read_table, src.text.encode(),
+                                                              src.format))
+        if table is None:
+            raise ClientGone
         return _prefixed("data", lambda: table.dataset(src.input, src.output, src.Ts)), None
     m: RunManager = request.app.state.manager
     record = await m.get(src.run)

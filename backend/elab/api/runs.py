@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import asyncio
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from starlette.requests import HTTPConnection, Request
-from starlette.responses import Response
+from starlette.responses import Response, StreamingResponse
 
 from elab.api import convert
 from elab.api import schemas as s
@@ -96,7 +95,9 @@ async def server_status(request: Request) -> Response:
     """For operators and benchmarks: is the engine up and keeping up? Its ticks' lateness
     over the last minute and the trend of that lateness (the drift of the runs' clocks);
     whether its writes to the store work."""
-    return ok(server_model(manager(request).status()))
+    jobs = request.app.state.jobs
+    return ok(server_model(manager(request).status(), s.JobsInfo(workers=jobs.workers,
+                                                                busy=jobs.busy)))
 
 
 @endpoint("GET", "/health", "200 when the server can take runs, else 503 and why",
@@ -113,7 +114,7 @@ async def health(request: Request) -> Response:
     return ok(s.HealthInfo(status="ok", problems=[]))
 
 
-def server_model(status: dict[str, Any]) -> s.ServerStatus:
+def server_model(status: dict[str, Any], jobs: s.JobsInfo) -> s.ServerStatus:
     st: EngineStatus = status["engine"]
     h = st.health
     timing = h.timing if h is not None else {
@@ -127,7 +128,8 @@ def server_model(status: dict[str, Any]) -> s.ServerStatus:
                             pid=st.pid,
                             heartbeat_age_s=st.heartbeat_age),
         store=s.StoreInfo(ok=store.ok, error=store.error, since=store.since,
-                          transient=store.transient, pending_bytes=store.pending_bytes))
+                          transient=store.transient, pending_bytes=store.pending_bytes),
+        ident=jobs)
 
 
 def client_of(request: HTTPConnection) -> str | None:
@@ -199,25 +201,27 @@ async def apply_params(m: RunManager, run_id: str, controller: Any, signal: Any)
               Param("t_to", "query", "last sample time (s)", {"type": "number"})))
 async def get_data(request: Request) -> Response:
     """CSV starts with ``# key: value`` lines (plant, controller, signal, sample time, units,
-    parameter changes); numbers are the shortest decimals that read back exactly."""
+    parameter changes); numbers are the shortest decimals that read back exactly. The file
+    is streamed as it is written, part by part (a download of any length holds one part of
+    the recording in memory), and stops when the client goes away. A live run downloads
+    as recorded so far."""
     fmt = request.query_params.get("format", "csv")
     if fmt not in FORMATS:
         raise InvalidInput("format", fmt, ", ".join(FORMATS))
     m = manager(request)
     record = await m.get(request.path_params["run_id"])
-    data = await m.read(record.id)
+    read = m.snapshot(record.id)  # at once after: the same moment of a live run
     changes = await m.param_changes(record.id)
-    table = export.Table(header=_header(record), Ts=record.Ts, k0=0, channels=record.channels,
-                         data=data, param_changes=tuple(changes))
+    rec = export.Recording(_header(record), record.Ts, 0, record.n_stored, record.channels,
+                           read, tuple(c for c in changes if c.k < record.n_stored))
     names = request.query_params.get("channels")
-    table = export.select(table, names.split(",") if names else None,
-                          query_float(request, "t_from"), query_float(request, "t_to"))
-    writers: dict[str, Callable[[export.Table], bytes | str]] = {
-        "csv": export.to_csv, "json": export.to_json, "mat": export.to_mat}
-    body = await asyncio.to_thread(writers[fmt], table)
+    rec = export.select(rec, names.split(",") if names else None,
+                        query_float(request, "t_from"), query_float(request, "t_to"))
+    writers: dict[str, Callable[[export.Recording], Iterator[str] | Iterator[bytes]]] = {
+        "csv": export.iter_csv, "json": export.iter_json, "mat": export.iter_mat}
     filename = f"{record.id}-{record.plant}.{fmt}"
-    return Response(body, media_type=FORMATS[fmt],
-                    headers={"content-disposition": f'attachment; filename="{filename}"'})
+    return StreamingResponse(writers[fmt](rec), media_type=FORMATS[fmt],
+                             headers={"content-disposition": f'attachment; filename="{filename}"'})
 
 
 def _header(record: RunRecord) -> dict[str, str]:

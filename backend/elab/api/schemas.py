@@ -224,12 +224,20 @@ class StoreInfo(Model):
     pending_bytes: int = Field(description="samples waiting in memory to be committed")
 
 
+class JobsInfo(Model):
+    """The identification workers."""
+
+    workers: int
+    busy: int
+
+
 class ServerStatus(Model):
     live_runs: int
     watchers: int = Field(description="websocket watchers connected, all runs")
     stepper: StepperTiming
     engine: EngineInfo
     store: StoreInfo
+    ident: JobsInfo
 
 
 class HealthInfo(Model):

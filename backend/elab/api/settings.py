@@ -28,7 +28,10 @@ class Settings:
     (``ELAB_ENGINE_NICE``, -5: ahead of the web process where allowed), its queue to the
     web process ``engine_queue`` bytes (``ELAB_ENGINE_QUEUE``, 64 MiB), ``engine_timeout``
     s to answer a command (``ELAB_ENGINE_TIMEOUT``, 10) and ``engine_stall`` s without a
-    heartbeat before it is restarted (``ELAB_ENGINE_STALL``, 30)."""
+    heartbeat before it is restarted (``ELAB_ENGINE_STALL``, 30). Identification:
+    ``ident_workers`` processes (``ELAB_IDENT_WORKERS``, 1), ``ident_timeout`` s per job
+    (``ELAB_IDENT_TIMEOUT``, 120), ``ident_wait`` s a request waits for a worker
+    (``ELAB_IDENT_WAIT``, 30)."""
 
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
@@ -41,6 +44,9 @@ class Settings:
     engine_queue: int = 64 << 20
     engine_timeout: float = 10.0
     engine_stall: float = 30.0
+    ident_workers: int = 1
+    ident_timeout: float = 120.0
+    ident_wait: float = 30.0
 
     @property
     def database(self) -> Path:
@@ -68,7 +74,10 @@ class Settings:
                    engine_nice=_int(env, "ELAB_ENGINE_NICE", -5, lo=-20, hi=19),
                    engine_queue=_int(env, "ELAB_ENGINE_QUEUE", 64 << 20),
                    engine_timeout=_float(env, "ELAB_ENGINE_TIMEOUT", 10.0),
-                   engine_stall=_float(env, "ELAB_ENGINE_STALL", 30.0))
+                   engine_stall=_float(env, "ELAB_ENGINE_STALL", 30.0),
+                   ident_workers=_int(env, "ELAB_IDENT_WORKERS", 1, hi=64),
+                   ident_timeout=_float(env, "ELAB_IDENT_TIMEOUT", 120.0),
+                   ident_wait=_float(env, "ELAB_IDENT_WAIT", 30.0))
 
 
 def _int(env: Mapping[str, str], name: str, default: int, lo: int = 1,

@@ -1,11 +1,14 @@
 """Recordings as downloadable files: CSV, JSON and MATLAB ``.mat``.
 
-A :class:`Table` holds what every format needs: header lines, the sample time,
-the index of the first row, the channels with their units, the data and the
-run's parameter changes. Sample ``i`` of a table is at time
-``t = (k0 + i)·Ts`` (s). Every format carries each float64 exactly: CSV and
-JSON write the shortest decimal that reads back to the same double, ``.mat``
-stores the doubles themselves.
+A :class:`Recording` holds what every format needs: header lines, the sample
+time, the index of the first row, the channels with their units, the run's
+parameter changes, and a function that reads its rows in parts; a
+:class:`Table` is one held in memory. Row ``i`` is at time ``t = (k0 + i)·Ts``
+(s). Each format is written in parts (``iter_csv``, ``iter_json``,
+``iter_mat``), so a download of any length holds one part in memory, not the
+recording. Every format carries each float64 exactly: CSV and JSON write the
+shortest decimal that reads back to the same double, ``.mat`` stores the
+doubles themselves.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ import io
 import json
 import math
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
 
@@ -29,14 +32,48 @@ from elab.store import ParamChange
 Array = NDArray[np.float64]
 
 
+Reader = Callable[[int, int], Array]
+PART = 65_536  # rows read, formatted and sent at a time: what a download holds in memory
+
+
 @dataclass(frozen=True)
-class Table:
-    """A recording ready to export: ``data[i, j]`` is channel ``j`` at ``t[i]``."""
+class Recording:
+    """A recording to export, read in parts: ``read(i0, i1)`` gives rows ``i0 .. i1−1``
+    (one column per channel). Row ``i`` is sample ``k0 + i``, at ``t = (k0 + i)·Ts``."""
 
     header: dict[str, str]  # e.g. plant, controller, signal, run id, status (in this order)
     Ts: float  # s
+    k0: int
+    n: int
+    channels: tuple[tuple[str, str], ...]  # (name, unit) of the columns (no time column)
+    read: Reader
+    param_changes: tuple[ParamChange, ...] = ()
+
+    def __post_init__(self) -> None:
+        names = [name for name, _ in self.channels]
+        for name in names:
+            if names.count(name) > 1:
+                raise InvalidInput("channels", name, "unique channel names")
+
+    def t(self, i0: int = 0, i1: int | None = None) -> Array:
+        """Times of rows ``i0 .. i1−1`` (s)."""
+        i1 = self.n if i1 is None else i1
+        return np.asarray((self.k0 + np.arange(i0, i1)) * self.Ts, dtype=np.float64)
+
+    def parts(self, rows: int = PART) -> Iterator[tuple[int, Array]]:
+        """``(i0, rows i0 …)`` in order, ``rows`` at a time."""
+        for i0 in range(0, self.n, rows):
+            yield i0, self.read(i0, min(self.n, i0 + rows))
+
+
+@dataclass(frozen=True)
+class Table:
+    """A recording held in memory: ``data[i, j]`` is channel ``j`` at ``t[i]``."""
+
+    header: dict[str, str]
+    Ts: float  # s
     k0: int  # index of the first row
-    channels: tuple[tuple[str, str], ...]  # (name, unit) of data's columns (no time column)
+    channels: tuple[tuple[str, str], ...]
     data: Array  # (n, nch)
     param_changes: tuple[ParamChange, ...] = ()
 
@@ -44,17 +81,19 @@ class Table:
         if self.data.ndim != 2 or self.data.shape[1] != len(self.channels):
             raise DimensionError("data", self.data.shape,
                                  f"shape (n, {len(self.channels)}), one column per channel")
-        names = [name for name, _ in self.channels]
-        for name in names:
-            if names.count(name) > 1:
-                raise InvalidInput("channels", name, "unique channel names")
         self.data.setflags(write=False)
+        self.recording  # noqa: B018  (checks the channel names)
 
     @property
     def t(self) -> Array:
         """Sample times (s)."""
-        n = self.data.shape[0]
-        return np.asarray((self.k0 + np.arange(n)) * self.Ts, dtype=np.float64)
+        return self.recording.t()
+
+    @property
+    def recording(self) -> Recording:
+        data = self.data
+        return Recording(self.header, self.Ts, self.k0, data.shape[0], self.channels,
+                         lambda i0, i1: data[i0:i1], self.param_changes)
 
 
 def table_from_samples(samples: Samples, header: dict[str, str]) -> Table:
@@ -64,94 +103,109 @@ def table_from_samples(samples: Samples, header: dict[str, str]) -> Table:
                  np.column_stack([v for _, v in chans]))
 
 
-def select(table: Table, channels: list[str] | None = None, t_from: float | None = None,
-           t_to: float | None = None) -> Table:
+def select(rec: Recording | Table, channels: list[str] | None = None,
+           t_from: float | None = None, t_to: float | None = None) -> Recording:
     """The given channels (all if ``None``, in the order given) at times in ``[t_from, t_to]``.
 
     A sample is kept when its time ``(k0 + i)·Ts`` lies in the closed interval;
     parameter changes made after the last kept sample are dropped.
     """
-    cols = _columns(table, channels)
-    i0, i1 = _rows(table, t_from, t_to)
-    k_end = table.k0 + i1
-    return Table(table.header, table.Ts, table.k0 + i0, tuple(table.channels[j] for j in cols),
-                 table.data[i0:i1][:, cols],
-                 tuple(c for c in table.param_changes if c.k < k_end))
+    rec = rec.recording if isinstance(rec, Table) else rec
+    cols = _columns(rec, channels)
+    i0, i1 = _rows(rec, t_from, t_to)
+    read = rec.read
+
+    def part(a: int, b: int) -> Array:
+        return read(i0 + a, i0 + b)[:, cols]
+
+    return Recording(rec.header, rec.Ts, rec.k0 + i0, i1 - i0,
+                     tuple(rec.channels[j] for j in cols), part,
+                     tuple(c for c in rec.param_changes if c.k < rec.k0 + i1))
 
 
-def to_csv(data: Table | Samples, header: dict[str, str] | None = None) -> str:
+def to_csv(data: Table | Recording | Samples, header: dict[str, str] | None = None) -> str:
     """CSV: ``# key: value`` lines, sample time, parameter changes, units, names, rows.
 
     ``header`` is for :class:`Samples` only; a table carries its own.
     """
     if isinstance(data, Samples):
-        return "".join(iter_csv(table_from_samples(data, header or {})))
+        return "".join(iter_csv(table_from_samples(data, header or {}).recording))
     if header is not None:
         raise TypeError("to_csv(table) takes no header: a Table carries its own")
-    return "".join(iter_csv(data))
+    return "".join(iter_csv(_recording(data)))
 
 
-def iter_csv(table: Table, rows_per_part: int = 8192) -> Iterator[str]:
-    """The CSV of :func:`to_csv` in parts (for a streamed download).
+def iter_csv(rec: Recording, rows: int = 8192) -> Iterator[str]:
+    """The CSV of :func:`to_csv` in parts (a streamed download holds one part at a time).
 
     Numbers are written as Python's ``repr``: the shortest decimal that reads
     back to the same float64.
     """
-    lines = [f"# {line}\n" for line in _header_lines(table)]
-    lines.append("# units: " + ", ".join(f"{n} [{u}]" for n, u in _with_time(table)) + "\n")
-    lines.append(",".join(n for n, _ in _with_time(table)) + "\n")
+    lines = [f"# {line}\n" for line in _header_lines(rec)]
+    lines.append("# units: " + ", ".join(f"{n} [{u}]" for n, u in _with_time(rec)) + "\n")
+    lines.append(",".join(n for n, _ in _with_time(rec)) + "\n")
     yield "".join(lines)
-    row = ",".join(["%r"] * (1 + len(table.channels))) + "\n"
-    t = table.t
-    for i in range(0, t.size, rows_per_part):
-        part = np.column_stack([t[i:i + rows_per_part], table.data[i:i + rows_per_part]])
+    row = ",".join(["%r"] * (1 + len(rec.channels))) + "\n"
+    for i0, data in rec.parts(rows):
+        part = np.column_stack([rec.t(i0, i0 + data.shape[0]), data])
         yield (row * part.shape[0]) % tuple(part.ravel().tolist())
 
 
-def to_json(table: Table) -> bytes:
+def to_json(data: Table | Recording) -> bytes:
     """UTF-8 JSON: header, Ts, k0, channels, t, data by channel name, parameter changes.
 
     Raises :class:`InvalidInput` if a value is NaN or infinite (JSON has neither).
     """
-    t = table.t
-    bad = np.argwhere(~np.isfinite(table.data))
-    if bad.size:
-        i, j = bad[0]
-        name = table.channels[j][0]
-        raise InvalidInput(f"data.{name}", float(table.data[i, j]),
-                           f"finite values (at t = {t[i]:g} s; JSON has no NaN or infinity, "
-                           "export CSV or .mat instead)")
-    doc = {"header": table.header, "Ts": table.Ts, "k0": table.k0,
-           "channels": [{"name": n, "unit": u} for n, u in table.channels],
-           "t": t.tolist(),
-           "data": {n: table.data[:, j].tolist() for j, (n, _) in enumerate(table.channels)},
-           "param_changes": [{"k": c.k, "t": c.k * table.Ts, "params": c.params}
-                             for c in table.param_changes]}
-    return json.dumps(doc, allow_nan=False, separators=(",", ":")).encode("utf-8")
+    return b"".join(iter_json(_recording(data)))
 
 
-def to_mat(table: Table) -> bytes:
-    """MATLAB ``.mat`` (version 5): ``t`` and one ``n×1`` variable per channel.
+def iter_json(rec: Recording, rows: int = PART) -> Iterator[bytes]:
+    """The JSON of :func:`to_json` in parts: the columns one after another, each read in
+    parts of ``rows`` (so a download holds one part, not the recording)."""
+    head = {"header": rec.header, "Ts": rec.Ts, "k0": rec.k0,
+            "channels": [{"name": n, "unit": u} for n, u in rec.channels]}
+    yield _dumps(head)[:-1].encode() + b',"t":['
+    yield from _json_numbers(rec.t(i0, i0 + m) for i0, m in _spans(rec.n, rows))
+    yield b'],"data":{'
+    for j, (name, _) in enumerate(rec.channels):
+        yield (b"," if j else b"") + _dumps(name).encode() + b":["
+        yield from _json_numbers(_finite(rec, data[:, j], i0, name)
+                                 for i0, data in rec.parts(rows))
+        yield b"]"
+    changes = [{"k": c.k, "t": c.k * rec.Ts, "params": c.params} for c in rec.param_changes]
+    yield b'},"param_changes":' + _dumps(changes).encode() + b"}"
+
+
+def to_mat(data: Table | Recording) -> bytes:
+    """MATLAB ``.mat`` (version 5): ``t`` and one ``n×1`` variable per channel."""
+    return b"".join(iter_mat(_recording(data)))
+
+
+def iter_mat(rec: Recording, rows: int = PART) -> Iterator[bytes]:
+    """MATLAB ``.mat`` (version 5) in parts: ``t`` and one ``n×1`` variable per channel,
+    each written when read (a download holds one column at a time, not the recording).
 
     Also ``Ts``, ``k0``, ``channels`` (cell of the variable names, in column
     order), ``units`` (cell of ``"name [unit]"``), ``header`` (char rows
     ``"key: value"``) and, if any, ``param_changes`` (char rows). A channel
     name that is not a MATLAB identifier, or is taken, is sanitised
-    (``"1x" → "c_1x"``, ``"a-b" → "a_b"``, ``"t" → "t_2"``).
+    (``"1x" → "c_1x"``, ``"a-b" → "a_b"``, ``"t" → "t_2"``). A v5 file is a 128-byte
+    header and one element per variable: each part is a file of one variable written by
+    ``scipy.io.savemat``, the header kept from the first only.
     """
-    names = _matlab_names([n for n, _ in table.channels])
-    mdict: dict[str, Any] = {"t": table.t[:, None], "Ts": np.float64(table.Ts),
-                             "k0": np.float64(table.k0)}
+    yield _mat({"t": rec.t()[:, None], "Ts": np.float64(rec.Ts), "k0": np.float64(rec.k0)},
+               header=True)
+    names = _matlab_names([n for n, _ in rec.channels])
     for j, var in enumerate(names):
-        mdict[var] = np.ascontiguousarray(table.data[:, j:j + 1])
-    mdict["channels"] = np.array(names, dtype=object)
-    mdict["units"] = np.array([f"{n} [{u}]" for n, u in table.channels], dtype=object)
-    mdict["header"] = np.array([f"{k}: {v}" for k, v in table.header.items()] or [""])
-    if table.param_changes:
-        mdict["param_changes"] = np.array([_change_line(table, c) for c in table.param_changes])
-    out = io.BytesIO()
-    scipy.io.savemat(out, mdict, format="5", oned_as="column")
-    return out.getvalue()
+        column = np.concatenate([np.zeros(0)] + [d[:, j] for _, d in rec.parts(rows)])
+        yield _mat({var: column[:, None]})
+    meta: dict[str, Any] = {
+        "channels": np.array(names, dtype=object),
+        "units": np.array([f"{n} [{u}]" for n, u in rec.channels], dtype=object),
+        "header": np.array([f"{k}: {v}" for k, v in rec.header.items()] or [""])}
+    if rec.param_changes:
+        meta["param_changes"] = np.array([_change_line(rec, c) for c in rec.param_changes])
+    yield _mat(meta)
 
 
 def describe(obj: Any) -> str:
@@ -182,8 +236,45 @@ _MATLAB_KEYWORDS = frozenset({
 _NAMELENGTHMAX = 63
 
 
-def _columns(table: Table, channels: list[str] | None) -> list[int]:
-    names = [n for n, _ in table.channels]
+def _recording(data: Table | Recording) -> Recording:
+    return data.recording if isinstance(data, Table) else data
+
+
+def _dumps(obj: Any) -> str:
+    return json.dumps(obj, allow_nan=False, separators=(",", ":"))
+
+
+def _spans(n: int, rows: int) -> Iterator[tuple[int, int]]:
+    for i0 in range(0, n, rows):
+        yield i0, min(n, i0 + rows) - i0
+
+
+def _json_numbers(parts: Iterable[Array]) -> Iterator[bytes]:
+    first = True
+    for values in parts:
+        if values.size:
+            yield (b"" if first else b",") + ",".join(map(repr, values.tolist())).encode()
+            first = False
+
+
+def _finite(rec: Recording, values: Array, i0: int, name: str) -> Array:
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        i = i0 + int(bad[0])
+        raise InvalidInput(f"data.{name}", float(values[bad[0]]),
+                           f"finite values (at t = {float(rec.t(i, i + 1)[0]):g} s; JSON has no "
+                           "NaN or infinity, export CSV or .mat instead)")
+    return values
+
+
+def _mat(mdict: dict[str, Any], header: bool = False) -> bytes:
+    out = io.BytesIO()
+    scipy.io.savemat(out, mdict, format="5", oned_as="column")
+    return out.getvalue() if header else out.getvalue()[128:]
+
+
+def _columns(rec: Recording, channels: list[str] | None) -> list[int]:
+    names = [n for n, _ in rec.channels]
     if channels is None:
         return list(range(len(names)))
     known = f"one of: {', '.join(names)}"
@@ -197,31 +288,44 @@ def _columns(table: Table, channels: list[str] | None) -> list[int]:
     return [names.index(name) for name in channels]
 
 
-def _rows(table: Table, t_from: float | None, t_to: float | None) -> tuple[int, int]:
+def _rows(rec: Recording, t_from: float | None, t_to: float | None) -> tuple[int, int]:
+    """The rows whose times lie in ``[t_from, t_to]``: found on ``t = (k0 + i)·Ts`` by bisection,
+    without building the time axis of a long recording."""
     for field, value in (("t_from", t_from), ("t_to", t_to)):
         if value is not None and not math.isfinite(value):
             raise InvalidInput(field, value, "a finite time in s")
     if t_from is not None and t_to is not None and t_from > t_to:
         raise InvalidInput("t_from", t_from, f"a time <= t_to = {t_to:g} s")
-    t = table.t
-    i0 = 0 if t_from is None else int(np.searchsorted(t, t_from, side="left"))
-    i1 = t.size if t_to is None else int(np.searchsorted(t, t_to, side="right"))
+    i0 = 0 if t_from is None else _first(rec, lambda t: t >= t_from)
+    i1 = rec.n if t_to is None else _first(rec, lambda t: t > t_to)
     return i0, max(i0, i1)
 
 
-def _header_lines(table: Table) -> list[str]:
-    lines = [f"{k}: {v}" for k, v in table.header.items()]
-    lines.append(f"sample time: {table.Ts:g} s")
-    lines += [f"parameter changes: {_change_line(table, c)}" for c in table.param_changes]
+def _first(rec: Recording, after: Callable[[float], bool]) -> int:
+    """The first row whose time satisfies ``after`` (monotone in the row), or ``n``."""
+    lo, hi = 0, rec.n
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if after(float(rec.t(mid, mid + 1)[0])):
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+def _header_lines(rec: Recording) -> list[str]:
+    lines = [f"{k}: {v}" for k, v in rec.header.items()]
+    lines.append(f"sample time: {rec.Ts:g} s")
+    lines += [f"parameter changes: {_change_line(rec, c)}" for c in rec.param_changes]
     return [" ".join(line.splitlines()) for line in lines]  # one line each, whatever the text
 
 
-def _change_line(table: Table, change: ParamChange) -> str:
-    return f"k={change.k}, t={change.k * table.Ts:.12g} s: {json.dumps(change.params)}"
+def _change_line(rec: Recording, change: ParamChange) -> str:
+    return f"k={change.k}, t={change.k * rec.Ts:.12g} s: {json.dumps(change.params)}"
 
 
-def _with_time(table: Table) -> list[tuple[str, str]]:
-    return [("t", "s"), *table.channels]
+def _with_time(rec: Recording) -> list[tuple[str, str]]:
+    return [("t", "s"), *rec.channels]
 
 
 def _matlab_names(names: list[str]) -> list[str]:

@@ -15,6 +15,7 @@ import asyncio
 import logging
 import secrets
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -34,6 +35,7 @@ from elab.store.base import ParamChange, RunRecord, RunStore, RunSummary
 log = logging.getLogger(__name__)
 
 Array = NDArray[np.float64]
+Reader = Callable[..., Array]  # (k0, k1=None) -> samples [k0, k1)
 
 
 @dataclass(eq=False)
@@ -119,24 +121,31 @@ class RunManager:
 
     async def read(self, run_id: str, k0: int = 0, k1: int | None = None) -> Array:
         """Samples ``[k0, k1)`` recorded so far (``None``: to the end), stored or not yet."""
-        run = self._runs.get(run_id)
+        return await asyncio.to_thread(self.snapshot(run_id), k0, k1)
+
+    def snapshot(self, run_id: str) -> Reader:
+        """A reader of the recording as it is now, callable from any thread: ``read(k0, k1)``
+        gives samples ``[k0, min(k1, n))``, ``n`` the samples recorded when it was taken
+        (the store's committed part, then this process's copy of the rest)."""
+        store, run = self.store, self._runs.get(run_id)
         if run is None:
-            return await asyncio.to_thread(self.store.read, run_id, k0, k1)
-        end = run.next_k if k1 is None else min(k1, run.next_k)
-        committed, recent = run.committed, list(run.recent)
-        parts = []
-        if k0 < min(end, committed):
-            parts.append(await asyncio.to_thread(self.store.read, run_id, k0,
-                                                 min(end, committed)))
-        at = k0 + sum(p.shape[0] for p in parts)
-        for c0, rows in recent:
-            if c0 <= at < c0 + rows.shape[0] and at < end:
-                part = rows[at - c0:min(end, c0 + rows.shape[0]) - c0]
-                parts.append(part)
-                at += part.shape[0]
-        if not parts:
-            return np.zeros((0, len(run.record.channels)))
-        return np.concatenate(parts) if len(parts) > 1 else parts[0]
+            return lambda k0, k1=None: store.read(run_id, k0, k1)
+        committed, recent, end = run.committed, list(run.recent), run.next_k
+        nch = len(run.record.channels)
+
+        def read(k0: int, k1: int | None = None) -> Array:
+            stop = end if k1 is None else min(k1, end)
+            parts = [store.read(run_id, k0, min(stop, committed))] if k0 < committed else []
+            at = k0 + sum(p.shape[0] for p in parts)
+            for c0, rows in recent:
+                if c0 <= at < c0 + rows.shape[0] and at < stop:
+                    parts.append(rows[at - c0:min(stop, c0 + rows.shape[0]) - c0])
+                    at += parts[-1].shape[0]
+            if not parts:
+                return np.zeros((0, nch))
+            return np.concatenate(parts) if len(parts) > 1 else parts[0]
+
+        return read
 
     # -- lifecycle ---------------------------------------------------------------
     async def create(self, spec: RunSpec, *, pace: Pace, mode: str, experiment: str,

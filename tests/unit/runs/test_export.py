@@ -13,8 +13,11 @@ import scipy.io
 from elab.errors import DimensionError, InvalidInput
 from elab.plants import get_plant
 from elab.runs.export import (
+    Recording,
     Table,
     iter_csv,
+    iter_json,
+    iter_mat,
     select,
     table_from_samples,
     to_csv,
@@ -78,10 +81,27 @@ def test_csv_header_lines_stay_single_lines() -> None:
     assert to_csv(table).splitlines()[0] == "# note: two lines"
 
 
-def test_csv_comes_in_parts_that_join_to_the_whole() -> None:
+def test_every_format_comes_in_parts_that_join_to_the_whole_reading_part_by_part() -> None:
     table = make_table(n=1000)
-    parts = list(iter_csv(table, rows_per_part=128))
+    reads: list[tuple[int, int]] = []
+
+    def read(i0: int, i1: int) -> np.ndarray:
+        reads.append((i0, i1))
+        return table.data[i0:i1]
+
+    rec = Recording(HEADER, 1e-3, table.k0, 1000, CHANNELS, read, CHANGES)
+    parts = list(iter_csv(rec, rows=128))
     assert len(parts) == 1 + 8 and "".join(parts) == to_csv(table)
+    assert max(i1 - i0 for i0, i1 in reads) == 128  # never more than a part at once
+    reads.clear()
+    assert b"".join(iter_json(rec, rows=300)) == to_json(table)
+    assert max(i1 - i0 for i0, i1 in reads) == 300
+    reads.clear()
+    mat = b"".join(iter_mat(rec, rows=300))
+    assert max(i1 - i0 for i0, i1 in reads) == 300
+    got = scipy.io.loadmat(io.BytesIO(mat))
+    assert np.array_equal(got["theta"][:, 0], table.data[:, 2])
+    assert json.loads(to_json(table))["data"]["u"] == table.data[:, 1].tolist()
 
 
 def test_csv_of_samples_keeps_the_cli_header() -> None:
@@ -161,18 +181,21 @@ def test_select_picks_channels_in_the_order_asked() -> None:
     table = make_table()
     got = select(table, ["theta", "r"])
     assert got.channels == (("theta", "rad"), ("r", "rad"))
-    assert np.array_equal(got.data, table.data[:, [2, 0]]) and np.array_equal(got.t, table.t)
+    assert np.array_equal(got.read(0, got.n), table.data[:, [2, 0]])
+    assert np.array_equal(got.t(), table.t)
 
 
 def test_select_keeps_samples_in_the_closed_time_range() -> None:
     table = make_table()
     t = table.t
     got = select(table, None, t_from=float(t[100]), t_to=float(t[300]))
-    assert got.k0 == table.k0 + 100 and got.data.shape[0] == 201
-    assert np.array_equal(got.t, t[100:301]) and np.array_equal(got.data, table.data[100:301])
+    assert got.k0 == table.k0 + 100 and got.n == 201
+    assert np.array_equal(got.t(), t[100:301])
+    assert np.array_equal(got.read(0, got.n), table.data[100:301])
+    assert np.array_equal(got.read(50, 60), table.data[150:160])  # parts read relative to it
     # k = 1300 is at row 66 and 1450 at row 216: only the first applies up to row 150
     assert select(table, None, t_to=float(t[150])).param_changes == CHANGES[:1]
-    assert select(table, None, t_from=float(t[-1]) + 1.0).data.shape == (0, 4)
+    assert select(table, None, t_from=float(t[-1]) + 1.0).n == 0
 
 
 @pytest.mark.parametrize(("channels", "bad"), [(["r", "phi"], "phi"), (["u", "u"], "u"), ([], [])])
