@@ -37,8 +37,9 @@ def _number(text: str, field: str, original: str) -> float:
     try:
         x = float(text)
     except ValueError:
-        raise InvalidInput(field, original, "a number, optionally with a unit: "
-                           + ", ".join(UNITS)) from None
+        raise InvalidInput(
+            field, original, "a number, optionally with a unit: " + ", ".join(UNITS)
+        ) from None
     if not math.isfinite(x):
         raise InvalidInput(field, original, "a finite number")
     return x
@@ -75,14 +76,19 @@ def parse_law(text: str, plant: Plant, estimate: str) -> ControlLaw:
         q, _, r = arg.partition(";")
         K = design.design_lqr(plant, parse_vector(q, "Q"), parse_quantity(r or "1", "R")).K
         return StateFeedback(tuple(float(k) for k in np.ravel(K)), estimate)  # type: ignore[arg-type]
-    raise InvalidInput("controller", text, "predefined, open, K:k1,..,kn, pid:Kp,Ki,Kd or "
-                       "lqr:q1,..,qn;R")
+    raise InvalidInput(
+        "controller", text, "predefined, open, K:k1,..,kn, pid:Kp,Ki,Kd or lqr:q1,..,qn;R"
+    )
 
 
 def cmd_plants(args: argparse.Namespace) -> str:
     if args.json:
-        return _json([{"id": p.id, "name": p.name, "summary": p.summary, "modes": p.modes}
-                      for p in PLANTS.values()])
+        return _json(
+            [
+                {"id": p.id, "name": p.name, "summary": p.summary, "modes": p.modes}
+                for p in PLANTS.values()
+            ]
+        )
     return "\n".join(f"{p.id:18} {p.name:26} {p.summary}" for p in PLANTS.values())
 
 
@@ -91,8 +97,9 @@ def _closed_loop_figures(plant: Plant) -> tuple[Any, Any, Any]:
     predefined loop, continuous and unsaturated."""
     cl = design.closed_loop(plant, plant.predefined)
     stab = design.stability(cl.A)
-    step = design.step_response(cl, T=design.default_horizon(stab.eigenvalues), n=20001,
-                                u_output=-1)
+    step = design.step_response(
+        cl, T=design.default_horizon(stab.eigenvalues), n=20001, u_output=-1
+    )
     info = design.step_info(step.t, step.y[plant.reference_output])
     return stab, info, design.margins(design.loop_transfer(plant, plant.predefined))
 
@@ -102,35 +109,54 @@ def cmd_analyze(args: argparse.Namespace) -> str:
     a = design.analyze(plant)
     cl_stab, info, m = _closed_loop_figures(plant)
     if args.json:
-        return _json({
-            "plant": plant.id,
-            "eigenvalues": _complex_list(a.stability.eigenvalues),
-            "stability": {"verdict": a.stability.verdict, "reason": a.stability.reason},
-            "controllability": _rank(a.controllability),
-            "observability": _rank(a.observability),
-            "transfer_functions": [{"output": tf.output, "input": tf.input,
-                                    "num": tf.num.tolist(), "den": tf.den.tolist()}
-                                   for tf in a.transfer_functions],
-            "predefined": {"law": describe(plant.predefined), "design": plant.predefined_design,
-                           "closed_loop_poles": _complex_list(cl_stab.eigenvalues),
-                           "verdict": cl_stab.verdict,
-                           "unit_step": {k: _finite_or_none(v) for k, v in vars(info).items()},
-                           "margins": {k: _finite_or_none(v) for k, v in vars(m).items()}},
-        })
-    lines = [f"{plant.name} ({plant.id})", "",
-             "eigenvalues: " + ", ".join(_c(z) for z in a.stability.eigenvalues),
-             f"open loop: {a.stability.verdict} — {a.stability.reason}",
-             _rank_text("controllability", a.controllability),
-             _rank_text("observability", a.observability), "", "transfer functions:"]
+        return _json(
+            {
+                "plant": plant.id,
+                "eigenvalues": _complex_list(a.stability.eigenvalues),
+                "stability": {"verdict": a.stability.verdict, "reason": a.stability.reason},
+                "controllability": _rank(a.controllability),
+                "observability": _rank(a.observability),
+                "transfer_functions": [
+                    {
+                        "output": tf.output,
+                        "input": tf.input,
+                        "num": tf.num.tolist(),
+                        "den": tf.den.tolist(),
+                    }
+                    for tf in a.transfer_functions
+                ],
+                "predefined": {
+                    "law": describe(plant.predefined),
+                    "design": plant.predefined_design,
+                    "closed_loop_poles": _complex_list(cl_stab.eigenvalues),
+                    "verdict": cl_stab.verdict,
+                    "unit_step": {k: _finite_or_none(v) for k, v in vars(info).items()},
+                    "margins": {k: _finite_or_none(v) for k, v in vars(m).items()},
+                },
+            }
+        )
+    lines = [
+        f"{plant.name} ({plant.id})",
+        "",
+        "eigenvalues: " + ", ".join(_c(z) for z in a.stability.eigenvalues),
+        f"open loop: {a.stability.verdict} — {a.stability.reason}",
+        _rank_text("controllability", a.controllability),
+        _rank_text("observability", a.observability),
+        "",
+        "transfer functions:",
+    ]
     lines += [f"  {tf.output}/{tf.input} = {tf.text()}" for tf in a.transfer_functions]
-    lines += ["", f"predefined controller: {describe(plant.predefined)}",
-              f"  {plant.predefined_design}",
-              "  closed-loop poles: " + ", ".join(_c(z) for z in cl_stab.eigenvalues),
-              f"  closed loop: {cl_stab.verdict}",
-              f"  unit step (linear): rise {info.rise_time:.3g} s, settling (2 %) "
-              f"{info.settling_time:.3g} s, overshoot {info.overshoot:.3g} %, "
-              f"steady-state error {info.steady_state_error:.2g}",
-              f"  margins (loop broken at u): {_margins_text(m)}"]
+    lines += [
+        "",
+        f"predefined controller: {describe(plant.predefined)}",
+        f"  {plant.predefined_design}",
+        "  closed-loop poles: " + ", ".join(_c(z) for z in cl_stab.eigenvalues),
+        f"  closed loop: {cl_stab.verdict}",
+        f"  unit step (linear): rise {info.rise_time:.3g} s, settling (2 %) "
+        f"{info.settling_time:.3g} s, overshoot {info.overshoot:.3g} %, "
+        f"steady-state error {info.steady_state_error:.2g}",
+        f"  margins (loop broken at u): {_margins_text(m)}",
+    ]
     return "\n".join(lines)
 
 
@@ -138,8 +164,10 @@ def _margins_text(m: Any) -> str:
     if not math.isfinite(m.gain_margin_db):
         gain = "gain ∞ (no phase crossover)"
     elif m.gain_margin_db < 0:
-        gain = (f"gain {m.gain_margin_db:.3g} dB at {m.phase_crossover:.4g} rad/s (a gain "
-                "decrease that much destabilises: the open loop is unstable)")
+        gain = (
+            f"gain {m.gain_margin_db:.3g} dB at {m.phase_crossover:.4g} rad/s (a gain "
+            "decrease that much destabilises: the open loop is unstable)"
+        )
     else:
         gain = f"gain {m.gain_margin_db:.3g} dB at {m.phase_crossover:.4g} rad/s"
     if not math.isfinite(m.phase_margin_deg):
@@ -160,10 +188,21 @@ def cmd_design(args: argparse.Namespace) -> str:
         pl = design.design_place(plant, parse_complex_vector(args.poles, "poles"))
         K, poles = np.ravel(pl.K), pl.poles
     if args.json:
-        return _json({"plant": plant.id, "method": args.method, "K": K.tolist(),
-                      "closed_loop_poles": _complex_list(poles), "convention": "u = K (x_ref - x)"})
-    return "\n".join([f"K = [{' '.join(f'{k:.6g}' for k in K)}]   (u = K (x_ref − x))",
-                      "closed-loop poles: " + ", ".join(_c(z) for z in poles)])
+        return _json(
+            {
+                "plant": plant.id,
+                "method": args.method,
+                "K": K.tolist(),
+                "closed_loop_poles": _complex_list(poles),
+                "convention": "u = K (x_ref - x)",
+            }
+        )
+    return "\n".join(
+        [
+            f"K = [{' '.join(f'{k:.6g}' for k in K)}]   (u = K (x_ref − x))",
+            "closed-loop poles: " + ", ".join(_c(z) for z in poles),
+        ]
+    )
 
 
 def cmd_simulate(args: argparse.Namespace) -> str:
@@ -177,12 +216,23 @@ def cmd_simulate(args: argparse.Namespace) -> str:
         params["order"] = args.order
     if args.signal == "square" and "period" not in params:
         params["period"] = plant.signal.period or 4.0
-    spec = RunSpec(plant, law, make_signal(args.signal, **params), duration=args.duration,
-                   Ts=args.Ts, saturate=False if args.no_saturation else None,
-                   noise_seed=args.noise_seed, quantize=args.quantize)
+    spec = RunSpec(
+        plant,
+        law,
+        make_signal(args.signal, **params),
+        duration=args.duration,
+        Ts=args.Ts,
+        saturate=False if args.no_saturation else None,
+        noise_seed=args.noise_seed,
+        quantize=args.quantize,
+    )
     res = simulate(spec)
-    header = {"plant": f"{plant.id} ({plant.name})", "controller": describe(law),
-              "signal": describe(spec.reference), "generator": "elab simulate"}
+    header = {
+        "plant": f"{plant.id} ({plant.name})",
+        "controller": describe(law),
+        "signal": describe(spec.reference),
+        "generator": "elab simulate",
+    }
     if args.out:
         Path(args.out).write_text(to_csv(res, header), encoding="utf-8")
     return _simulate_summary(plant, spec, res, args.out)
@@ -192,9 +242,11 @@ def _simulate_summary(plant: Plant, spec: RunSpec, res: Any, out: str | None) ->
     i = plant.reference_output
     ref = plant.outputs[i]
     y = res.y[:, i]
-    lines = [f"{res.n} samples at Ts = {res.Ts:g} s, {res.n * res.Ts:g} s simulated",
-             f"{ref.name}: min {y.min():.4g}, max {y.max():.4g} {ref.unit};  "
-             f"u: min {res.u.min():.4g}, max {res.u.max():.4g} V"]
+    lines = [
+        f"{res.n} samples at Ts = {res.Ts:g} s, {res.n * res.Ts:g} s simulated",
+        f"{ref.name}: min {y.min():.4g}, max {y.max():.4g} {ref.unit};  "
+        f"u: min {res.u.min():.4g}, max {res.u.max():.4g} V",
+    ]
     expected = round(spec.duration / res.Ts)
     if res.n < expected:
         lines.append(f"DIVERGED at t = {res.n * res.Ts:.4g} s: the closed loop is unstable")
@@ -204,8 +256,12 @@ def _simulate_summary(plant: Plant, spec: RunSpec, res: Any, out: str | None) ->
 
 
 def _rank(r: Any) -> dict[str, Any]:
-    return {"rank": r.rank, "full": r.full, "condition_number": r.condition_number,
-            "singular_values": r.singular_values.tolist()}
+    return {
+        "rank": r.rank,
+        "full": r.full,
+        "condition_number": r.condition_number,
+        "singular_values": r.singular_values.tolist(),
+    }
 
 
 def _rank_text(name: str, r: Any) -> str:
@@ -277,19 +333,31 @@ def cmd_serve(args: argparse.Namespace) -> str:
     # no permessage-deflate: float32 samples hardly compress, and deflating every frame
     # for every watcher cost a third of the server's CPU (docs/benchmarks.md). uvicorn's
     # "auto" loop is uvloop (a dependency): p99 latency 106 -> 60 ms at 300 runs there.
-    uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="warning",
-                ws_max_size=1 << 20, ws_per_message_deflate=False)
+    uvicorn.run(
+        create_app(settings),
+        host=args.host,
+        port=args.port,
+        log_level="warning",
+        ws_max_size=1 << 20,
+        ws_per_message_deflate=False,
+    )
     return "E-Lab stopped"
 
 
 def _add_simulate(sub: Any) -> None:
     p = sub.add_parser("simulate", help="simulate a run and write its CSV")
     p.add_argument("plant")
-    p.add_argument("--controller", default="predefined",
-                   help="predefined | open | K:k1,..,kn | pid:Kp,Ki,Kd | lqr:q1,..,qn;R")
-    p.add_argument("--estimate", default="velocity_filters",
-                   choices=["true_state", "velocity_filters"],
-                   help="state feedback on true states or on outputs + velocity filters")
+    p.add_argument(
+        "--controller",
+        default="predefined",
+        help="predefined | open | K:k1,..,kn | pid:Kp,Ki,Kd | lqr:q1,..,qn;R",
+    )
+    p.add_argument(
+        "--estimate",
+        default="velocity_filters",
+        choices=["true_state", "velocity_filters"],
+        help="state feedback on true states or on outputs + velocity filters",
+    )
     p.add_argument("--signal", default="square", help="step, square, sine, chirp, prbs")
     p.add_argument("--amplitude", default="30deg", help="with unit: 30deg, 0.5rad, 0.2m, 2V")
     p.add_argument("--period", help="square wave period (s)")
@@ -309,15 +377,25 @@ def _add_simulate(sub: Any) -> None:
 def _add_identify(sub: Any) -> None:
     p = sub.add_parser("identify", help="identify models from a data file (CSV, JSON, .dat)")
     p.add_argument("data", help="file: an E-Lab CSV/JSON download or numeric columns")
-    p.add_argument("--input", default="u", help="input column(s), comma-separated "
-                   "(unnamed columns are c1, c2, …)")
+    p.add_argument(
+        "--input",
+        default="u",
+        help="input column(s), comma-separated (unnamed columns are c1, c2, …)",
+    )
     p.add_argument("--output", default="y", help="output column(s), comma-separated")
     p.add_argument("--Ts", type=float, help="sample time (s); default: from the file")
-    p.add_argument("--model", action="append", default=[],
-                   help="arx:na,nb,nk | armax:na,nb,nc,nk | oe:nb,nf,nk | n4sid[:n[,horizon]]"
-                        " (repeatable)")
-    p.add_argument("--search", action="append", default=[],
-                   help="arx:na1-na2,nb1-nb2,nk1-nk2 | n4sid:n1-n2 (order searches)")
+    p.add_argument(
+        "--model",
+        action="append",
+        default=[],
+        help="arx:na,nb,nk | armax:na,nb,nc,nk | oe:nb,nf,nk | n4sid[:n[,horizon]] (repeatable)",
+    )
+    p.add_argument(
+        "--search",
+        action="append",
+        default=[],
+        help="arx:na1-na2,nb1-nb2,nk1-nk2 | n4sid:n1-n2 (order searches)",
+    )
     p.add_argument("--split", type=float, default=0.5, help="estimation share (default 0.5)")
     p.add_argument("--detrend", default="mean", choices=["mean", "linear", "none"])
     p.add_argument("--horizon", type=int, help="subspace block rows")
@@ -347,9 +425,15 @@ def cmd_identify(args: argparse.Namespace) -> str:
             n4sid_orders = ranges[0]
         else:
             raise InvalidInput("search", text, "arx:na1-na2,nb1-nb2,nk1-nk2 or n4sid:n1-n2")
-    plan = wf.Plan(models=tuple(wf.parse_model(m) for m in args.model), detrend=args.detrend,
-                   split=args.split, sine_hz=args.sine, arx_search=arx_search,
-                   n4sid_orders=n4sid_orders, horizon=args.horizon)
+    plan = wf.Plan(
+        models=tuple(wf.parse_model(m) for m in args.model),
+        detrend=args.detrend,
+        split=args.split,
+        sine_hz=args.sine,
+        arx_search=arx_search,
+        n4sid_orders=n4sid_orders,
+        horizon=args.horizon,
+    )
     result = wf.run(data, plan)
     if args.json:
         return json.dumps(result.as_dict())
@@ -373,31 +457,40 @@ def _span(text: str, field: str) -> range:
 
 def _identify_text(data: Any, result: Any) -> str:
     d = result.data
-    lines = [f"data: {d['N']} samples at Ts = {d['Ts']:g} s, inputs {', '.join(d['input_names'])}"
-             f", outputs {', '.join(d['output_names'])}; estimation {d['estimation']} samples, "
-             f"validation {d['N'] - d['estimation']}; detrend {d['trend']}"]
+    lines = [
+        f"data: {d['N']} samples at Ts = {d['Ts']:g} s, inputs {', '.join(d['input_names'])}"
+        f", outputs {', '.join(d['output_names'])}; estimation {d['estimation']} samples, "
+        f"validation {d['N'] - d['estimation']}; detrend {d['trend']}"
+    ]
     a = result.analyses
     if "correlation" in a:
         lines.append(f"correlation analysis: delay {a['correlation']['delay']} samples")
     if "arx_search" in a:
         s = a["arx_search"]
         best = min(s["rows"], key=lambda r: r[3])
-        lines.append(f"ARX search over {len(s['rows'])} structures: best [na nb nk] = "
-                     f"{s['best']} (validation loss {best[3]:.6g}); AIC {s['aic']}, "
-                     f"MDL {s['mdl']}")
+        lines.append(
+            f"ARX search over {len(s['rows'])} structures: best [na nb nk] = "
+            f"{s['best']} (validation loss {best[3]:.6g}); AIC {s['aic']}, "
+            f"MDL {s['mdl']}"
+        )
     if "n4sid_orders" in a:
         o = a["n4sid_orders"]
         sv = ", ".join(f"{v:.4g}" for v in o["singular_values"][:8])
-        lines.append(f"subspace (horizon {o['horizon']}): singular values {sv}, …; "
-                     f"order by MDL: {o['best']}")
+        lines.append(
+            f"subspace (horizon {o['horizon']}): singular values {sv}, …; order by MDL: {o['best']}"
+        )
     if "sine" in a:
         sn = a["sine"]
-        lines.append(f"sine analysis at {sn['frequency_hz']:g} Hz: |G| = {sn['magnitude']:.4g},"
-                     f" phase {sn['phase_deg']:.1f} deg")
+        lines.append(
+            f"sine analysis at {sn['frequency_hz']:g} Hz: |G| = {sn['magnitude']:.4g},"
+            f" phase {sn['phase_deg']:.1f} deg"
+        )
     for m in result.models:
         fit = m["fit"]
-        lines.append(f"{m['name']}: validation fit {_pct(fit['validation_simulation'])} "
-                     f"(simulation), {_pct(fit['validation_one_step'])} (one step)")
+        lines.append(
+            f"{m['name']}: validation fit {_pct(fit['validation_simulation'])} "
+            f"(simulation), {_pct(fit['validation_one_step'])} (one step)"
+        )
         p = m["parameters"]
         for key in ("A", "B", "C", "F"):
             if key in p:

@@ -33,8 +33,9 @@ class _Worker:
     def __init__(self, nice: int) -> None:
         ctx = multiprocessing.get_context("spawn")  # no copy of the server's threads and loop
         self.conn, child = ctx.Pipe()
-        self.proc: BaseProcess = ctx.Process(target=_serve, args=(child, nice), daemon=True,
-                                             name="elab-job")
+        self.proc: BaseProcess = ctx.Process(
+            target=_serve, args=(child, nice), daemon=True, name="elab-job"
+        )
         self.proc.start()
         child.close()
 
@@ -47,8 +48,15 @@ class _Worker:
 class JobPool:
     """``run(fn, *args)`` in a worker process; see the module's docstring."""
 
-    def __init__(self, *, workers: int = 1, timeout: float = 120.0, wait: float = 30.0,
-                 nice: int = 10, setting: str = "ELAB_IDENT_TIMEOUT") -> None:
+    def __init__(
+        self,
+        *,
+        workers: int = 1,
+        timeout: float = 120.0,
+        wait: float = 30.0,
+        nice: int = 10,
+        setting: str = "ELAB_IDENT_TIMEOUT",
+    ) -> None:
         self.workers = workers
         self.timeout = timeout
         self.wait = wait
@@ -75,9 +83,11 @@ class JobPool:
         try:
             worker = await asyncio.wait_for(self._idle.get(), self.wait)
         except TimeoutError:
-            raise TooMany(f"all {self.workers} identification workers are busy (ELAB_IDENT_WORKERS)"
-                          f" and none was free within {self.wait:g} s; retry later",
-                          retry_after=self.wait) from None
+            raise TooMany(
+                f"all {self.workers} identification workers are busy (ELAB_IDENT_WORKERS)"
+                f" and none was free within {self.wait:g} s; retry later",
+                retry_after=self.wait,
+            ) from None
         self.busy += 1
         healthy = False
         try:
@@ -86,9 +96,12 @@ class JobPool:
             healthy = True
             return result  # type: ignore[no-any-return]
         except TimeoutError:
-            raise InvalidInput("body", f"a job over {self.timeout:g} s",
-                               f"work that finishes within {self.setting} = {self.timeout:g} s: "
-                               "fewer samples, a smaller order search or fewer models") from None
+            raise InvalidInput(
+                "body",
+                f"a job over {self.timeout:g} s",
+                f"work that finishes within {self.setting} = {self.timeout:g} s: "
+                "fewer samples, a smaller order search or fewer models",
+            ) from None
         except ElabError:
             healthy = True  # the job failed, the worker is fine
             raise
@@ -105,8 +118,10 @@ class JobPool:
                 kind, *body = await asyncio.to_thread(worker.conn.recv)
             except (EOFError, OSError):
                 code = worker.proc.exitcode
-                raise ElabError(f"the identification worker ended unexpectedly (exit code "
-                                f"{code}); the server log has its message") from None
+                raise ElabError(
+                    f"the identification worker ended unexpectedly (exit code "
+                    f"{code}); the server log has its message"
+                ) from None
             if kind == "progress" and progress is not None:
                 progress(*body)
             elif kind == "ok":
@@ -122,8 +137,11 @@ def _serve(conn: Connection, nice: int) -> None:  # pragma: no cover - in the wo
             fn, args, with_progress = conn.recv()
         except EOFError:
             return
-        kwargs = {"progress": lambda stage, done: conn.send(("progress", stage, done))} \
-            if with_progress else {}
+        kwargs = (
+            {"progress": lambda stage, done: conn.send(("progress", stage, done))}
+            if with_progress
+            else {}
+        )
         try:
             conn.send(("ok", fn(*args, **kwargs)))
         except ElabError as exc:

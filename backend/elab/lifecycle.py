@@ -30,12 +30,21 @@ class RunState(StrEnum):
 
 
 _NEXT: dict[RunState, frozenset[RunState]] = {
-    RunState.CREATED: frozenset({RunState.RUNNING, RunState.STOPPED, RunState.FAILED,
-                                 RunState.INTERRUPTED}),
-    RunState.RUNNING: frozenset({RunState.PAUSED, RunState.FINISHED, RunState.STOPPED,
-                                 RunState.FAILED, RunState.INTERRUPTED}),
-    RunState.PAUSED: frozenset({RunState.RUNNING, RunState.STOPPED, RunState.FAILED,
-                                RunState.INTERRUPTED}),
+    RunState.CREATED: frozenset(
+        {RunState.RUNNING, RunState.STOPPED, RunState.FAILED, RunState.INTERRUPTED}
+    ),
+    RunState.RUNNING: frozenset(
+        {
+            RunState.PAUSED,
+            RunState.FINISHED,
+            RunState.STOPPED,
+            RunState.FAILED,
+            RunState.INTERRUPTED,
+        }
+    ),
+    RunState.PAUSED: frozenset(
+        {RunState.RUNNING, RunState.STOPPED, RunState.FAILED, RunState.INTERRUPTED}
+    ),
 }
 
 

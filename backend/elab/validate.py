@@ -33,8 +33,14 @@ def finite_array(
     return arr
 
 
-def finite_float(field: str, value: Any, lo: float | None = None, hi: float | None = None,
-                 *, lo_open: bool = False) -> float:
+def finite_float(
+    field: str,
+    value: Any,
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+) -> float:
     """``value`` as a finite float within ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
     if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
         raise InvalidInput(field, value, "a real number")

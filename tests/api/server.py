@@ -48,8 +48,12 @@ class Server:
 
     def start(self) -> Server:
         self._close_pipe()
-        self.proc = subprocess.Popen([ELAB, "serve", "--port", str(self.port)], env=self.env,
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        self.proc = subprocess.Popen(
+            [ELAB, "serve", "--port", str(self.port)],
+            env=self.env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
@@ -121,8 +125,12 @@ class Watcher:
 
     @classmethod
     async def open(cls, ws_url: str, run_id: str, query: str = "", **kw: Any) -> Watcher:
-        conn = await connect(f"{ws_url}/api/v1/runs/{run_id}/stream{query}",
-                             subprotocols=["elab.v1"], max_size=None, **kw)  # type: ignore[list-item]
+        conn = await connect(
+            f"{ws_url}/api/v1/runs/{run_id}/stream{query}",
+            subprotocols=["elab.v1"],
+            max_size=None,
+            **kw,
+        )  # type: ignore[list-item]
         hello = msgpack.unpackb(await conn.recv())
         assert hello["type"] == "hello"
         return cls(conn, hello)
@@ -130,11 +138,13 @@ class Watcher:
     async def next(self, timeout: float = 30) -> dict[str, Any]:
         msg = msgpack.unpackb(await asyncio.wait_for(self.conn.recv(), timeout))
         if msg["type"] == "frame":
-            self.columns[msg["k0"]] = {k: np.frombuffer(v, "<f4") for k, v in
-                                       msg["columns"].items()}
+            self.columns[msg["k0"]] = {
+                k: np.frombuffer(v, "<f4") for k, v in msg["columns"].items()
+            }
             self.arrivals.append(time.monotonic())
-            self.last_seq = msg["seq"] + max(0, -(-msg["n"] // self.hello["run"]["frame_samples"])
-                                             - 1)
+            self.last_seq = msg["seq"] + max(
+                0, -(-msg["n"] // self.hello["run"]["frame_samples"]) - 1
+            )
         else:
             self.messages.append(msg)
         return msg  # type: ignore[no-any-return]
@@ -153,7 +163,7 @@ class Watcher:
         out = {name: np.full(n, np.nan, dtype="<f4") for name in names}
         for k0, cols in self.columns.items():
             for name, v in cols.items():
-                seg = out[name][k0:k0 + v.size]
+                seg = out[name][k0 : k0 + v.size]
                 seen = ~np.isnan(seg)
                 assert np.array_equal(seg[seen], v[seen]), f"frames disagree near sample {k0}"
                 seg[:] = v

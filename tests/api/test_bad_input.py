@@ -24,37 +24,54 @@ def _post(server: Server, path: str, body: Any = None, raw: bytes | None = None)
         return c.post(path, json=body)
 
 
-@pytest.mark.parametrize(("body", "field"), [
-    ({"plant": "flexible_link", "duration": 0}, "duration"),
-    ({"plant": "flexible_link", "duration": -5}, "duration"),
-    ({"plant": "flexible_link", "duration": 1e9}, "duration"),
-    ({"plant": "flexible_link", "duration": "long"}, "duration"),
-    ({"plant": "flexible_link", "controller": {"kind": "state_feedback", "K": [1, 2]}},
-     "controller.K"),
-    ({"plant": "flexible_link", "controller": {"kind": "pid"}}, "controller.pid.Kp"),
-    ({"plant": "flexible_link", "controller": {"kind": "magic"}}, "controller"),
-    ({"plant": "flexible_link", "signal": {"kind": "square", "amplitude": 1, "period": 0}},
-     "signal.square.period"),
-    ({"plant": "flexible_link", "signal": {"kind": "prbs", "amplitude": 1, "order": 99}},
-     "signal.prbs.order"),
-    ({"plant": "flexible_link", "Ts": 0.05}, "Ts"),
-    ({"plant": "flexible_link", "pace": "warp"}, "pace"),
-    ({"plant": "flexible_link", "colour": "red"}, "colour"),
-    ({"plant": "double_pendulum", "x0": [0, 0.5, 3.14, 0, 0, 0]}, "x0[1] (beta1)"),
-    ({"plant": "flexible_link", "mode": "rig"}, "mode"),
-    ({}, "plant"),
-])
-def test_invalid_run_is_422_naming_the_field(server: Server, body: dict[str, Any],
-                                             field: str) -> None:
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ({"plant": "flexible_link", "duration": 0}, "duration"),
+        ({"plant": "flexible_link", "duration": -5}, "duration"),
+        ({"plant": "flexible_link", "duration": 1e9}, "duration"),
+        ({"plant": "flexible_link", "duration": "long"}, "duration"),
+        (
+            {"plant": "flexible_link", "controller": {"kind": "state_feedback", "K": [1, 2]}},
+            "controller.K",
+        ),
+        ({"plant": "flexible_link", "controller": {"kind": "pid"}}, "controller.pid.Kp"),
+        ({"plant": "flexible_link", "controller": {"kind": "magic"}}, "controller"),
+        (
+            {"plant": "flexible_link", "signal": {"kind": "square", "amplitude": 1, "period": 0}},
+            "signal.square.period",
+        ),
+        (
+            {"plant": "flexible_link", "signal": {"kind": "prbs", "amplitude": 1, "order": 99}},
+            "signal.prbs.order",
+        ),
+        ({"plant": "flexible_link", "Ts": 0.05}, "Ts"),
+        ({"plant": "flexible_link", "pace": "warp"}, "pace"),
+        ({"plant": "flexible_link", "colour": "red"}, "colour"),
+        ({"plant": "double_pendulum", "x0": [0, 0.5, 3.14, 0, 0, 0]}, "x0[1] (beta1)"),
+        ({"plant": "flexible_link", "mode": "rig"}, "mode"),
+        ({}, "plant"),
+    ],
+)
+def test_invalid_run_is_422_naming_the_field(
+    server: Server, body: dict[str, Any], field: str
+) -> None:
     r = _post(server, "/runs", body)
     assert r.status_code == 422, r.text
     err = r.json()["error"]
     assert err["code"] == "invalid" and err["field"] == field, err
 
 
-@pytest.mark.parametrize("raw", [b'{"plant": "flexible_link", "duration": NaN}',
-                                 b'{"plant": "flexible_link", "duration": Infinity}',
-                                 b"not json", b"[1, 2]", b""])
+@pytest.mark.parametrize(
+    "raw",
+    [
+        b'{"plant": "flexible_link", "duration": NaN}',
+        b'{"plant": "flexible_link", "duration": Infinity}',
+        b"not json",
+        b"[1, 2]",
+        b"",
+    ],
+)
 def test_non_finite_or_malformed_json_is_422(server: Server, raw: bytes) -> None:
     r = _post(server, "/runs", raw=raw)
     assert r.status_code == 422, r.text
@@ -91,10 +108,15 @@ def test_illegal_transitions_are_409(server: Server) -> None:
 
 def test_bad_query_parameters_are_422(server: Server) -> None:
     with server.client() as c:
-        rid = c.post("/runs", json={"plant": "belt_conveyor", "duration": 0.2,
-                                    "pace": "fast"}).json()["id"]
-        for params, field in [({"format": "xls"}, "format"), ({"channels": "speed"}, "channels"),
-                              ({"t_from": "nan"}, "t_from"), ({"t_from": 2, "t_to": 1}, "t_from")]:
+        rid = c.post(
+            "/runs", json={"plant": "belt_conveyor", "duration": 0.2, "pace": "fast"}
+        ).json()["id"]
+        for params, field in [
+            ({"format": "xls"}, "format"),
+            ({"channels": "speed"}, "channels"),
+            ({"t_from": "nan"}, "t_from"),
+            ({"t_from": 2, "t_to": 1}, "t_from"),
+        ]:
             r = c.get(f"/runs/{rid}/data", params=params)
             assert r.status_code == 422 and r.json()["error"]["field"] == field, r.text
         assert c.get("/runs", params={"limit": 0}).json()["error"]["field"] == "limit"
@@ -103,8 +125,11 @@ def test_bad_query_parameters_are_422(server: Server) -> None:
 
 def test_design_errors_are_422(server: Server) -> None:
     with server.client() as c:
-        for body, field in [({"Q": [1, 1, 1]}, "Q"), ({"Q": [1, 1, 1, 1], "R": 0}, "R"),
-                            ({"Q": [1, 1, -1, 1]}, "Q")]:
+        for body, field in [
+            ({"Q": [1, 1, 1]}, "Q"),
+            ({"Q": [1, 1, 1, 1], "R": 0}, "R"),
+            ({"Q": [1, 1, -1, 1]}, "Q"),
+        ]:
             r = c.post("/plants/flexible_link/design/lqr", json=body)
             assert r.status_code == 422 and r.json()["error"]["field"] == field, r.text
         r = c.post("/plants/flexible_link/design/place", json={"poles": [{"re": -1, "im": 0}]})
@@ -129,10 +154,14 @@ def test_websocket_errors_keep_the_connection(server: Server) -> None:
 
     async def scenario() -> list[dict[str, Any]]:
         w = await Watcher.open(server.ws_url, rid)
-        for bad in (b"\xc1", msgpack.packb({"type": "fly"}),
-                    msgpack.packb({"type": "resume_from", "seq": -1}),
-                    msgpack.packb({"type": "set_params", "controller": {"kind": "state_feedback",
-                                                                        "K": [1]}})):
+        for bad in (
+            b"\xc1",
+            msgpack.packb({"type": "fly"}),
+            msgpack.packb({"type": "resume_from", "seq": -1}),
+            msgpack.packb(
+                {"type": "set_params", "controller": {"kind": "state_feedback", "K": [1]}}
+            ),
+        ):
             await w.conn.send(bad)
         errors: list[dict[str, Any]] = []
         while len(errors) < 4:

@@ -28,8 +28,14 @@ def test_the_client_answers_keepalive_pings_and_logs_every_frame() -> None:
 
     async def scenario() -> Log:
         async def handler(conn: ServerConnection) -> None:
-            await conn.send(pack({"type": "hello", "run": {"id": "x", "Ts": 0.001,
-                                                           "n_planned": 600, "started_at": 0}}))
+            await conn.send(
+                pack(
+                    {
+                        "type": "hello",
+                        "run": {"id": "x", "Ts": 0.001, "n_planned": 600, "started_at": 0},
+                    }
+                )
+            )
             data = np.ones((20, len(NAMES)))
             for k0 in range(0, 600, 20):
                 await asyncio.sleep(0.05)
@@ -38,11 +44,19 @@ def test_the_client_answers_keepalive_pings_and_logs_every_frame() -> None:
             await conn.wait_closed()
 
         port = free_port()
-        async with serve(handler, "127.0.0.1", port, subprotocols=[PROTOCOL],  # type: ignore[list-item]
-                         ping_interval=0.1, ping_timeout=0.1):
+        async with serve(
+            handler,
+            "127.0.0.1",
+            port,
+            subprotocols=[PROTOCOL],  # type: ignore[list-item]
+            ping_interval=0.1,
+            ping_timeout=0.1,
+        ):
             log = Log()
-            await asyncio.wait_for(watch(f"ws://127.0.0.1:{port}/", log, asyncio.Semaphore(0),
-                                         asyncio.Semaphore(1)), 30)
+            await asyncio.wait_for(
+                watch(f"ws://127.0.0.1:{port}/", log, asyncio.Semaphore(0), asyncio.Semaphore(1)),
+                30,
+            )
             return log
 
     log = uvloop.run(scenario())  # the loop the benchmark's processes run on

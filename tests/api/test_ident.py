@@ -17,9 +17,15 @@ DRYER = Path(__file__).resolve().parents[1] / "reference" / "ident" / "dryer.dat
 
 
 def _file(text: str | None = None, **over: Any) -> dict[str, Any]:
-    data = {"source": "file", "format": "csv", "name": "dryer.dat",
-            "text": DRYER.read_text() if text is None else text,
-            "input": ["c1"], "output": ["c2"], "Ts": 0.08}
+    data = {
+        "source": "file",
+        "format": "csv",
+        "name": "dryer.dat",
+        "text": DRYER.read_text() if text is None else text,
+        "input": ["c1"],
+        "output": ["c2"],
+        "Ts": 0.08,
+    }
     return data | over
 
 
@@ -29,11 +35,16 @@ def _ident(server: Server, body: dict[str, Any], **headers: str) -> Any:
 
 
 def test_dryer_upload_reproduces_the_published_results(server: Server) -> None:
-    r = _ident(server, {"data": _file(), "arx_search": {"na": [1, 10], "nb": [1, 10],
-                                                         "nk": [3, 3]},
-                        "horizon": 16, "n4sid_orders": [1, 10],
-                        "models": [{"kind": "arx", "na": 2, "nb": 2, "nk": 3},
-                                   {"kind": "n4sid", "order": 4}]})
+    r = _ident(
+        server,
+        {
+            "data": _file(),
+            "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [3, 3]},
+            "horizon": 16,
+            "n4sid_orders": [1, 10],
+            "models": [{"kind": "arx", "na": 2, "nb": 2, "nk": 3}, {"kind": "n4sid", "order": 4}],
+        },
+    )
     assert r.status_code == 200, r.text
     out = r.json()
     assert out["data"]["N"] == 1000 and out["data"]["estimation"] == 500
@@ -41,8 +52,9 @@ def test_dryer_upload_reproduces_the_published_results(server: Server) -> None:
     assert a["correlation"]["delay"] == 3
     assert a["arx_search"]["best"] == [4, 4, 3]
     assert min(row[3] for row in a["arx_search"]["rows"]) == pytest.approx(0.0022583, rel=0.01)
-    assert a["n4sid_orders"]["singular_values"][:3] == pytest.approx([39.13, 9.925, 2.132],
-                                                                     rel=1.5e-3)
+    assert a["n4sid_orders"]["singular_values"][:3] == pytest.approx(
+        [39.13, 9.925, 2.132], rel=1.5e-3
+    )
     assert len(a["spectral"]["omega"]) == 128
     arx, ss = out["models"]
     assert arx["name"] == "arx 2 2 3"
@@ -56,8 +68,9 @@ def test_dryer_upload_reproduces_the_published_results(server: Server) -> None:
 
 
 def test_progress_lines_then_the_result(server: Server) -> None:
-    r = _ident(server, {"data": _file(), "arx_search": {"nk": [1, 10]}},
-               accept="application/x-ndjson")
+    r = _ident(
+        server, {"data": _file(), "arx_search": {"nk": [1, 10]}}, accept="application/x-ndjson"
+    )
     assert r.status_code == 200 and r.headers["content-type"].startswith("application/x-ndjson")
     lines = [json.loads(x) for x in r.text.splitlines()]
     progress = [ln["progress"]["done"] for ln in lines[:-1]]
@@ -69,26 +82,48 @@ def test_progress_lines_then_the_result(server: Server) -> None:
 
 def test_a_recorded_identification_run(server: Server) -> None:
     with server.client() as c:
-        run = c.post("/runs", json={
-            "plant": "flexible_link", "experiment": "identification", "pace": "fast",
-            "duration": 20, "signal": {"kind": "step", "amplitude": 0},
-            "excitation": {"kind": "prbs", "amplitude": 1.0, "order": 11, "band": 0.05},
-            "excitation_at": "input", "seed": 1}).json()
+        run = c.post(
+            "/runs",
+            json={
+                "plant": "flexible_link",
+                "experiment": "identification",
+                "pace": "fast",
+                "duration": 20,
+                "signal": {"kind": "step", "amplitude": 0},
+                "excitation": {"kind": "prbs", "amplitude": 1.0, "order": 11, "band": 0.05},
+                "excitation_at": "input",
+                "seed": 1,
+            },
+        ).json()
         for _ in range(200):
             if c.get(f"/runs/{run['id']}").json()["status"] == "finished":
                 break
             time.sleep(0.1)
-    r = _ident(server, {"data": {"source": "run", "run": run["id"], "input": ["u"],
-                                 "output": ["theta", "alpha"]},
-                        "models": [{"kind": "n4sid", "order": 0, "horizon": 20}]})
+    r = _ident(
+        server,
+        {
+            "data": {
+                "source": "run",
+                "run": run["id"],
+                "input": ["u"],
+                "output": ["theta", "alpha"],
+            },
+            "models": [{"kind": "n4sid", "order": 0, "horizon": 20}],
+        },
+    )
     assert r.status_code == 200, r.text
     out = r.json()
     assert out["data"]["output_units"] == ["rad", "rad"] and out["data"]["Ts"] == 0.001
     assert "correlation" not in out["analyses"] and out["notes"]  # two outputs
     m = out["models"][0]
     assert min(m["fit"]["validation_one_step"]) > 90
-    r = _ident(server, {"data": {"source": "run", "run": run["id"]},  # θ by default
-                        "models": [{"kind": "arx", "na": 4, "nb": 4, "nk": 1}]})
+    r = _ident(
+        server,
+        {
+            "data": {"source": "run", "run": run["id"]},  # θ by default
+            "models": [{"kind": "arx", "na": 4, "nb": 4, "nk": 1}],
+        },
+    )
     assert r.status_code == 200, r.text
     assert r.json()["data"]["output_names"] == ["theta"]
 
@@ -119,9 +154,17 @@ def test_bad_data_get_clear_errors(server: Server) -> None:
     assert "data" in err["field"]
     err = _error(_ident(server, {"data": _file(_rows(good), **named, Ts=None)}))
     assert err["field"] == "data.Ts" and "sample time" in err["message"]
-    err = _error(_ident(server, {"data": _file(_rows(good[:12]), **named),
-                                 "correlation": False, "spectral": False,
-                                 "models": [{"kind": "arx", "na": 8, "nb": 8, "nk": 1}]}))
+    err = _error(
+        _ident(
+            server,
+            {
+                "data": _file(_rows(good[:12]), **named),
+                "correlation": False,
+                "spectral": False,
+                "models": [{"kind": "arx", "na": 8, "nb": 8, "nk": 1}],
+            },
+        )
+    )
     assert err["field"] == "models[0].data" and "samples" in err["message"]
     err = _error(_ident(server, {"data": _file(_rows(good), input=["x"], output=["y"])}))
     assert err["field"] == "data.input" and "u, y" in err["message"]

@@ -15,41 +15,61 @@ import pytest
 
 from tests.api.server import Server, until
 
-HEAVY_MODELS = [{"kind": "oe", "nb": 8, "nf": 8, "nk": 1},
-                {"kind": "armax", "na": 8, "nb": 8, "nc": 8, "nk": 1}]  # ~20 s of CPU
+HEAVY_MODELS = [
+    {"kind": "oe", "nb": 8, "nf": 8, "nk": 1},
+    {"kind": "armax", "na": 8, "nb": 8, "nc": 8, "nk": 1},
+]  # ~20 s of CPU
 
 
 def heavy_file(n: int = 200_000) -> str:
     rng = np.random.default_rng(0)
     u = rng.standard_normal(n)
     y = np.convolve(u, [0, 0.5, 0.3, 0.1])[:n] + 0.1 * rng.standard_normal(n)
-    return "# sample time: 0.01 s\nu,y\n" + "\n".join(f"{a:.5f},{b:.5f}" for a, b in zip(
-        u, y, strict=True))
+    return "# sample time: 0.01 s\nu,y\n" + "\n".join(
+        f"{a:.5f},{b:.5f}" for a, b in zip(u, y, strict=True)
+    )
 
 
 def ident_body(text: str, models: list[dict[str, object]]) -> dict[str, object]:
-    return {"data": {"source": "file", "text": text, "input": ["u"], "output": ["y"]},
-            "correlation": False, "spectral": False, "models": models}
+    return {
+        "data": {"source": "file", "text": text, "input": ["u"], "output": ["y"]},
+        "correlation": False,
+        "spectral": False,
+        "models": models,
+    }
 
 
 @pytest.fixture(scope="module")
 def limited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    srv = Server(tmp_path_factory.mktemp("data"), ELAB_MAX_LIVE_PER_CLIENT="2",
-                 ELAB_MAX_RUN_SAMPLES="100000", ELAB_MAX_RECORDING="4000000",
-                 ELAB_MAX_UPLOADS="1", ELAB_IDENT_TIMEOUT="3", ELAB_IDENT_WAIT="1").start()
+    srv = Server(
+        tmp_path_factory.mktemp("data"),
+        ELAB_MAX_LIVE_PER_CLIENT="2",
+        ELAB_MAX_RUN_SAMPLES="100000",
+        ELAB_MAX_RECORDING="4000000",
+        ELAB_MAX_UPLOADS="1",
+        ELAB_IDENT_TIMEOUT="3",
+        ELAB_IDENT_WAIT="1",
+    ).start()
     yield srv
     srv.stop()
 
 
-@pytest.mark.parametrize(("body", "field", "names"), [
-    ({"plant": "flexible_link", "Ts": 1e-5}, "Ts", "ELAB_TS_RATIO"),
-    ({"plant": "flexible_link", "duration": 200}, "duration", "ELAB_MAX_RUN_SAMPLES"),
-    ({"plant": "double_pendulum", "duration": 90, "Ts": 0.001}, "duration",
-     "ELAB_MAX_RECORDING"),
-    ({"plant": "flexible_link", "duration": 4000}, "duration", "ELAB_MAX_DURATION"),
-])
+@pytest.mark.parametrize(
+    ("body", "field", "names"),
+    [
+        ({"plant": "flexible_link", "Ts": 1e-5}, "Ts", "ELAB_TS_RATIO"),
+        ({"plant": "flexible_link", "duration": 200}, "duration", "ELAB_MAX_RUN_SAMPLES"),
+        (
+            {"plant": "double_pendulum", "duration": 90, "Ts": 0.001},
+            "duration",
+            "ELAB_MAX_RECORDING",
+        ),
+        ({"plant": "flexible_link", "duration": 4000}, "duration", "ELAB_MAX_DURATION"),
+    ],
+)
 def test_a_run_over_a_size_limit_is_422_naming_field_and_setting(
-        limited: Server, body: dict[str, object], field: str, names: str) -> None:
+    limited: Server, body: dict[str, object], field: str, names: str
+) -> None:
     with limited.client() as c:
         r = c.post("/runs", json=body)
     assert r.status_code == 422 and r.json()["error"]["field"] == field, r.text
@@ -58,8 +78,10 @@ def test_a_run_over_a_size_limit_is_422_naming_field_and_setting(
 
 def test_live_runs_per_client_are_limited_with_retry_after(limited: Server) -> None:
     with limited.client() as c:
-        ids = [c.post("/runs", json={"plant": "belt_conveyor", "duration": 60}).json()["id"]
-               for _ in range(2)]
+        ids = [
+            c.post("/runs", json={"plant": "belt_conveyor", "duration": 60}).json()["id"]
+            for _ in range(2)
+        ]
         r = c.post("/runs", json={"plant": "belt_conveyor"})
         assert r.status_code == 429 and "ELAB_MAX_LIVE_PER_CLIENT" in r.json()["error"]["message"]
         assert int(r.headers["retry-after"]) > 0
@@ -80,13 +102,18 @@ def test_a_second_upload_while_one_is_received_is_429(limited: Server) -> None:
         yield rest + tail
 
     first: dict[str, httpx.Response] = {}
-    sender = threading.Thread(target=lambda: first.update(r=httpx.post(
-        limited.url + "/api/v1/ident", content=slow_body(), timeout=60)))
+    sender = threading.Thread(
+        target=lambda: first.update(
+            r=httpx.post(limited.url + "/api/v1/ident", content=slow_body(), timeout=60)
+        )
+    )
     sender.start()
     try:
+
         def refused() -> httpx.Response | None:
             r = httpx.post(limited.url + "/api/v1/ident", json=ident_body("u,y\n1,2\n", []))
             return r if r.status_code == 429 else None
+
         r = until(refused, 20)
         assert "ELAB_MAX_UPLOADS" in r.json()["error"]["message"]
     finally:
@@ -96,9 +123,11 @@ def test_a_second_upload_while_one_is_received_is_429(limited: Server) -> None:
 
 
 def test_an_identification_over_the_time_limit_is_422_and_the_next_one_works(
-        limited: Server) -> None:
-    r = httpx.post(limited.url + "/api/v1/ident", json=ident_body(heavy_file(), HEAVY_MODELS),
-                   timeout=60)
+    limited: Server,
+) -> None:
+    r = httpx.post(
+        limited.url + "/api/v1/ident", json=ident_body(heavy_file(), HEAVY_MODELS), timeout=60
+    )
     assert r.status_code == 422 and "ELAB_IDENT_TIMEOUT = 3 s" in r.json()["error"]["message"]
     until(lambda: limited.status()["ident"]["busy"] == 0, 10)
     small = ident_body(heavy_file(2000), [{"kind": "arx", "na": 2, "nb": 2, "nk": 1}])
@@ -112,8 +141,12 @@ def test_an_identification_whose_client_leaves_stops(tmp_path: Path) -> None:
         body = ident_body(heavy_file(), HEAVY_MODELS)
         for accept in ("application/json", "application/x-ndjson"):
             with pytest.raises(httpx.ReadTimeout):
-                httpx.post(srv.url + "/api/v1/ident", json=body, timeout=httpx.Timeout(
-                    60, read=2), headers={"accept": accept})
+                httpx.post(
+                    srv.url + "/api/v1/ident",
+                    json=body,
+                    timeout=httpx.Timeout(60, read=2),
+                    headers={"accept": accept},
+                )
             t = time.monotonic()
             until(lambda: srv.status()["ident"]["busy"] == 0, 10)  # long before ~20 s of work
             assert time.monotonic() - t < 10

@@ -51,27 +51,35 @@ def read_csv(text: str) -> tuple[list[str], np.ndarray]:
 def downloads(c: httpx.Client, run_id: str) -> dict[str, Any]:
     csv = c.get(f"/runs/{run_id}/data", params={"format": "csv"})
     js = c.get(f"/runs/{run_id}/data", params={"format": "json"}).json()
-    mat = scipy.io.loadmat(io.BytesIO(c.get(f"/runs/{run_id}/data",
-                                            params={"format": "mat"}).content))
-    return {"csv_text": csv.text, "csv": read_csv(csv.text)[1],
-            "json": np.column_stack([js["data"][n] for n in NAMES]),
-            "mat": np.column_stack([mat[n].ravel() for n in NAMES])}
+    mat = scipy.io.loadmat(
+        io.BytesIO(c.get(f"/runs/{run_id}/data", params={"format": "mat"}).content)
+    )
+    return {
+        "csv_text": csv.text,
+        "csv": read_csv(csv.text)[1],
+        "json": np.column_stack([js["data"][n] for n in NAMES]),
+        "mat": np.column_stack([mat[n].ravel() for n in NAMES]),
+    }
 
 
 def test_watchers_gain_change_downloads_and_restart(tmp_path: Path) -> None:
     srv = Server(tmp_path / "data").start()
     try:
         with srv.client() as c:
-            run = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
-                                        "duration": 4.0}).json()
+            run = c.post(
+                "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 4.0}
+            ).json()
             rid = run["id"]
 
             async def scenario() -> tuple[list[Watcher], dict[str, Any]]:
                 ws = [await Watcher.open(srv.ws_url, rid, "?from_seq=0") for _ in range(3)]
                 tasks = [asyncio.create_task(w.until_status({"finished"})) for w in ws]
                 await asyncio.sleep(1.5)
-                r = await asyncio.to_thread(c.post, f"/runs/{rid}/params", json={
-                    "controller": {"kind": "state_feedback", "K": NEW_K}})
+                r = await asyncio.to_thread(
+                    c.post,
+                    f"/runs/{rid}/params",
+                    json={"controller": {"kind": "state_feedback", "K": NEW_K}},
+                )
                 await asyncio.gather(*tasks)
                 for w in ws:
                     await w.conn.close()
@@ -114,8 +122,9 @@ def test_kill_9_mid_run_leaves_an_interrupted_run_with_its_data(tmp_path: Path) 
     srv = Server(tmp_path / "data").start()
     try:
         with srv.client() as c:
-            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
-                                        "duration": 60.0}).json()["id"]
+            rid = c.post(
+                "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 60.0}
+            ).json()["id"]
             time.sleep(2.5)
         srv.kill9()
         srv.start()
@@ -144,13 +153,16 @@ def test_a_stalled_watcher_delays_nobody_and_gets_every_sample_back(tmp_path: Pa
     srv = Server(tmp_path / "data", ELAB_WATCHER_FRAMES="20").start()
     try:
         with srv.client() as c:
-            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
-                                        "duration": 14.0, "x0": None}).json()["id"]
+            rid = c.post(
+                "/runs",
+                json={"plant": "flexible_link", "signal": SQUARE, "duration": 14.0, "x0": None},
+            ).json()["id"]
 
             async def scenario() -> tuple[Watcher, Watcher, float, list[dict[str, Any]]]:
                 fast = await Watcher.open(srv.ws_url, rid, "?from_seq=0")
-                slow = await Watcher.open(srv.ws_url, rid, "?from_seq=0", max_queue=2,
-                                          sock=_small_buffer_socket(srv.port))
+                slow = await Watcher.open(
+                    srv.ws_url, rid, "?from_seq=0", max_queue=2, sock=_small_buffer_socket(srv.port)
+                )
                 done = asyncio.create_task(fast.until_status({"finished"}))
                 await slow.next()
                 t_stall = time.monotonic()
@@ -160,8 +172,9 @@ def test_a_stalled_watcher_delays_nobody_and_gets_every_sample_back(tmp_path: Pa
                     msg = await slow.next()
                     if msg["type"] == "skipped":
                         notices.append(msg)
-                        await slow.conn.send(json.dumps({"type": "resume_from",
-                                                         "seq": msg["from_seq"]}))
+                        await slow.conn.send(
+                            json.dumps({"type": "resume_from", "seq": msg["from_seq"]})
+                        )
                     if msg["type"] == "status" and msg["state"] == "finished":
                         break
                 await done
@@ -186,7 +199,8 @@ def test_a_stalled_watcher_delays_nobody_and_gets_every_sample_back(tmp_path: Pa
 
 
 def test_the_server_status_shows_live_runs_watchers_and_the_stepper_keeping_time(
-        server: Server) -> None:
+    server: Server,
+) -> None:
     with server.client() as c:
         run = c.post("/runs", json={"plant": "flexible_link", "duration": 30}).json()
         with connect(server.ws_url + run["stream_url"], subprotocols=["elab.v1"]) as ws:

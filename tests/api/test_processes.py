@@ -29,8 +29,7 @@ SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
 
 
 def offline(duration: float) -> np.ndarray:
-    res = simulate(RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 2.0),
-                           duration=duration))
+    res = simulate(RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 2.0), duration=duration))
     return np.column_stack([res.r, res.u, res.y, res.x])
 
 
@@ -60,8 +59,9 @@ def test_the_web_process_stopped_for_2_s_mid_run_loses_no_sample(tmp_path: Path)
     srv = Server(tmp_path / "data").start()
     try:
         with srv.client() as c:
-            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
-                                        "duration": 6.0}).json()["id"]
+            rid = c.post(
+                "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 6.0}
+            ).json()["id"]
 
             async def scenario() -> Watcher:
                 w = await Watcher.open(srv.ws_url, rid, "?from_seq=0")
@@ -87,12 +87,14 @@ def test_the_web_process_stopped_for_2_s_mid_run_loses_no_sample(tmp_path: Path)
 
 
 def test_a_killed_engine_interrupts_its_runs_with_their_data_and_starts_again(
-        tmp_path: Path) -> None:
+    tmp_path: Path,
+) -> None:
     srv = Server(tmp_path / "data").start()
     try:
         with srv.client() as c:
-            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
-                                        "duration": 60.0}).json()["id"]
+            rid = c.post(
+                "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 60.0}
+            ).json()["id"]
             pid = srv.engine_pid
 
             async def scenario() -> dict[str, Any]:
@@ -106,30 +108,38 @@ def test_a_killed_engine_interrupts_its_runs_with_their_data_and_starts_again(
 
             end = asyncio.run(scenario())
             assert "SIGKILL" in end["error"]
-            info = until(lambda: (i := c.get(f"/runs/{rid}").json())["n_samples"] == len(
-                downloads(c, rid)["csv"]) and i)
+            info = until(
+                lambda: (
+                    (i := c.get(f"/runs/{rid}").json())["n_samples"]
+                    == len(downloads(c, rid)["csv"])
+                    and i
+                )
+            )
             assert info["status"] == "interrupted" and "killed by SIGKILL" in info["error"]
             got = downloads(c, rid)["csv"]
             assert 500 <= got.shape[0] < 60_000  # what was committed (every 0.25 s)
-            np.testing.assert_array_equal(got, offline(60.0)[:got.shape[0]])
+            np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
             # a new engine takes over and new runs work
             until(lambda: c.get("/health").status_code == 200)
             st = srv.status()["engine"]
             assert st["restarts"] == 1 and st["pid"] != pid and st["up"]
-            again = c.post("/runs", json={"plant": "belt_conveyor", "duration": 0.5,
-                                          "pace": "fast"}).json()["id"]
+            again = c.post(
+                "/runs", json={"plant": "belt_conveyor", "duration": 0.5, "pace": "fast"}
+            ).json()["id"]
             until(lambda: c.get(f"/runs/{again}").json()["status"] == "finished")
     finally:
         srv.stop()
 
 
 def test_a_stopped_engine_is_reported_and_its_runs_complete_after_it_goes_on(
-        tmp_path: Path) -> None:
+    tmp_path: Path,
+) -> None:
     srv = Server(tmp_path / "data").start()
     try:
         with srv.client() as c:
-            rid = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
-                                        "duration": 4.0}).json()["id"]
+            rid = c.post(
+                "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 4.0}
+            ).json()["id"]
             pid = srv.engine_pid
             until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] > 500)
             os.kill(pid, signal.SIGSTOP)
@@ -159,8 +169,9 @@ def long_run(server: Server) -> str:
         return str(r.json()["id"])
 
 
-def test_of_five_simultaneous_stops_one_succeeds_and_four_get_409(server: Server,
-                                                                   long_run: str) -> None:
+def test_of_five_simultaneous_stops_one_succeeds_and_four_get_409(
+    server: Server, long_run: str
+) -> None:
     url = f"{server.url}/api/v1/runs/{long_run}/stop"
     with ThreadPoolExecutor(5) as ex:
         replies = list(ex.map(lambda _: httpx.post(url, timeout=30), range(5)))
@@ -172,18 +183,20 @@ def test_of_five_simultaneous_stops_one_succeeds_and_four_get_409(server: Server
         for action in ("pause", "resume", "stop"):
             r = c.post(f"/runs/{long_run}/{action}")
             assert r.status_code == 409 and "has ended" in r.json()["error"]["message"]
-        r = c.post(f"/runs/{long_run}/params", json={"signal": {"kind": "step",
-                                                                "amplitude": 0.1}})
+        r = c.post(f"/runs/{long_run}/params", json={"signal": {"kind": "step", "amplitude": 0.1}})
         assert r.status_code == 409
 
 
 def test_commands_racing_over_rest_and_the_websocket_keep_the_connection(
-        server: Server, long_run: str) -> None:
+    server: Server, long_run: str
+) -> None:
     async def scenario() -> list[dict[str, Any]]:
         w = await Watcher.open(server.ws_url, long_run)
         async with httpx.AsyncClient(base_url=server.url + "/api/v1") as c:
-            sends = [w.conn.send(json.dumps({"type": t}))
-                     for t in ("pause", "stop", "resume", "stop", "pause")]
+            sends = [
+                w.conn.send(json.dumps({"type": t}))
+                for t in ("pause", "stop", "resume", "stop", "pause")
+            ]
             rest = [c.post(f"/runs/{long_run}/{a}") for a in ("stop", "pause", "stop")]
             results = await asyncio.gather(*sends, *rest)
         codes = [r.status_code for r in results[5:]]

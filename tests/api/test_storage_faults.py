@@ -25,15 +25,13 @@ SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
 
 
 def offline(duration: float) -> np.ndarray:
-    res = simulate(RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 2.0),
-                           duration=duration))
+    res = simulate(RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 2.0), duration=duration))
     return np.column_stack([res.r, res.u, res.y, res.x])
 
 
 def start_run(srv: Server, duration: float) -> str:
     with srv.client() as c:
-        r = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE,
-                                  "duration": duration})
+        r = c.post("/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": duration})
         assert r.status_code == 201, r.text
         rid = str(r.json()["id"])
         until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] > 600)
@@ -47,7 +45,7 @@ def assert_failed_with_its_data_and_refusing(srv: Server, rid: str, reason: str)
         assert "storage failed" in info["error"] and reason in info["error"], info["error"]
         got = downloads(c, rid)["csv"]
         assert got.shape[0] == info["n_samples"] > 0
-        np.testing.assert_array_equal(got, offline(60.0)[:got.shape[0]])
+        np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
         st = srv.status()
         assert st["live_runs"] == 0 and not st["store"]["ok"] and not st["store"]["transient"]
         health = c.get("/health")
@@ -66,14 +64,16 @@ def assert_recovered(srv: Server) -> None:
         assert info["n_samples"] == 1000 and downloads(c, rid)["csv"].shape[0] == 1000
 
 
-def test_a_store_locked_by_another_process_is_retried_and_loses_nothing(
-        tmp_path: Path) -> None:
+def test_a_store_locked_by_another_process_is_retried_and_loses_nothing(tmp_path: Path) -> None:
     srv = Server(tmp_path / "data").start()
     try:
         rid = start_run(srv, 12.0)
-        with subprocess.Popen([sys.executable, "-c", LOCKER, str(srv.data / "elab.sqlite3")],
-                              text=True, stdin=subprocess.PIPE,
-                              stdout=subprocess.PIPE) as locker:
+        with subprocess.Popen(
+            [sys.executable, "-c", LOCKER, str(srv.data / "elab.sqlite3")],
+            text=True,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+        ) as locker:
             assert locker.stdout is not None and locker.stdin is not None
             assert locker.stdout.readline().strip() == "locked"
             # past the 5 s busy timeout: the engine retries and says so
@@ -99,8 +99,12 @@ def small_fs(tmp_path: Path) -> Iterator[Path]:
     """A 24 MiB tmpfs (a file system that can fill up), unmounted afterwards."""
     mnt = tmp_path / "mnt"
     mnt.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=24m", "tmpfs", str(mnt)],
-                       capture_output=True, text=True, check=False)
+    r = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=24m", "tmpfs", str(mnt)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     if r.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here (needs CAP_SYS_ADMIN): {r.stderr.strip()}")
     try:
@@ -109,8 +113,7 @@ def small_fs(tmp_path: Path) -> Iterator[Path]:
         subprocess.run(["umount", "-l", str(mnt)], check=False)
 
 
-def test_a_full_file_system_fails_the_runs_keeps_their_data_and_recovers(
-        small_fs: Path) -> None:
+def test_a_full_file_system_fails_the_runs_keeps_their_data_and_recovers(small_fs: Path) -> None:
     srv = Server(small_fs / "data").start()
     try:
         rid = start_run(srv, 60.0)
@@ -130,7 +133,8 @@ def test_a_full_file_system_fails_the_runs_keeps_their_data_and_recovers(
 
 
 def test_a_store_made_immutable_fails_the_runs_keeps_their_data_and_recovers(
-        tmp_path: Path) -> None:
+    tmp_path: Path,
+) -> None:
     srv = Server(tmp_path / "data").start()
     files = [srv.data / "elab.sqlite3", srv.data / "elab.sqlite3-wal"]
     try:

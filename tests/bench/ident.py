@@ -56,10 +56,13 @@ end
 def _data(rng: np.random.Generator, N: int) -> tuple[np.ndarray, np.ndarray]:
     """A 4th-order system with coloured output noise, excited by white noise."""
     u = rng.standard_normal(N)
-    b, a = [0, 0, 0.4, 0.3, -0.1], np.real(np.poly([0.9 * np.exp(0.4j), 0.9 * np.exp(-0.4j),
-                                                      0.7, -0.3]))
-    y = scipy.signal.lfilter(b, a, u) + scipy.signal.lfilter([1, 0.5], [1, -0.8],
-                                                             0.1 * rng.standard_normal(N))
+    b, a = (
+        [0, 0, 0.4, 0.3, -0.1],
+        np.real(np.poly([0.9 * np.exp(0.4j), 0.9 * np.exp(-0.4j), 0.7, -0.3])),
+    )
+    y = scipy.signal.lfilter(b, a, u) + scipy.signal.lfilter(
+        [1, 0.5], [1, -0.8], 0.1 * rng.standard_normal(N)
+    )
     return u, y
 
 
@@ -85,8 +88,10 @@ def bench_ident() -> str:
     def every_arx() -> None:
         for na, nb, nk in S:
             m = arx(ze, int(na), int(nb), int(nk))
-            models[(int(na), int(nb), int(nk))] = np.r_[m.parameters["A"][1:],
-                                                        m.parameters["B"][int(nk):]]
+            models[(int(na), int(nb), int(nk))] = np.r_[
+                m.parameters["A"][1:], m.parameters["B"][int(nk) :]
+            ]
+
     arx_s = _best(every_arx, 1)
     us, ys = _data(rng, 10_000)
     zs = iddata(ys, us, 1.0)
@@ -94,6 +99,7 @@ def bench_ident() -> str:
     def subspace(stable: bool = True) -> list[np.ndarray]:
         sub = decompose(zs, HORIZON)
         return [n4sid(zs, n, sub=sub, stable=stable).poles for n in range(1, 16)]
+
     sub_s = _best(subspace, 5)
     ours_poles = subspace(stable=False)  # as Octave, which warns but keeps unstable A
     stabilised = sum(bool(np.any(np.abs(p) > 1)) for p in ours_poles)
@@ -104,10 +110,13 @@ def bench_ident() -> str:
         arx_file, ss_file, script = (Path(tmp) / n for n in ("arx.txt", "ss.txt", "b.m"))
         np.savetxt(arx_file, np.c_[u[:N], y[:N]], fmt="%.17g")
         np.savetxt(ss_file, np.c_[us, ys], fmt="%.17g")
-        script.write_text(SCRIPT.format(arx_file=arx_file, ss_file=ss_file, N=N,
-                                        horizon=HORIZON))
-        done = subprocess.run([octave, "--no-gui", "--quiet", "--no-window-system", str(script)],
-                              capture_output=True, text=True, timeout=3600)
+        script.write_text(SCRIPT.format(arx_file=arx_file, ss_file=ss_file, N=N, horizon=HORIZON))
+        done = subprocess.run(
+            [octave, "--no-gui", "--quiet", "--no-window-system", str(script)],
+            capture_output=True,
+            text=True,
+            timeout=3600,
+        )
     out: dict[str, list[str]] = {}
     thetas: dict[tuple[int, int, int], np.ndarray] = {}
     poles: dict[int, np.ndarray] = {}
@@ -123,14 +132,18 @@ def bench_ident() -> str:
     if len(thetas) != 1000 or len(poles) != 15:
         raise RuntimeError(f"Octave did not finish: {done.stderr[-2000:]}")
     oct_arx, oct_sub = float(out["arx_seconds"][0]), float(out["n4sid_seconds"][0])
-    diffs = {k: float(np.max(np.abs(models[k] - thetas[k]) / np.maximum(1, np.abs(thetas[k]))))
-             for k in thetas}
+    diffs = {
+        k: float(np.max(np.abs(models[k] - thetas[k]) / np.maximum(1, np.abs(thetas[k]))))
+        for k in thetas
+    }
     worst = max(diffs, key=lambda k: diffs[k])
     off = sorted(k for k, v in diffs.items() if v > 1e-9)
     oct_sv = np.array(out["sv"], float)
     dsv = float(np.max(np.abs(ours_sv - oct_sv) / oct_sv))
-    dpole = max(float(np.max(np.abs(np.sort_complex(ours_poles[n - 1]) - np.sort_complex(p))))
-                for n, p in poles.items())
+    dpole = max(
+        float(np.max(np.abs(np.sort_complex(ours_poles[n - 1]) - np.sort_complex(p))))
+        for n, p in poles.items()
+    )
     return f"""### Identification against GNU Octave's control package (issue 5)
 
 The same data for both, written once to a text file for Octave (reading it is not timed):
@@ -159,7 +172,10 @@ def _octave_version(octave: str) -> str:
 
 
 def _control_version(octave: str) -> str:
-    done = subprocess.run([octave, "--no-gui", "--quiet", "--eval",
-                           "p = pkg('list', 'control'); disp(p{1}.version)"],
-                          capture_output=True, text=True, timeout=60)
+    done = subprocess.run(
+        [octave, "--no-gui", "--quiet", "--eval", "p = pkg('list', 'control'); disp(p{1}.version)"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     return done.stdout.strip() or "?"

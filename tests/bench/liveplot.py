@@ -25,17 +25,26 @@ sys.path.insert(0, str(ROOT))
 from tests.api.server import Server  # noqa: E402
 
 CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 APP = ROOT / "backend" / "elab" / "api" / "static" / "index.html"
 WINDOW_SAMPLES = 10_000  # the 10 s window at Ts = 1 ms
 SECONDS = 10  # measured, in 1 s buckets
 DURATION = 30.0  # of each run (s): the window fills, then the measurement, with margin
 
 # record the time of every draw of the live plot (page clock, ms)
-LISTEN = ("(div) => { window.benchDraws = [];"
-          " div.addEventListener('elab:draw', () => window.benchDraws.push(performance.now()));"
-          " return performance.now(); }")
+LISTEN = (
+    "(div) => { window.benchDraws = [];"
+    " div.addEventListener('elab:draw', () => window.benchDraws.push(performance.now()));"
+    " return performance.now(); }"
+)
 POINTS = "(div) => div.data.reduce((n, trace) => n + trace.x.length, 0)"
 
 
@@ -56,9 +65,12 @@ def _measure(page: Page, base_url: str, decimate: bool) -> PlotFigures:
     page.evaluate(f"window.elab.plotSettings.decimate = {str(decimate).lower()}")
     page.locator("#f-duration").fill(str(DURATION))
     page.get_by_role("button", name="Start").click()
-    page.wait_for_function("(n) => Number(document.querySelector('.run-panel .progress')"
-                           "?.dataset.samples) >= n", arg=WINDOW_SAMPLES, polling=250,
-                           timeout=60_000)
+    page.wait_for_function(
+        "(n) => Number(document.querySelector('.run-panel .progress')?.dataset.samples) >= n",
+        arg=WINDOW_SAMPLES,
+        polling=250,
+        timeout=60_000,
+    )
     plot = page.locator(".run-panel [data-testid=live-plot]")
     cdp = page.context.new_cdp_session(page)
     cdp.send("Performance.enable")
@@ -71,8 +83,9 @@ def _measure(page: Page, base_url: str, decimate: bool) -> PlotFigures:
     for t in draws:
         if (i := int((t - t0) / 1000)) < SECONDS:
             buckets[i] += 1
-    return PlotFigures(statistics.median(buckets), (task1 - task0) / (wall1 - wall0),
-                       plot.evaluate(POINTS))
+    return PlotFigures(
+        statistics.median(buckets), (task1 - task0) / (wall1 - wall0), plot.evaluate(POINTS)
+    )
 
 
 def _run(browser: Browser, base_url: str, decimate: bool) -> PlotFigures:

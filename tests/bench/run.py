@@ -55,8 +55,13 @@ def bench_whole_run() -> dict[str, float]:
     T = np.arange(n) * run.Ts
     r = SPEC.reference.sample(0, n, run.Ts)
     t_fr = best_of(lambda: ct.forced_response(loop, T=T, U=r), 5)
-    return {"n": n, "sim_ns": t_sim / n * 1e9, "step_ns": (t_sim - t_compile) / n * 1e9,
-            "fr_ns": t_fr / n * 1e9, "x_realtime": n * run.Ts / t_sim}
+    return {
+        "n": n,
+        "sim_ns": t_sim / n * 1e9,
+        "step_ns": (t_sim - t_compile) / n * 1e9,
+        "fr_ns": t_fr / n * 1e9,
+        "x_realtime": n * run.Ts / t_sim,
+    }
 
 
 def _cpu() -> float:
@@ -65,8 +70,14 @@ def _cpu() -> float:
 
 
 def bench_concurrent(runs: int = 300, chunk: int = 20, seconds: float = 20.0) -> dict[str, float]:
-    spec = RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 4.0), duration=3600.0,
-                   noise_seed=1, quantize=True)
+    spec = RunSpec(
+        FLEX,
+        FLEX.predefined,
+        Square(math.radians(30), 4.0),
+        duration=3600.0,
+        noise_seed=1,
+        quantize=True,
+    )
     batch = Batch(capacity=runs, block=1000)
     for _ in range(runs):
         batch.add(compile_run(spec))
@@ -101,43 +112,50 @@ def engine_section() -> str:
 
 | measure | value | goal |
 |---|---|---|
-| `simulate()` per step, everything included (validation, ZOH, Tustin, signals) | {w['sim_ns']:.0f} ns | ≤ 200 ns |
-| stepping loop per step (the same minus `compile_run`) | {w['step_ns']:.0f} ns | |
-| faster than real time | {w['x_realtime']:,.0f}× | ≥ 5,000× |
-| peer: python-control `forced_response`, same discrete loop without saturation | {w['fr_ns']:.0f} ns per step | |
-| **ratio `forced_response` / `simulate()`** | **{w['fr_ns'] / w['sim_ns']:.0f}×** | |
+| `simulate()` per step, everything included (validation, ZOH, Tustin, signals) | {w["sim_ns"]:.0f} ns | ≤ 200 ns |
+| stepping loop per step (the same minus `compile_run`) | {w["step_ns"]:.0f} ns | |
+| faster than real time | {w["x_realtime"]:,.0f}× | ≥ 5,000× |
+| peer: python-control `forced_response`, same discrete loop without saturation | {w["fr_ns"]:.0f} ns per step | |
+| **ratio `forced_response` / `simulate()`** | **{w["fr_ns"] / w["sim_ns"]:.0f}×** | |
 
-### Chunked stepping: {c['runs']:.0f} concurrent flexible-link runs in {c['chunk'] * FLEX.Ts * 1e3:.0f} ms chunks
+### Chunked stepping: {c["runs"]:.0f} concurrent flexible-link runs in {c["chunk"] * FLEX.Ts * 1e3:.0f} ms chunks
 
 Each run: predefined LQR with velocity filters, quantised encoders, seeded sensor noise,
 ±10 V saturation. CPU time (user + system) per second of simulated (real) time:
 
 | stepping | share of one core | goal |
 |---|---|---|
-| one `Batch.advance` call per chunk for all runs, then a view of each run's outputs (the engine's way) | {c['batched_core'] * 100:.2f} % | ≤ 5 % |
-| peer: one `Simulation.advance` call per run per chunk | {c['per_run_core'] * 100:.1f} % | |
-| **ratio per-run / batched** | **{c['per_run_core'] / c['batched_core']:.0f}×** | |
+| one `Batch.advance` call per chunk for all runs, then a view of each run's outputs (the engine's way) | {c["batched_core"] * 100:.2f} % | ≤ 5 % |
+| peer: one `Simulation.advance` call per run per chunk | {c["per_run_core"] * 100:.1f} % | |
+| **ratio per-run / batched** | **{c["per_run_core"] / c["batched_core"]:.0f}×** | |
 """
 
 
 def server_section() -> str:
     from tests.bench.server import server_section as section
+
     return section()
 
 
 def live_plot_section() -> str:
     from tests.bench.liveplot import bench_live_plot
+
     return "## Browser app (issue 4)\n\n" + bench_live_plot()
 
 
 def ident_section() -> str:
     from tests.bench.ident import bench_ident
+
     return "## Identification (issue 5)\n\n" + bench_ident()
 
 
 #: name → function returning the section's markdown, in document order
-SECTIONS: dict[str, Callable[[], str]] = {"engine": engine_section, "server": server_section,
-                                           "liveplot": live_plot_section, "ident": ident_section}
+SECTIONS: dict[str, Callable[[], str]] = {
+    "engine": engine_section,
+    "server": server_section,
+    "liveplot": live_plot_section,
+    "ident": ident_section,
+}
 OUT = ROOT / "docs" / "benchmarks.md"
 
 
@@ -167,17 +185,24 @@ def _notes(block: str) -> str:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--only", action="append", choices=list(SECTIONS),
-                        help="run only this section (repeatable); the others keep their figures")
+    parser.add_argument(
+        "--only",
+        action="append",
+        choices=list(SECTIONS),
+        help="run only this section (repeatable); the others keep their figures",
+    )
     args = parser.parse_args(argv)
     blocks = _blocks(OUT.read_text(encoding="utf-8")) if OUT.exists() else {}
     for name in args.only or list(SECTIONS):
         print(f"running {name} ...", flush=True)
         when = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
-        blocks[name] = SECTIONS[name]().rstrip() + f"\n\n_Measured {when}, load average " \
+        blocks[name] = (
+            SECTIONS[name]().rstrip() + f"\n\n_Measured {when}, load average "
             f"{os.getloadavg()[0]:.1f} at the end._\n\n" + _notes(blocks.get(name, ""))
-    body = "".join(f"<!-- bench:{n} -->\n{blocks[n]}<!-- /bench:{n} -->\n"
-                   for n in SECTIONS if n in blocks)
+        )
+    body = "".join(
+        f"<!-- bench:{n} -->\n{blocks[n]}<!-- /bench:{n} -->\n" for n in SECTIONS if n in blocks
+    )
     OUT.write_text(header() + "\n" + body, encoding="utf-8")
     print(OUT.read_text(encoding="utf-8"))
 

@@ -92,7 +92,11 @@ class Clients:
         self.out = out
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "tests.bench.wsload", "client", "--out", str(out)],
-            cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+            cwd=ROOT,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
         assert self.proc.stdin is not None
         self.proc.stdin.write("\n".join(urls) + "\n")
         self.proc.stdin.close()
@@ -110,8 +114,13 @@ class Clients:
             return dict(npz)
 
 
-def watch(server_pid: int, urls: list[str], seconds: float, tmp: Path,
-          end: Callable[[], object] = lambda: None) -> tuple[Window, dict[str, np.ndarray]]:
+def watch(
+    server_pid: int,
+    urls: list[str],
+    seconds: float,
+    tmp: Path,
+    end: Callable[[], object] = lambda: None,
+) -> tuple[Window, dict[str, np.ndarray]]:
     """Run the client process on ``urls``, measure a window, ``end()`` the runs; the window
     and what the watchers saw."""
     clients = Clients(urls, tmp / "frames.npz")
@@ -136,8 +145,13 @@ def http(server: Server) -> httpx.Client:
 
 
 def start_runs(server: Server, n: int) -> list[dict[str, Any]]:
-    body = {"plant": FLEX.id, "pace": "realtime", "Ts": FLEX.Ts, "duration": RUN_SECONDS,
-            "controller": {"kind": "predefined"}}
+    body = {
+        "plant": FLEX.id,
+        "pace": "realtime",
+        "Ts": FLEX.Ts,
+        "duration": RUN_SECONDS,
+        "controller": {"kind": "predefined"},
+    }
     with http(server) as c:
         return [c.post("/runs", json=body).raise_for_status().json() for _ in range(n)]
 
@@ -157,8 +171,13 @@ def check_recordings(server: Server, runs: list[dict[str, Any]]) -> dict[str, in
     with http(server) as c:
         for run in runs:
             info = c.get(f"/runs/{run['id']}").raise_for_status().json()
-            mat = scipy.io.loadmat(io.BytesIO(c.get(f"/runs/{run['id']}/data", params={
-                "format": "mat"}).raise_for_status().content))
+            mat = scipy.io.loadmat(
+                io.BytesIO(
+                    c.get(f"/runs/{run['id']}/data", params={"format": "mat"})
+                    .raise_for_status()
+                    .content
+                )
+            )
             got = np.column_stack([mat[name].ravel() for name in NAMES])
             if want is None or want.shape[0] < got.shape[0]:
                 res = sim.advance(got.shape[0] - (0 if want is None else want.shape[0]))
@@ -166,7 +185,7 @@ def check_recordings(server: Server, runs: list[dict[str, Any]]) -> dict[str, in
                 want = part if want is None else np.concatenate([want, part])
             out["recorded"] += got.shape[0]
             out["missing"] += info["n_samples"] - got.shape[0]
-            out["differing"] += int(np.any(got != want[:got.shape[0]], axis=1).sum())
+            out["differing"] += int(np.any(got != want[: got.shape[0]], axis=1).sum())
             out["not_stopped"] += info["status"] != "stopped"
     return out
 
@@ -207,13 +226,20 @@ def summarise(window: Window, frames: dict[str, np.ndarray]) -> dict[str, float]
     d = np.abs(drift(frames, window))
     msgs = lat.size
     return {
-        "window": window.seconds, "server_core": window.cpu["server"] / window.seconds,
-        "client_core": window.cpu["client"] / window.seconds, "msg_rate": msgs / window.seconds,
+        "window": window.seconds,
+        "server_core": window.cpu["server"] / window.seconds,
+        "client_core": window.cpu["client"] / window.seconds,
+        "msg_rate": msgs / window.seconds,
         "us_per_msg": window.cpu["server"] / msgs * 1e6,
-        "p50": np.percentile(lat, 50) * 1e3, "p99": np.percentile(lat, 99) * 1e3,
-        "max": lat.max() * 1e3, "drift_median": float(np.median(d)), "drift_max": float(d.max()),
-        "watchers": frames["missing"].size, "watch_missing": int(frames["missing"].sum()),
-        "overlap": int(frames["overlap"].sum()), "skipped": int(frames["skipped"].sum()),
+        "p50": np.percentile(lat, 50) * 1e3,
+        "p99": np.percentile(lat, 99) * 1e3,
+        "max": lat.max() * 1e3,
+        "drift_median": float(np.median(d)),
+        "drift_max": float(d.max()),
+        "watchers": frames["missing"].size,
+        "watch_missing": int(frames["missing"].sum()),
+        "overlap": int(frames["overlap"].sum()),
+        "skipped": int(frames["skipped"].sum()),
         "errors": int(frames["errors"].sum()),
         "short": int(((frames["next_k"] != frames["end_k"]) | (frames["errors"] > 0)).sum()),
     }
@@ -227,8 +253,11 @@ def bench_elab(runs: int, watchers: int, seconds: float) -> dict[str, float]:
         assert server.proc is not None
         try:
             started = start_runs(server, runs)
-            urls = [f"{server.ws_url}{r['stream_url']}?from_seq=0" for r in started
-                    for _ in range(watchers)]
+            urls = [
+                f"{server.ws_url}{r['stream_url']}?from_seq=0"
+                for r in started
+                for _ in range(watchers)
+            ]
             status: dict[str, Any] = {}
 
             def end() -> None:  # the stepper's last minute (the window), then stop
@@ -243,25 +272,44 @@ def bench_elab(runs: int, watchers: int, seconds: float) -> dict[str, float]:
     # the runs' clocks against wall time: the stepper's lateness trend (against the
     # monotonic clock the runs are paced by) plus how the wall clock moved against it
     slew = window.slew * 1e3 / (window.seconds / 60)  # ms per minute
-    return {**summarise(window, frames), **{f"rec_{k}": v for k, v in rec.items()},
-            "late_p99": status["late_p99_ms"], "late_max": status["late_max_ms"],
-            "stepper_drift": status["drift_ms_per_min"], "slew": slew,
-            "clock_drift": status["drift_ms_per_min"] + slew}
+    return {
+        **summarise(window, frames),
+        **{f"rec_{k}": v for k, v in rec.items()},
+        "late_p99": status["late_p99_ms"],
+        "late_max": status["late_max_ms"],
+        "stepper_drift": status["drift_ms_per_min"],
+        "slew": slew,
+        "clock_drift": status["drift_ms_per_min"] + slew,
+    }
 
 
 def bench_peer(clients: int, seconds: float) -> dict[str, float]:
     """The plain ``websockets`` ``broadcast()`` server, same frames and client process."""
     port = free_port()
-    peer = subprocess.Popen([sys.executable, "-m", "tests.bench.wsload", "peer", "--port",
-                             str(port), "--clients", str(clients), "--duration",
-                             str(seconds + SETTLE + 2.0)],
-                            cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    peer = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "tests.bench.wsload",
+            "peer",
+            "--port",
+            str(port),
+            "--clients",
+            str(clients),
+            "--duration",
+            str(seconds + SETTLE + 2.0),
+        ],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert peer.stdout is not None
         peer.stdout.readline()  # listening
         with tempfile.TemporaryDirectory() as tmp:
-            window, frames = watch(peer.pid, [f"ws://127.0.0.1:{port}/"] * clients, seconds,
-                                   Path(tmp))
+            window, frames = watch(
+                peer.pid, [f"ws://127.0.0.1:{port}/"] * clients, seconds, Path(tmp)
+            )
         peer.wait(timeout=60)
     finally:
         if peer.poll() is None:
@@ -277,10 +325,17 @@ def bench_server(n: int = 300, seconds: float = 60.0) -> dict[str, dict[str, flo
     from tests.bench.run import bench_whole_run  # the host's speed today, for the record
 
     t = time.monotonic()
-    out = {"runs": bench_elab(n, 1, seconds), "watchers": bench_elab(1, n, seconds),
-           "peer": bench_peer(n, seconds / 2)}
-    out["meta"] = {"n": n, "seconds": seconds, "wall": time.monotonic() - t,
-                   "sim_ns": bench_whole_run()["sim_ns"]}
+    out = {
+        "runs": bench_elab(n, 1, seconds),
+        "watchers": bench_elab(1, n, seconds),
+        "peer": bench_peer(n, seconds / 2),
+    }
+    out["meta"] = {
+        "n": n,
+        "seconds": seconds,
+        "wall": time.monotonic() - t,
+        "sim_ns": bench_whole_run()["sim_ns"],
+    }
     return out
 
 
@@ -292,8 +347,10 @@ def server_section(n: int = 300, seconds: float = 60.0) -> str:
     def row(label: str, key: str, fmt: str, goal: str = "") -> str:
         return f"| {label} | {format(a[key], fmt)} | {format(b[key], fmt)} | {goal} |"
 
-    rec = (f"{a['rec_missing']:.0f} missing, {a['rec_differing']:.0f} differing of "
-           f"{a['rec_recorded']:,.0f} rows")
+    rec = (
+        f"{a['rec_missing']:.0f} missing, {a['rec_differing']:.0f} differing of "
+        f"{a['rec_recorded']:,.0f} rows"
+    )
     return f"""## Live server (issue 3)
 
 A real `elab serve` (uvicorn, one process) on loopback; the clients are one separate asyncio
@@ -336,14 +393,14 @@ as `elab serve`):
 
 | figure | `websockets.broadcast()` | E-Lab, 1 run × {n} watchers |
 |---|---|---|
-| server CPU per message | {p['us_per_msg']:.1f} µs | {b['us_per_msg']:.1f} µs |
-| latency p99 (ms) | {p['p99']:.1f} | {b['p99']:.1f} |
-| latency floor trend, median (ms per minute) | {p['drift_median']:.2f} | {b['drift_median']:.2f} |
-| **ratio E-Lab / broadcast(), CPU per message** | | **{b['us_per_msg'] / p['us_per_msg']:.2f}×** |
+| server CPU per message | {p["us_per_msg"]:.1f} µs | {b["us_per_msg"]:.1f} µs |
+| latency p99 (ms) | {p["p99"]:.1f} | {b["p99"]:.1f} |
+| latency floor trend, median (ms per minute) | {p["drift_median"]:.2f} | {b["drift_median"]:.2f} |
+| **ratio E-Lab / broadcast(), CPU per message** | | **{b["us_per_msg"] / p["us_per_msg"]:.2f}×** |
 
 The latency floor's own noise shows in the peer (a plain timer loop, no run clock): about
-{p['drift_median']:.1f} ms per minute on this machine. The whole benchmark took
-{r['meta']['wall']:.0f} s. The host's speed that hour, for comparing runs of this table:
-`simulate()` took {r['meta']['sim_ns']:.0f} ns per step (the engine section's figure; the
+{p["drift_median"]:.1f} ms per minute on this machine. The whole benchmark took
+{r["meta"]["wall"]:.0f} s. The host's speed that hour, for comparing runs of this table:
+`simulate()` took {r["meta"]["sim_ns"]:.0f} ns per step (the engine section's figure; the
 notes below say what it was on other days).
 """

@@ -48,6 +48,7 @@ from elab.runs.fanout import frame_samples
 def pack(message: dict[str, Any]) -> bytes:
     return msgpack.packb(message, use_bin_type=True)  # type: ignore[no-any-return]
 
+
 PROTOCOL = "elab.v1"
 _GUID = "258EAFA5-E914-47DA-95CA-C5AB0DC85B11"  # RFC 6455, section 1.3
 ENDED = {"finished", "stopped", "failed", "interrupted"}
@@ -106,11 +107,15 @@ class Watch(asyncio.Protocol):
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         self.transport = cast(asyncio.Transport, transport)  # uvloop's is no subclass of it
-        self.transport.write((f"GET {self.uri.resource_name} HTTP/1.1\r\n"
-                         f"Host: {self.uri.host}:{self.uri.port}\r\nUpgrade: websocket\r\n"
-                         f"Connection: Upgrade\r\nSec-WebSocket-Key: {self.key}\r\n"
-                         f"Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: {PROTOCOL}"
-                         "\r\n\r\n").encode())
+        self.transport.write(
+            (
+                f"GET {self.uri.resource_name} HTTP/1.1\r\n"
+                f"Host: {self.uri.host}:{self.uri.port}\r\nUpgrade: websocket\r\n"
+                f"Connection: Upgrade\r\nSec-WebSocket-Key: {self.key}\r\n"
+                f"Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: {PROTOCOL}"
+                "\r\n\r\n"
+            ).encode()
+        )
 
     def data_received(self, data: bytes) -> None:
         t = time.time()
@@ -125,7 +130,7 @@ class Watch(asyncio.Protocol):
             if not head.startswith("HTTP/1.1 101") or accept.decode() not in head:
                 self._fail(ConnectionError(f"handshake refused: {head.splitlines()[0]}"))
                 return
-            del buf[:end + 4]
+            del buf[: end + 4]
             self.open = True
             self.opened.set_result(None)
         at = 0
@@ -136,16 +141,16 @@ class Watch(asyncio.Protocol):
                 return
             n, start = b1 & 0x7F, at + 2
             if n == 126:
-                n, start = int.from_bytes(buf[at + 2:at + 4], "big"), at + 4
+                n, start = int.from_bytes(buf[at + 2 : at + 4], "big"), at + 4
             elif n == 127:
-                n, start = int.from_bytes(buf[at + 2:at + 10], "big"), at + 10
+                n, start = int.from_bytes(buf[at + 2 : at + 10], "big"), at + 10
             if len(buf) < start + n:
                 break
             opcode = b0 & 0x0F
             if opcode == 0x2:  # binary
-                self._message(msgpack.unpackb(buf[start:start + n]), t)
+                self._message(msgpack.unpackb(buf[start : start + n]), t)
             elif opcode == 0x9:  # ping (uvicorn's keepalive): answer, or it hangs up
-                self._send(0xA, bytes(buf[start:start + n]))
+                self._send(0xA, bytes(buf[start : start + n]))
             elif opcode == 0x8:  # the server closed before the run ended
                 self.log.errors += 1
                 self.log.end_state = "closed by the server"
@@ -196,7 +201,8 @@ async def watch(url: str, log: Log, helloed: asyncio.Semaphore, gate: asyncio.Se
     uri = parse_uri(url)
     async with gate:
         _, proto = await asyncio.get_running_loop().create_connection(
-            lambda: Watch(url, log), uri.host, uri.port)
+            lambda: Watch(url, log), uri.host, uri.port
+        )
         await asyncio.wait_for(proto.opened, 120)
     await proto.helloed
     helloed.release()
@@ -207,8 +213,9 @@ async def run_clients(urls: list[str], out: Path) -> None:
     logs = [Log() for _ in urls]
     helloed = asyncio.Semaphore(0)
     gate = asyncio.Semaphore(50)  # connections opening at once
-    tasks = [asyncio.create_task(watch(u, log, helloed, gate)) for u, log in zip(urls, logs,
-                                                                                   strict=True)]
+    tasks = [
+        asyncio.create_task(watch(u, log, helloed, gate)) for u, log in zip(urls, logs, strict=True)
+    ]
     for _ in urls:
         await helloed.acquire()
     print(json.dumps({"ready": len(urls)}), flush=True)
@@ -217,14 +224,22 @@ async def run_clients(urls: list[str], out: Path) -> None:
 
 
 def save(logs: list[Log], out: Path) -> None:
-    per = {name: np.array([getattr(log, name) for log in logs]) for name in
-           ("missing", "overlap", "skipped", "errors", "end_state", "end_k", "next_k")}
-    run = {name: np.array([log.run[name] for log in logs]) for name in
-           ("id", "started_at", "Ts", "n_planned")}
-    np.savez(out, **per, **{f"run_{k}": v for k, v in run.items()},
-             frame_w=np.repeat(np.arange(len(logs)), [len(log.k_last) for log in logs]),
-             frame_k=np.concatenate([np.frombuffer(log.k_last, np.int64) for log in logs]),
-             frame_t=np.concatenate([np.frombuffer(log.t_recv, np.float64) for log in logs]))
+    per = {
+        name: np.array([getattr(log, name) for log in logs])
+        for name in ("missing", "overlap", "skipped", "errors", "end_state", "end_k", "next_k")
+    }
+    run = {
+        name: np.array([log.run[name] for log in logs])
+        for name in ("id", "started_at", "Ts", "n_planned")
+    }
+    np.savez(
+        out,
+        **per,
+        **{f"run_{k}": v for k, v in run.items()},
+        frame_w=np.repeat(np.arange(len(logs)), [len(log.k_last) for log in logs]),
+        frame_k=np.concatenate([np.frombuffer(log.k_last, np.int64) for log in logs]),
+        frame_t=np.concatenate([np.frombuffer(log.t_recv, np.float64) for log in logs]),
+    )
 
 
 async def run_peer(port: int, clients: int, duration: float, Ts: float) -> None:
@@ -239,8 +254,15 @@ async def run_peer(port: int, clients: int, duration: float, Ts: float) -> None:
         conns.discard(conn)
 
     # no permessage-deflate, as `elab serve`: both send the same bytes
-    async with serve(handler, "127.0.0.1", port, subprotocols=[PROTOCOL],  # type: ignore[list-item]
-                     ping_interval=None, max_size=None, compression=None):
+    async with serve(
+        handler,
+        "127.0.0.1",
+        port,
+        subprotocols=[PROTOCOL],  # type: ignore[list-item]
+        ping_interval=None,
+        max_size=None,
+        compression=None,
+    ):
         print(json.dumps({"listening": port}), flush=True)
         await full.wait()
         await stream_frames(conns, duration, Ts)
@@ -254,8 +276,23 @@ async def stream_frames(conns: set[ServerConnection], duration: float, Ts: float
     """Frame ``s`` (samples ``[sF, (s+1)F)``) is sent when its last sample is due."""
     n, F = round(duration / Ts), frame_samples(Ts)
     t0 = time.time()
-    broadcast(conns, pack({"type": "hello", "protocol": PROTOCOL, "live_seq": 0, "run": {
-        "id": "peer", "Ts": Ts, "n_planned": n, "frame_samples": F, "started_at": t0}}))
+    broadcast(
+        conns,
+        pack(
+            {
+                "type": "hello",
+                "protocol": PROTOCOL,
+                "live_seq": 0,
+                "run": {
+                    "id": "peer",
+                    "Ts": Ts,
+                    "n_planned": n,
+                    "frame_samples": F,
+                    "started_at": t0,
+                },
+            }
+        ),
+    )
     data = np.random.default_rng(1).standard_normal((F, len(NAMES)))
     for seq in range(math.ceil(n / F)):
         k0 = seq * F

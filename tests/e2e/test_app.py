@@ -48,7 +48,8 @@ def test_home_lists_every_plant_and_experiment(page: Page, server: Server, shots
 
 
 def test_analysis_run_live_gain_change_stop_download_and_spectator(
-        page: Page, browser: Browser, server: Server, shots: Path) -> None:
+    page: Page, browser: Browser, server: Server, shots: Path
+) -> None:
     page.goto("/")
     page.locator("[data-plant=flexible_link]").get_by_role("link", name="System analysis").click()
     heading = page.get_by_role("heading", name="Rotary flexible link: system analysis")
@@ -69,8 +70,9 @@ def test_analysis_run_live_gain_change_stop_download_and_spectator(
         expect(legend).to_contain_text(label)
     rid = run_id(page)
 
-    spectator = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server.url,
-                                    accept_downloads=True).new_page()
+    spectator = browser.new_context(
+        viewport={"width": 1280, "height": 800}, base_url=server.url, accept_downloads=True
+    ).new_page()
     spectator.goto(f"/runs/{rid}")
     wait_samples(spectator, 1)
 
@@ -98,8 +100,11 @@ def test_analysis_run_live_gain_change_stop_download_and_spectator(
     assert text == httpx.get(f"{server.url}/api/v1/runs/{rid}/data?format=csv").text
     head = [line for line in text.splitlines() if line.startswith("#")]
     assert any("flexible_link" in line for line in head)
-    rows = list(csv.reader(io.StringIO("\n".join(line for line in text.splitlines()
-                                                  if not line.startswith("#")))))
+    rows = list(
+        csv.reader(
+            io.StringIO("\n".join(line for line in text.splitlines() if not line.startswith("#")))
+        )
+    )
     assert len(rows) == n + 1  # the column header and every sample
     assert rows[0][0].startswith("t")
 
@@ -161,18 +166,34 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     panel.get_by_role("button", name="Identify").click()
     table = panel.get_by_test_id("ident-models")
     expect(table).to_contain_text("n4sid 4", timeout=60_000)
-    api = httpx.post(f"{server.url}/api/v1/ident", timeout=60, json={
-        "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
-        "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]}, "n4sid_orders": [1, 10],
-        "models": [{"kind": "arx", "na": 4, "nb": 4, "nk": 1},
-                   {"kind": "n4sid", "order": 4, "horizon": 0}]}).json()
+    api = httpx.post(
+        f"{server.url}/api/v1/ident",
+        timeout=60,
+        json={
+            "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
+            "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]},
+            "n4sid_orders": [1, 10],
+            "models": [
+                {"kind": "arx", "na": 4, "nb": 4, "nk": 1},
+                {"kind": "n4sid", "order": 4, "horizon": 0},
+            ],
+        },
+    ).json()
     for i, m in enumerate(api["models"]):
         cells = table.locator("tbody tr").nth(i).locator("td")
         shown = float(cells.first.inner_text().split()[0])
-        assert shown == pytest.approx(m["fit"]["validation_simulation"][0], abs=1e-3 * max(
-            1, abs(shown)))
-    for testid in ("ident-data", "ident-impulse", "ident-spectral", "ident-arx-search",
-                   "ident-singular-values", "ident-compare", "ident-resid-arx"):
+        assert shown == pytest.approx(
+            m["fit"]["validation_simulation"][0], abs=1e-3 * max(1, abs(shown))
+        )
+    for testid in (
+        "ident-data",
+        "ident-impulse",
+        "ident-spectral",
+        "ident-arx-search",
+        "ident-singular-values",
+        "ident-compare",
+        "ident-resid-arx",
+    ):
         expect(panel.get_by_test_id(testid).locator(".main-svg").first).to_be_visible()
     page.screenshot(path=shots / "identification.png", full_page=True)
     # "use this model": the design view shows it beside the physics model
@@ -204,7 +225,8 @@ def test_identification_from_a_file_reproduces_the_dryer_results(page: Page) -> 
     rows = panel.get_by_test_id("ident-models").locator("tbody tr")
     expect(rows.nth(0)).to_contain_text("arx 2 2 3", timeout=60_000)
     assert float(rows.nth(0).locator("td").first.inner_text().split()[0]) == pytest.approx(
-        89.55, abs=0.3)  # published (README)
+        89.55, abs=0.3
+    )  # published (README)
     assert float(rows.nth(1).locator("td").first.inner_text().split()[0]) >= 89
     expect(panel.get_by_test_id("ident-results")).to_contain_text("a delay of 3 samples")
 
@@ -214,8 +236,9 @@ def test_design_lqr_compare_and_run(page: Page, server: Server, shots: Path) -> 
     page.get_by_role("button", name="Design").click()
     gain = page.get_by_test_id("gain")
     expect(gain).to_contain_text("K = [")
-    ref = httpx.post(f"{server.url}/api/v1/plants/flexible_link/design/lqr",
-                     json={"Q": [400, 1e4, 3, 2], "R": 1}).json()["K"]
+    ref = httpx.post(
+        f"{server.url}/api/v1/plants/flexible_link/design/lqr", json={"Q": [400, 1e4, 3, 2], "R": 1}
+    ).json()["K"]
     shown = [float(v) for v in re.findall(r"-?[\d.]+(?:e-?\d+)?", gain.inner_text())]
     assert shown == pytest.approx(ref, rel=1e-5)
     expect(page.get_by_test_id("design-step").locator(".main-svg").first).to_be_visible()
@@ -232,11 +255,13 @@ def test_unknown_pages_and_runs_say_so(page: Page) -> None:
     expect(page.locator(".failure")).to_contain_text("nope")
 
 
-def test_reconnects_after_a_network_blip_without_losing_samples(browser: Browser,
-                                                                server: Server) -> None:
+def test_reconnects_after_a_network_blip_without_losing_samples(
+    browser: Browser, server: Server
+) -> None:
     proxy = BlipProxy(server.port)
-    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=proxy.url,
-                                  accept_downloads=True)
+    context = browser.new_context(
+        viewport={"width": 1280, "height": 800}, base_url=proxy.url, accept_downloads=True
+    )
     try:
         page = context.new_page()
         page.goto("/plants/flexible_link/analysis")
@@ -263,8 +288,9 @@ def test_reconnects_after_a_network_blip_without_losing_samples(browser: Browser
 
 
 @pytest.mark.parametrize("plant", ["double_pendulum", "belt_conveyor", "flexible_link"])
-def test_every_plant_runs_its_analysis_in_the_browser(page: Page, server: Server,
-                                                       plant: str) -> None:
+def test_every_plant_runs_its_analysis_in_the_browser(
+    page: Page, server: Server, plant: str
+) -> None:
     # on one server, one after another: runs of different sizes share the stepper
     page.goto(f"/plants/{plant}/analysis")
     page.locator("#f-duration").fill("1")
@@ -276,11 +302,13 @@ def test_every_plant_runs_its_analysis_in_the_browser(page: Page, server: Server
     expect(page.locator("[data-testid=bode] .main-svg").first).to_be_visible()
 
 
-def test_runs_list_filters_by_plant_and_opens_a_run(page: Page, server: Server,
-                                                    shots: Path) -> None:
+def test_runs_list_filters_by_plant_and_opens_a_run(
+    page: Page, server: Server, shots: Path
+) -> None:
     for plant in ("belt_conveyor", "flexible_link"):
-        r = httpx.post(f"{server.url}/api/v1/runs",
-                       json={"plant": plant, "duration": 0.5, "pace": "fast"})
+        r = httpx.post(
+            f"{server.url}/api/v1/runs", json={"plant": plant, "duration": 0.5, "pace": "fast"}
+        )
         assert r.status_code == 201
     page.goto("/")
     page.get_by_role("link", name="Runs", exact=True).click()

@@ -31,9 +31,21 @@ def discrete_loop(run: CompiledRun) -> ct.StateSpace:
     zs = [f"z{i}" for i in range(c.Dc.size - 1)]
     ys = [f"y{i}" for i in range(p.ny)]
     Cz = np.eye(p.nx) if c.feedback == "state" else p.C
-    plant = ct.ss(ct.c2d(ct.ss(p.A, p.B, np.vstack([p.C, Cz]), 0), Ts, "zoh"),
-                  inputs=["u"], outputs=ys + zs, name="plant")
+    plant = ct.ss(
+        ct.c2d(ct.ss(p.A, p.B, np.vstack([p.C, Cz]), 0), Ts, "zoh"),
+        inputs=["u"],
+        outputs=ys + zs,
+        name="plant",
+    )
     nc, nw = c.nc, c.Dc.size
-    ctrl = ct.ss(c.Ac.reshape(nc, nc), c.Bc.reshape(nc, nw), c.Cc.reshape(1, nc),
-                 c.Dc.reshape(1, nw), Ts, inputs=["r", *zs], outputs=["u"], name="ctrl")
+    ctrl = ct.ss(
+        c.Ac.reshape(nc, nc),
+        c.Bc.reshape(nc, nw),
+        c.Cc.reshape(1, nc),
+        c.Dc.reshape(1, nw),
+        Ts,
+        inputs=["r", *zs],
+        outputs=["u"],
+        name="ctrl",
+    )
     return ct.interconnect([plant, ctrl], inplist=["r"], outlist=[*ys, "u"])

@@ -47,16 +47,19 @@ def test_analyze_text_explains_a_negative_gain_margin(capsys: pytest.CaptureFixt
 
 
 def test_design_lqr_prints_the_seed_gain(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(capsys, "design", "lqr", "flexible_link", "--Q", "400,1e4,3,2", "--R", "1",
-                       "--json")
+    code, out, _ = run(
+        capsys, "design", "lqr", "flexible_link", "--Q", "400,1e4,3,2", "--R", "1", "--json"
+    )
     # seed eq. 4.6, printed to 4 decimals; the last entry differs by 6.5e-5 (seed-reproduction.md)
     np.testing.assert_allclose(json.loads(out)["K"], [20, -93.5614, 3.3621, 0.9623], atol=1e-4)
     assert code == 0
 
 
 def test_design_place_puts_the_poles(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(capsys, "design", "place", "flexible_link", "--poles=-10,-20,-5+5j,-5-5j",
-                       "--json")
+    code, out, _ = run(
+        capsys, "design", "place", "flexible_link", "--poles=-10,-20,-5+5j,-5-5j", "--json"
+    )
+
     def key(z: complex) -> tuple[float, float]:
         return (z.real, z.imag)
 
@@ -66,11 +69,25 @@ def test_design_place_puts_the_poles(capsys: pytest.CaptureFixture[str]) -> None
     np.testing.assert_allclose(poles, want, rtol=1e-8)
 
 
-def test_simulate_writes_a_self_describing_csv(capsys: pytest.CaptureFixture[str],
-                                               tmp_path: Path) -> None:
+def test_simulate_writes_a_self_describing_csv(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
     out_file = tmp_path / "run.csv"
-    code, _, _ = run(capsys, "simulate", "flexible_link", "--signal", "square", "--amplitude",
-                     "30deg", "--period", "4", "--duration", "10", "--out", str(out_file))
+    code, _, _ = run(
+        capsys,
+        "simulate",
+        "flexible_link",
+        "--signal",
+        "square",
+        "--amplitude",
+        "30deg",
+        "--period",
+        "4",
+        "--duration",
+        "10",
+        "--out",
+        str(out_file),
+    )
     lines = out_file.read_text().splitlines()
     header = [line for line in lines if line.startswith("#")]
     assert code == 0
@@ -86,27 +103,32 @@ def test_simulate_writes_a_self_describing_csv(capsys: pytest.CaptureFixture[str
 
 
 def test_diverging_run_is_reported(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(capsys, "simulate", "flexible_link", "--controller", "K:20,20,20,20",
-                       "--no-saturation")
+    code, out, _ = run(
+        capsys, "simulate", "flexible_link", "--controller", "K:20,20,20,20", "--no-saturation"
+    )
     assert code == 0 and "DIVERGED at t =" in out
 
 
-@pytest.mark.parametrize(("argv", "field"), [
-    (["design", "lqr", "flexible_link", "--Q", "1,2,nan,4"], "Q"),
-    (["design", "lqr", "flexible_link", "--Q", "1,2,3"], "Q"),
-    (["design", "lqr", "flexible_link", "--Q", "1,1,1,1", "--R", "0"], "R"),
-    (["design", "lqr", "flexible_link", "--Q=-1,1,1,1"], "Q"),
-    (["design", "place", "flexible_link", "--poles", "1,2"], "poles"),
-    (["simulate", "flexible_link", "--Ts", "0"], "Ts"),
-    (["simulate", "flexible_link", "--Ts", "0.05"], "Ts"),
-    (["simulate", "flexible_link", "--duration", "-1"], "duration"),
-    (["simulate", "flexible_link", "--amplitude", "thirty"], "signal.amplitude"),
-    (["simulate", "flexible_link", "--controller", "K:1,2"], "controller.K"),
-    (["simulate", "flexible_link", "--signal", "sine"], "signal.frequency"),
-    (["analyze", "crane"], "unknown plant 'crane'"),
-])
-def test_bad_input_exits_2_naming_the_field(capsys: pytest.CaptureFixture[str], argv: list[str],
-                                            field: str) -> None:
+@pytest.mark.parametrize(
+    ("argv", "field"),
+    [
+        (["design", "lqr", "flexible_link", "--Q", "1,2,nan,4"], "Q"),
+        (["design", "lqr", "flexible_link", "--Q", "1,2,3"], "Q"),
+        (["design", "lqr", "flexible_link", "--Q", "1,1,1,1", "--R", "0"], "R"),
+        (["design", "lqr", "flexible_link", "--Q=-1,1,1,1"], "Q"),
+        (["design", "place", "flexible_link", "--poles", "1,2"], "poles"),
+        (["simulate", "flexible_link", "--Ts", "0"], "Ts"),
+        (["simulate", "flexible_link", "--Ts", "0.05"], "Ts"),
+        (["simulate", "flexible_link", "--duration", "-1"], "duration"),
+        (["simulate", "flexible_link", "--amplitude", "thirty"], "signal.amplitude"),
+        (["simulate", "flexible_link", "--controller", "K:1,2"], "controller.K"),
+        (["simulate", "flexible_link", "--signal", "sine"], "signal.frequency"),
+        (["analyze", "crane"], "unknown plant 'crane'"),
+    ],
+)
+def test_bad_input_exits_2_naming_the_field(
+    capsys: pytest.CaptureFixture[str], argv: list[str], field: str
+) -> None:
     code, _, err = run(capsys, *argv)
     assert code == 2
     assert err.startswith(f"error: {field}")
@@ -115,8 +137,13 @@ def test_bad_input_exits_2_naming_the_field(capsys: pytest.CaptureFixture[str], 
 def test_console_script_exits_2_on_bad_input() -> None:
     exe = shutil.which("elab", path=str(Path(sys.executable).parent))
     assert exe is not None, "the console script `elab` is not installed"
-    proc = subprocess.run([exe, "design", "lqr", "flexible_link", "--Q", "1,1,1"],
-                          capture_output=True, text=True, timeout=120, check=False)
+    proc = subprocess.run(
+        [exe, "design", "lqr", "flexible_link", "--Q", "1,1,1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
     assert proc.returncode == 2
     assert "error: Q" in proc.stderr and "Traceback" not in proc.stderr
 

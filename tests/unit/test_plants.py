@@ -59,8 +59,10 @@ def test_predefined_controller_stabilises_the_linear_model(plant: Plant) -> None
 def test_predefined_controller_reaches_the_reference(plant: Plant) -> None:
     amp = 0.1 * plant.signal.amplitude
     res = simulate(RunSpec(plant, plant.predefined, Step(amp), duration=120.0, saturate=False))
-    y_ref = res.y[-1, plant.reference_output] - (plant.C @ plant.operating_point)[
-        plant.reference_output]
+    y_ref = (
+        res.y[-1, plant.reference_output]
+        - (plant.C @ plant.operating_point)[plant.reference_output]
+    )
     np.testing.assert_allclose(y_ref, amp, rtol=1e-3)  # integrator in every loop
 
 

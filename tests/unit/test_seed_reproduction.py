@@ -18,8 +18,11 @@ def checks(seed_facts: dict[str, Any]) -> list[sr.Check]:
 
 
 def test_every_seed_number_is_reproduced_within_its_tolerance(checks: list[sr.Check]) -> None:
-    failed = [f"{c.section}: {c.quantity} — error {c.error:.3g} > {c.tol:g} ({c.measure})"
-              for c in checks if not c.ok]
+    failed = [
+        f"{c.section}: {c.quantity} — error {c.error:.3g} > {c.tol:g} ({c.measure})"
+        for c in checks
+        if not c.ok
+    ]
     assert not failed, "\n".join(failed)
     assert len(checks) >= 30
 
@@ -32,4 +35,5 @@ def _cells(text: str) -> list[list[str]]:
 
 def test_the_document_is_current(checks: list[sr.Check]) -> None:
     assert _cells(DOC.read_text(encoding="utf-8")) == _cells(sr.render(checks)), (
-        "docs/seed-reproduction.md is stale: run `make docs`")
+        "docs/seed-reproduction.md is stale: run `make docs`"
+    )

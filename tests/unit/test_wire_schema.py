@@ -37,13 +37,19 @@ def test_generated_typescript_is_current() -> None:
     node = shutil.which("node")
     assert node, "node is needed (make install)"
     assert (ROOT / "frontend" / "node_modules").is_dir(), "frontend dependencies: make install"
-    done = subprocess.run([node, "scripts/gen-protocol.mjs", "--check"], cwd=ROOT / "frontend",
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [node, "scripts/gen-protocol.mjs", "--check"],
+        cwd=ROOT / "frontend",
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr + done.stdout
 
 
-@pytest.mark.parametrize("doc, prefix", [(wire_schema(), "#/$defs/"),
-                                          (openapi_document(), "#/components/schemas/")])
+@pytest.mark.parametrize(
+    "doc, prefix", [(wire_schema(), "#/$defs/"), (openapi_document(), "#/components/schemas/")]
+)
 def test_every_reference_resolves(doc: dict[str, Any], prefix: str) -> None:
     defs = doc.get("$defs") or doc["components"]["schemas"]
     refs = set(_refs(doc))

@@ -43,14 +43,20 @@ def create_app(settings: Settings | None = None) -> Starlette:
     @asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
         store = SQLiteStore(settings.database)  # migrated here, before the engine opens it
-        engine = ProcessEngine("sim-0", settings.database, settings.engine,
-                               nice=settings.engine_nice, max_queue=settings.engine_queue,
-                               command_timeout=settings.engine_timeout,
-                               stall_timeout=settings.engine_stall)
+        engine = ProcessEngine(
+            "sim-0",
+            settings.database,
+            settings.engine,
+            nice=settings.engine_nice,
+            max_queue=settings.engine_queue,
+            command_timeout=settings.engine_timeout,
+            stall_timeout=settings.engine_stall,
+        )
         manager = RunManager(store, engine, MsgpackCodec(), limits=settings.limits)
         app.state.manager = manager
-        jobs = JobPool(workers=settings.ident_workers, timeout=settings.ident_timeout,
-                       wait=settings.ident_wait)
+        jobs = JobPool(
+            workers=settings.ident_workers, timeout=settings.ident_timeout, wait=settings.ident_wait
+        )
         app.state.jobs = jobs
         app.state.uploads = Uploads(settings.max_uploads)
         # Everything imported so far (numpy, scipy, control, numba: ~160,000 objects) lives
@@ -76,14 +82,21 @@ def create_app(settings: Settings | None = None) -> Starlette:
     async def docs(request: Request) -> Response:
         return HTMLResponse(page)
 
-    routes: list[BaseRoute] = [Route(API + e.path, e.handler, methods=[e.method])
-                               for e in ENDPOINTS]
-    routes += [WebSocketRoute(API + "/runs/{run_id}/stream", Stream()),
-               Route(API + "/openapi.json", openapi), Route(API + "/docs", docs)]
+    routes: list[BaseRoute] = [
+        Route(API + e.path, e.handler, methods=[e.method]) for e in ENDPOINTS
+    ]
+    routes += [
+        WebSocketRoute(API + "/runs/{run_id}/stream", Stream()),
+        Route(API + "/openapi.json", openapi),
+        Route(API + "/docs", docs),
+    ]
     routes += _app_routes(STATIC)
-    app = Starlette(routes=routes, lifespan=lifespan, middleware=[
-        Middleware(GZipMiddleware, minimum_size=4096)], exception_handlers={
-        ElabError: _error, ValidationError: _error, HTTPException: _http_error})
+    app = Starlette(
+        routes=routes,
+        lifespan=lifespan,
+        middleware=[Middleware(GZipMiddleware, minimum_size=4096)],
+        exception_handlers={ElabError: _error, ValidationError: _error, HTTPException: _http_error},
+    )
     app.state.settings = settings
     return app
 
@@ -92,8 +105,10 @@ def _app_routes(static: Path) -> list[BaseRoute]:
     """The browser app's pages and assets; without a build, / shows the API reference."""
     index = static / "index.html"
     if not index.is_file():
+
         async def reference(request: Request) -> Response:
             return RedirectResponse(API + "/docs")
+
         return [Route("/", reference)]
 
     async def page(request: Request) -> Response:
@@ -110,6 +125,14 @@ async def _error(request: Request, exc: Exception) -> Response:
 async def _http_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, HTTPException)
     code = {404: "not_found", 405: "invalid"}.get(exc.status_code, "invalid")
-    return JSONResponse({"error": {"code": code, "message": f"{exc.detail}: {request.method} "
-                                   f"{request.url.path}", "field": None, "errors": []}},
-                        status_code=exc.status_code)
+    return JSONResponse(
+        {
+            "error": {
+                "code": code,
+                "message": f"{exc.detail}: {request.method} {request.url.path}",
+                "field": None,
+                "errors": [],
+            }
+        },
+        status_code=exc.status_code,
+    )

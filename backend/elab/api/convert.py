@@ -24,8 +24,14 @@ def law(model: Any, plant: Plant) -> ControlLaw:
         return PID(model.Kp, model.Ki, model.Kd, model.N, model.Tt)
     if isinstance(model, s.LTIControllerModel):
         return LTIController(
-            num=_tuple(model.num), den=_tuple(model.den), A=_rows(model.A), B=_rows(model.B),
-            C=_rows(model.C), D=_rows(model.D), dt=model.dt)
+            num=_tuple(model.num),
+            den=_tuple(model.den),
+            A=_rows(model.A),
+            B=_rows(model.B),
+            C=_rows(model.C),
+            D=_rows(model.D),
+            dt=model.dt,
+        )
     if isinstance(model, s.OpenLoopController):
         return OpenLoop()
     raise InvalidInput("controller.kind", type(model).__name__, "a known controller kind")
@@ -40,7 +46,8 @@ def law_model(law_: ControlLaw) -> Any:
     if isinstance(law_, OpenLoop):
         return s.OpenLoopController()
     return s.LTIControllerModel.model_validate(
-        {"num": _list(law_.num), "den": _list(law_.den), "dt": law_.dt})
+        {"num": _list(law_.num), "den": _list(law_.den), "dt": law_.dt}
+    )
 
 
 def signal(model: Any) -> sig.Signal:
@@ -64,15 +71,20 @@ def run_spec(req: s.RunCreate, plant: Plant) -> RunSpec:
     if req.mode == "rig" and "rig" not in plant.modes:
         raise InvalidInput("mode", req.mode, f"one of {', '.join(plant.modes)} for {plant.id}")
     if req.experiment not in plant.experiments:
-        raise InvalidInput("experiment", req.experiment,
-                           f"one of {', '.join(plant.experiments)}")
+        raise InvalidInput("experiment", req.experiment, f"one of {', '.join(plant.experiments)}")
     return RunSpec(
-        plant=plant, law=law(req.controller, plant),
+        plant=plant,
+        law=law(req.controller, plant),
         reference=signal(req.signal or default_signal(plant)),
         duration=req.duration if req.duration is not None else plant.signal.duration,
-        Ts=req.Ts, excitation=signal(req.excitation) if req.excitation else None,
-        excitation_at=req.excitation_at, saturate=req.saturate, noise_seed=req.seed,
-        quantize=req.quantize, x0=tuple(req.x0) if req.x0 is not None else None)
+        Ts=req.Ts,
+        excitation=signal(req.excitation) if req.excitation else None,
+        excitation_at=req.excitation_at,
+        saturate=req.saturate,
+        noise_seed=req.seed,
+        quantize=req.quantize,
+        x0=tuple(req.x0) if req.x0 is not None else None,
+    )
 
 
 def complex_list(values: Any) -> list[s.Complex]:

@@ -19,8 +19,7 @@ from numpy.typing import NDArray
 from elab.api import schemas as s
 
 Array = NDArray[np.float64]
-SKIPPED_REASON = ("slow watcher: frames dropped; send resume_from to receive them from the "
-                  "recording")
+SKIPPED_REASON = "slow watcher: frames dropped; send resume_from to receive them from the recording"
 
 
 def pack(message: s.Model) -> bytes:
@@ -30,8 +29,9 @@ def pack(message: s.Model) -> bytes:
 class MsgpackCodec:
     """:class:`elab.runs.fanout.Codec` for ``elab.v1``."""
 
-    def frames(self, names: tuple[str, ...], F: int, k0: NDArray[np.int64],
-               data: Array) -> list[bytes]:
+    def frames(
+        self, names: tuple[str, ...], F: int, k0: NDArray[np.int64], data: Array
+    ) -> list[bytes]:
         return encode_frames(names, F, k0, data)
 
     def skipped(self, from_seq: int, to_seq: int) -> bytes:
@@ -49,8 +49,9 @@ def encode_frame(names: tuple[str, ...], F: int, k0: int, data: Array) -> bytes:
     return encode_frames(names, F, np.array([k0]), data[np.newaxis])[0]
 
 
-def encode_frames(names: tuple[str, ...], F: int, k0: NDArray[np.int64],
-                  data: Array) -> list[bytes]:
+def encode_frames(
+    names: tuple[str, ...], F: int, k0: NDArray[np.int64], data: Array
+) -> list[bytes]:
     """``frame`` messages of R runs at once (``data``: R × n × channels, ``k0``: R).
 
     A frame is the msgpack map ``{type: "frame", seq, k0, n, columns: {name: bin}}``
@@ -63,11 +64,11 @@ def encode_frames(names: tuple[str, ...], F: int, k0: NDArray[np.int64],
     out = np.empty((R, len(template)), np.uint8)
     out[:] = np.frombuffer(template, np.uint8)
     k0 = np.asarray(k0, dtype=np.int64)
-    out[:, at_seq:at_seq + 8] = (k0 // F).astype(">u8").view(np.uint8).reshape(R, 8)
-    out[:, at_k0:at_k0 + 8] = k0.astype(">u8").view(np.uint8).reshape(R, 8)
+    out[:, at_seq : at_seq + 8] = (k0 // F).astype(">u8").view(np.uint8).reshape(R, 8)
+    out[:, at_k0 : at_k0 + 8] = k0.astype(">u8").view(np.uint8).reshape(R, 8)
     cols = np.ascontiguousarray(data.transpose(0, 2, 1), dtype="<f4").view(np.uint8)
     for i, at in enumerate(at_cols):
-        out[:, at:at + 4 * n] = cols[:, i]
+        out[:, at : at + 4 * n] = cols[:, i]
     return [row.tobytes() for row in out]
 
 
@@ -77,8 +78,7 @@ def _layout(names: tuple[str, ...], n: int) -> tuple[bytes, int, int, tuple[int,
     ``seq``, ``k0`` and each channel's bytes begin."""
     type_, seq, k0, count, columns = s.Frame.model_fields  # the model's keys, in order
     packer = msgpack.Packer(use_bin_type=True)
-    head = (packer.pack_map_header(5) + packer.pack(type_) + packer.pack("frame")
-            + packer.pack(seq))
+    head = packer.pack_map_header(5) + packer.pack(type_) + packer.pack("frame") + packer.pack(seq)
     at_seq = len(head) + 1
     head += b"\xcf" + bytes(8) + packer.pack(k0)
     at_k0 = len(head) + 1

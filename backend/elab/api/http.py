@@ -65,9 +65,11 @@ ENDPOINTS: list[Endpoint] = []
 
 def endpoint(method: str, path: str, summary: str, **meta: Any) -> Callable[[Handler], Handler]:
     """Register ``handler`` under ``/api/v1`` + ``path`` (the docstring is its description)."""
+
     def register(handler: Handler) -> Handler:
         ENDPOINTS.append(Endpoint(method, path, summary, handler, **meta))
         return handler
+
     return register
 
 
@@ -89,9 +91,11 @@ class Uploads:
     @contextmanager
     def slot(self) -> Iterator[None]:
         if self.reading >= self.limit:
-            raise TooMany(f"{self.reading} uploads are being received, the limit of this "
-                          f"server (ELAB_MAX_UPLOADS = {self.limit}); retry shortly",
-                          retry_after=2.0)
+            raise TooMany(
+                f"{self.reading} uploads are being received, the limit of this "
+                f"server (ELAB_MAX_UPLOADS = {self.limit}); retry shortly",
+                retry_after=2.0,
+            )
         self.reading += 1
         try:
             yield
@@ -128,20 +132,28 @@ def error_response(exc: Exception) -> JSONResponse:
     status, detail = error_detail(exc)
     retry = getattr(exc, "retry_after", None)
     headers = {"retry-after": str(max(1, math.ceil(retry)))} if retry is not None else None
-    return JSONResponse(ErrorBody(error=detail).model_dump(mode="json"), status_code=status,
-                        headers=headers)
+    return JSONResponse(
+        ErrorBody(error=detail).model_dump(mode="json"), status_code=status, headers=headers
+    )
 
 
 def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
     """Status code and body of a known exception (re-raises anything else)."""
     if isinstance(exc, ValidationError):
         errors = [FieldError(field=_loc(e["loc"]), message=_msg(e)) for e in exc.errors()[:20]]
-        return 422, ErrorDetail(code="invalid", message="; ".join(
-            f"{e.field}: {e.message}" for e in errors), field=errors[0].field if errors else None,
-            errors=errors)
+        return 422, ErrorDetail(
+            code="invalid",
+            message="; ".join(f"{e.field}: {e.message}" for e in errors),
+            field=errors[0].field if errors else None,
+            errors=errors,
+        )
     if isinstance(exc, InvalidInput):
-        return 422, ErrorDetail(code="invalid", message=str(exc), field=exc.field,
-                                errors=[FieldError(field=exc.field, message=str(exc))])
+        return 422, ErrorDetail(
+            code="invalid",
+            message=str(exc),
+            field=exc.field,
+            errors=[FieldError(field=exc.field, message=str(exc))],
+        )
     if isinstance(exc, NotFound):
         return 404, ErrorDetail(code="not_found", message=str(exc))
     if isinstance(exc, Conflict):
@@ -188,7 +200,6 @@ def query_int(request: HTTPConnection, name: str, default: int, lo: int, hi: int
     if raw is None:
         return default
     digits = raw[1:] if raw[:1] == "-" else raw
-    if not (digits.isascii() and digits.isdigit() and len(digits) <= 19
-            and lo <= int(raw) <= hi):
+    if not (digits.isascii() and digits.isdigit() and len(digits) <= 19 and lo <= int(raw) <= hi):
         raise InvalidInput(name, raw, f"an integer in [{lo}, {hi}]")
     return int(raw)

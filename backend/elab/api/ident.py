@@ -35,8 +35,14 @@ from elab.runs.manager import RunManager
 T = TypeVar("T")
 
 
-@endpoint("POST", "/ident", "Identify models from a run's data or an uploaded table",
-          body=s.IdentRequest, response=s.IdentOut, errors=(404, 413, 422, 429))
+@endpoint(
+    "POST",
+    "/ident",
+    "Identify models from a run's data or an uploaded table",
+    body=s.IdentRequest,
+    response=s.IdentOut,
+    errors=(404, 413, 422, 429),
+)
 async def identify(request: Request) -> Response:
     """Correlation, spectral and sine analysis, ARX order search, subspace singular values
     and the requested ARX, ARMAX, OE and n4sid models with their validation fit % and
@@ -47,8 +53,9 @@ async def identify(request: Request) -> Response:
         data, sine = await _dataset(request, req.data)
         plan = _plan(req, sine)
         if "application/x-ndjson" in request.headers.get("accept", ""):
-            return StreamingResponse(_progress_lines(jobs(request), data, plan),
-                                     media_type="application/x-ndjson")
+            return StreamingResponse(
+                _progress_lines(jobs(request), data, plan), media_type="application/x-ndjson"
+            )
         result = await _unless_gone(request, jobs(request).run(wf.run, data, plan))
         if result is None:
             raise ClientGone
@@ -90,8 +97,9 @@ async def _progress_lines(pool: JobPool, data: IdData, plan: wf.Plan) -> AsyncIt
     """Progress, then the result: the job's reports as they come. When the client goes
     away, the response is cancelled here, which stops the job."""
     queue: asyncio.Queue[tuple[str, float]] = asyncio.Queue()
-    job = asyncio.ensure_future(pool.run(wf.run, data, plan, progress=lambda stage, done:
-                                         queue.put_nowait((stage, done))))
+    job = asyncio.ensure_future(
+        pool.run(wf.run, data, plan, progress=lambda stage, done: queue.put_nowait((stage, done)))
+    )
     try:
         while not job.done() or not queue.empty():
             getter = asyncio.ensure_future(queue.get())
@@ -116,8 +124,9 @@ def _line(obj: dict[str, Any]) -> bytes:
 async def _dataset(request: Request, src: s.RunData | s.FileData) -> tuple[IdData, float | None]:
     """The data set and, for a run excited by a sine, its frequency (Hz)."""
     if isinstance(src, s.FileData):  # parsed by a worker: a huge file stalls no stream
-        table = await _unless_gone(request, jobs(request).run(read_table, src.text.encode(),
-                                                              src.format))
+        table = await _unless_gone(
+            request, jobs(request).run(read_table, src.text.encode(), src.format)
+        )
         if table is None:
             raise ClientGone
         return _prefixed("data", lambda: table.dataset(src.input, src.output, src.Ts)), None
@@ -125,27 +134,40 @@ async def _dataset(request: Request, src: s.RunData | s.FileData) -> tuple[IdDat
     record = await m.get(src.run)
     names = [c[0] for c in record.channels]
     units = dict(record.channels)
-    outputs = src.output or [get_plant(record.plant).outputs[
-        get_plant(record.plant).reference_output].name]
+    outputs = src.output or [
+        get_plant(record.plant).outputs[get_plant(record.plant).reference_output].name
+    ]
     for fieldname, chosen in (("input", src.input), ("output", outputs)):
         for name in chosen:
             if name not in names:
-                raise InvalidInput(f"data.{fieldname}", name,
-                                   f"channels of run {record.id}: {', '.join(names)}")
+                raise InvalidInput(
+                    f"data.{fieldname}", name, f"channels of run {record.id}: {', '.join(names)}"
+                )
     k0 = 0 if src.t_from is None else round(src.t_from / record.Ts)
     k1 = None if src.t_to is None else round(src.t_to / record.Ts) + 1
     if k1 is not None and k1 <= k0:
         raise InvalidInput("data.t_to", src.t_to, f"a time after t_from ({src.t_from} s)")
     rows = await m.read(record.id, k0, k1)
     if rows.shape[0] < 2:
-        raise InvalidInput("data.run", record.id, f"a run with recorded samples in the range "
-                                                  f"(it has {record.n_stored})")
+        raise InvalidInput(
+            "data.run",
+            record.id,
+            f"a run with recorded samples in the range (it has {record.n_stored})",
+        )
     col = {n: i for i, n in enumerate(names)}
-    data = _prefixed("data", lambda: IdData(
-        rows[:, [col[n] for n in outputs]], rows[:, [col[n] for n in src.input]], record.Ts,
-        output_names=tuple(outputs), input_names=tuple(src.input),
-        output_units=tuple(units[n] for n in outputs),
-        input_units=tuple(units[n] for n in src.input), k0=k0))
+    data = _prefixed(
+        "data",
+        lambda: IdData(
+            rows[:, [col[n] for n in outputs]],
+            rows[:, [col[n] for n in src.input]],
+            record.Ts,
+            output_names=tuple(outputs),
+            input_names=tuple(src.input),
+            output_units=tuple(units[n] for n in outputs),
+            input_units=tuple(units[n] for n in src.input),
+            k0=k0,
+        ),
+    )
     return data, _sine_of(record.spec)
 
 
@@ -173,22 +195,36 @@ def _plan(req: s.IdentRequest, sine: float | None) -> wf.Plan:
     search = None
     if req.arx_search is not None:
         a = req.arx_search
-        search = (span("arx_search.na", a.na), span("arx_search.nb", a.nb),
-                  span("arx_search.nk", a.nk))
+        search = (
+            span("arx_search.na", a.na),
+            span("arx_search.nb", a.nb),
+            span("arx_search.nk", a.nk),
+        )
         if a.nb[0] < 1:
             raise InvalidInput("arx_search.nb", a.nb, "orders ≥ 1")
         count = len(search[0]) * len(search[1]) * len(search[2])
         if count > wf.MAX_SEARCH:
-            raise InvalidInput("arx_search", f"{count} structures",
-                               f"at most {wf.MAX_SEARCH} structures (na × nb × nk)")
+            raise InvalidInput(
+                "arx_search",
+                f"{count} structures",
+                f"at most {wf.MAX_SEARCH} structures (na × nb × nk)",
+            )
     orders = None if req.n4sid_orders is None else span("n4sid_orders", req.n4sid_orders)
     if orders is not None and orders.start < 1:
         raise InvalidInput("n4sid_orders", req.n4sid_orders, "orders ≥ 1")
-    models = tuple(wf.ModelRequest(m.kind, {k: v for k, v in m.model_dump().items()
-                                            if k != "kind"}) for m in req.models)
-    return wf.Plan(models=models, detrend=req.detrend, split=req.split,
-                   correlation=req.correlation, max_lag=req.max_lag, spectral=req.spectral,
-                   sine_hz=req.sine_hz if req.sine_hz is not None else sine,
-                   arx_search=search, n4sid_orders=orders, horizon=req.horizon)
-
-
+    models = tuple(
+        wf.ModelRequest(m.kind, {k: v for k, v in m.model_dump().items() if k != "kind"})
+        for m in req.models
+    )
+    return wf.Plan(
+        models=models,
+        detrend=req.detrend,
+        split=req.split,
+        correlation=req.correlation,
+        max_lag=req.max_lag,
+        spectral=req.spectral,
+        sine_hz=req.sine_hz if req.sine_hz is not None else sine,
+        arx_search=search,
+        n4sid_orders=orders,
+        horizon=req.horizon,
+    )

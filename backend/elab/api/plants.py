@@ -22,8 +22,13 @@ PLANT_ID = Param("plant_id", "path", "plant id: " + ", ".join(PLANTS), required=
 
 
 def _summary(p: Plant) -> s.PlantSummary:
-    return s.PlantSummary(id=p.id, name=p.name, summary=p.summary, modes=list(p.modes),
-                          experiments=list(p.experiments))
+    return s.PlantSummary(
+        id=p.id,
+        name=p.name,
+        summary=p.summary,
+        modes=list(p.modes),
+        experiments=list(p.experiments),
+    )
 
 
 @endpoint("GET", "/plants", "List the plants", response=list[s.PlantSummary], errors=())
@@ -31,50 +36,99 @@ async def list_plants(request: Request) -> Response:
     return ok([_summary(p) for p in PLANTS.values()])
 
 
-@endpoint("GET", "/plants/{plant_id}", "A plant: model, units, limits, defaults, description",
-          response=s.PlantDetail, params=(PLANT_ID,), errors=(404,))
+@endpoint(
+    "GET",
+    "/plants/{plant_id}",
+    "A plant: model, units, limits, defaults, description",
+    response=s.PlantDetail,
+    params=(PLANT_ID,),
+    errors=(404,),
+)
 async def get_plant_detail(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
+
     def ch(cs: tuple[Channel, ...]) -> list[s.PlantChannel]:
         return [s.PlantChannel(name=c.name, unit=c.unit, label=c.label) for c in cs]
 
-    return ok(s.PlantDetail(
-        **_summary(p).model_dump(), A=p.A.tolist(), B=p.B.tolist(), C=p.C.tolist(),
-        D=p.D.tolist(), states=ch(p.states), inputs=ch(p.inputs), outputs=ch(p.outputs),
-        u_max=p.u_max, saturate=p.saturate, Ts=p.Ts,
-        reference_output=p.outputs[p.reference_output].name,
-        operating_point=p.operating_point.tolist(),
-        initial_state_ranges=[(p.states[i].name, lo, hi) for i, lo, hi in p.initial_state_ranges],
-        predefined=convert.law_model(p.predefined), predefined_design=p.predefined_design,
-        default_signal=convert.default_signal(p), default_duration=p.signal.duration,
-        sensors={"quantum": list(p.sensors.quantum), "noise_std": list(p.sensors.noise_std)},
-        description=p.description))
+    return ok(
+        s.PlantDetail(
+            **_summary(p).model_dump(),
+            A=p.A.tolist(),
+            B=p.B.tolist(),
+            C=p.C.tolist(),
+            D=p.D.tolist(),
+            states=ch(p.states),
+            inputs=ch(p.inputs),
+            outputs=ch(p.outputs),
+            u_max=p.u_max,
+            saturate=p.saturate,
+            Ts=p.Ts,
+            reference_output=p.outputs[p.reference_output].name,
+            operating_point=p.operating_point.tolist(),
+            initial_state_ranges=[
+                (p.states[i].name, lo, hi) for i, lo, hi in p.initial_state_ranges
+            ],
+            predefined=convert.law_model(p.predefined),
+            predefined_design=p.predefined_design,
+            default_signal=convert.default_signal(p),
+            default_duration=p.signal.duration,
+            sensors={"quantum": list(p.sensors.quantum), "noise_std": list(p.sensors.noise_std)},
+            description=p.description,
+        )
+    )
 
 
 def _rank(r: design.RankReport, n: int) -> s.RankInfo:
-    return s.RankInfo(rank=r.rank, n=n, full=r.full,
-                      condition_number=convert.finite_or_none(r.condition_number),
-                      singular_values=r.singular_values.tolist())
+    return s.RankInfo(
+        rank=r.rank,
+        n=n,
+        full=r.full,
+        condition_number=convert.finite_or_none(r.condition_number),
+        singular_values=r.singular_values.tolist(),
+    )
 
 
-@endpoint("GET", "/plants/{plant_id}/analysis",
-          "Eigenvalues, stability verdict, controllability, observability, transfer functions",
-          response=s.AnalysisInfo, params=(PLANT_ID,), errors=(404,))
+@endpoint(
+    "GET",
+    "/plants/{plant_id}/analysis",
+    "Eigenvalues, stability verdict, controllability, observability, transfer functions",
+    response=s.AnalysisInfo,
+    params=(PLANT_ID,),
+    errors=(404,),
+)
 async def analysis(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
     a = await asyncio.to_thread(design.analyze, p)
-    return ok(s.AnalysisInfo(
-        plant=p.id, eigenvalues=convert.complex_list(a.stability.eigenvalues),
-        verdict=a.stability.verdict, reason=a.stability.reason,
-        controllability=_rank(a.controllability, p.nx), observability=_rank(a.observability, p.nx),
-        transfer_functions=[s.TransferFunctionInfo(output=tf.output, input=tf.input,
-                                                   num=tf.num.tolist(), den=tf.den.tolist(),
-                                                   text=tf.text(), latex=tf.latex())
-                            for tf in a.transfer_functions]))
+    return ok(
+        s.AnalysisInfo(
+            plant=p.id,
+            eigenvalues=convert.complex_list(a.stability.eigenvalues),
+            verdict=a.stability.verdict,
+            reason=a.stability.reason,
+            controllability=_rank(a.controllability, p.nx),
+            observability=_rank(a.observability, p.nx),
+            transfer_functions=[
+                s.TransferFunctionInfo(
+                    output=tf.output,
+                    input=tf.input,
+                    num=tf.num.tolist(),
+                    den=tf.den.tolist(),
+                    text=tf.text(),
+                    latex=tf.latex(),
+                )
+                for tf in a.transfer_functions
+            ],
+        )
+    )
 
 
-@endpoint("GET", "/plants/{plant_id}/bode", "Open-loop Bode diagram of each output (or one)",
-          response=s.BodeList, params=(PLANT_ID, Param("output", "query", "one output's name")))
+@endpoint(
+    "GET",
+    "/plants/{plant_id}/bode",
+    "Open-loop Bode diagram of each output (or one)",
+    response=s.BodeList,
+    params=(PLANT_ID, Param("output", "query", "one output's name")),
+)
 async def bode(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
     name = request.query_params.get("output")
@@ -83,15 +137,32 @@ async def bode(request: Request) -> Response:
         raise InvalidInput("output", name, "one of " + ", ".join(names))
     b = await asyncio.to_thread(design.bode, ct.ss(p.A, p.B, p.C, p.D))
     keep = [i for i, o in enumerate(names) if name in (None, o)]
-    return ok(s.BodeList(plant=p.id, input=p.inputs[0].name, bode=[
-        s.BodeInfo(output=names[i], omega=b.omega.tolist(), hz=b.hz.tolist(),
-                   mag_db=b.mag_db[i].tolist(), phase_deg=b.phase_deg[i].tolist())
-        for i in keep]))
+    return ok(
+        s.BodeList(
+            plant=p.id,
+            input=p.inputs[0].name,
+            bode=[
+                s.BodeInfo(
+                    output=names[i],
+                    omega=b.omega.tolist(),
+                    hz=b.hz.tolist(),
+                    mag_db=b.mag_db[i].tolist(),
+                    phase_deg=b.phase_deg[i].tolist(),
+                )
+                for i in keep
+            ],
+        )
+    )
 
 
-@endpoint("POST", "/plants/{plant_id}/step",
-          "Step response: open loop, or closed loop with a controller (linear, continuous)",
-          body=s.StepRequest, response=s.StepOut, params=(PLANT_ID,))
+@endpoint(
+    "POST",
+    "/plants/{plant_id}/step",
+    "Step response: open loop, or closed loop with a controller (linear, continuous)",
+    body=s.StepRequest,
+    response=s.StepOut,
+    params=(PLANT_ID,),
+)
 async def step(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
     req = await read_model(request, s.StepRequest)
@@ -110,10 +181,16 @@ def _step(p: Plant, law: object, req: s.StepRequest) -> s.StepOut:
     if loop == "closed" and np.all(np.isfinite(r.y)):
         si = design.step_info(r.t, y_ref, req.amplitude)
         info = s.StepInfoOut(**{k: convert.finite_or_none(v) for k, v in vars(si).items()})
-    return s.StepOut(plant=p.id, loop=loop, t=r.t.tolist(),
-                     outputs={o.name: _finite(r.y[i]) for i, o in enumerate(p.outputs)},
-                     u=_finite(r.u), info=info, poles=convert.complex_list(stab.eigenvalues),
-                     verdict=stab.verdict)
+    return s.StepOut(
+        plant=p.id,
+        loop=loop,
+        t=r.t.tolist(),
+        outputs={o.name: _finite(r.y[i]) for i, o in enumerate(p.outputs)},
+        u=_finite(r.u),
+        info=info,
+        poles=convert.complex_list(stab.eigenvalues),
+        verdict=stab.verdict,
+    )
 
 
 def _finite(v: np.ndarray) -> list[float]:
@@ -122,22 +199,46 @@ def _finite(v: np.ndarray) -> list[float]:
     return v.tolist()  # type: ignore[no-any-return]
 
 
-@endpoint("POST", "/plants/{plant_id}/design/lqr", "LQR state feedback from Q and R",
-          body=s.LQRRequest, response=s.DesignOut, params=(PLANT_ID,))
+@endpoint(
+    "POST",
+    "/plants/{plant_id}/design/lqr",
+    "LQR state feedback from Q and R",
+    body=s.LQRRequest,
+    response=s.DesignOut,
+    params=(PLANT_ID,),
+)
 async def design_lqr(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
     req = await read_model(request, s.LQRRequest)
     res = await asyncio.to_thread(design.design_lqr, p, req.Q, req.R)
-    return ok(s.DesignOut(plant=p.id, method="lqr", K=np.ravel(res.K).tolist(),
-                          closed_loop_poles=convert.complex_list(res.poles)))
+    return ok(
+        s.DesignOut(
+            plant=p.id,
+            method="lqr",
+            K=np.ravel(res.K).tolist(),
+            closed_loop_poles=convert.complex_list(res.poles),
+        )
+    )
 
 
-@endpoint("POST", "/plants/{plant_id}/design/place", "Pole placement: K from closed-loop poles",
-          body=s.PlaceRequest, response=s.DesignOut, params=(PLANT_ID,))
+@endpoint(
+    "POST",
+    "/plants/{plant_id}/design/place",
+    "Pole placement: K from closed-loop poles",
+    body=s.PlaceRequest,
+    response=s.DesignOut,
+    params=(PLANT_ID,),
+)
 async def design_place(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
     req = await read_model(request, s.PlaceRequest)
     poles = [complex(z.re, z.im) for z in req.poles]
     res = await asyncio.to_thread(design.design_place, p, poles)
-    return ok(s.DesignOut(plant=p.id, method="place", K=np.ravel(res.K).tolist(),
-                          closed_loop_poles=convert.complex_list(res.poles)))
+    return ok(
+        s.DesignOut(
+            plant=p.id,
+            method="place",
+            K=np.ravel(res.K).tolist(),
+            closed_loop_poles=convert.complex_list(res.poles),
+        )
+    )

@@ -14,10 +14,16 @@ from elab.api import schemas as s
 from elab.api.http import ENDPOINTS, Endpoint
 
 REF = "#/components/schemas/{model}"
-STATUS_TEXT = {200: "OK", 201: "Created", 404: "Unknown id", 409: "Conflict with the run's state",
-               413: "Body too large", 422: "Invalid input (every field error listed)",
-               429: "A limit on concurrent work (Retry-After says when to retry)",
-               503: "A part of the server is down or failing (the engine, the store)"}
+STATUS_TEXT = {
+    200: "OK",
+    201: "Created",
+    404: "Unknown id",
+    409: "Conflict with the run's state",
+    413: "Body too large",
+    422: "Invalid input (every field error listed)",
+    429: "A limit on concurrent work (Retry-After says when to retry)",
+    503: "A part of the server is down or failing (the engine, the store)",
+}
 STREAM_TEXT = """The live stream of a run: websocket `GET /api/v1/runs/{run_id}/stream`,
 subprotocol `elab.v1`, every message one msgpack map with a `type`. The server sends `hello`
 (the run, its channels and `frame_samples` F), then `frame` messages (frame `seq` holds samples
@@ -41,13 +47,18 @@ def _model(tp: Any) -> type[BaseModel]:
     return _ROOTS[id(tp)]
 
 
-_UNION_NAMES = {id(s.ServerMessage): "ServerMessage", id(s.ClientMessage): "ClientMessage",
-                id(s.Controller): "Controller", id(s.Signal): "Signal"}
+_UNION_NAMES = {
+    id(s.ServerMessage): "ServerMessage",
+    id(s.ClientMessage): "ClientMessage",
+    id(s.Controller): "Controller",
+    id(s.Signal): "Signal",
+}
 _ROOTS: dict[int, type[BaseModel]] = {}
 
 
-def _schemas(roots: list[tuple[Any, Mode]], template: str) -> tuple[list[dict[str, Any]],
-                                                                    dict[str, Any]]:
+def _schemas(
+    roots: list[tuple[Any, Mode]], template: str
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """JSON Schema refs for ``roots`` and their shared definitions.
 
     Requests are read in validation mode (fields with defaults optional), responses and
@@ -60,9 +71,11 @@ def _schemas(roots: list[tuple[Any, Mode]], template: str) -> tuple[list[dict[st
 
 
 def openapi_document() -> dict[str, Any]:
-    roots: list[tuple[Any, Mode]] = [(s.ErrorBody, "serialization"),
-                                     (s.ServerMessage, "serialization"),
-                                     (s.ClientMessage, "validation")]
+    roots: list[tuple[Any, Mode]] = [
+        (s.ErrorBody, "serialization"),
+        (s.ServerMessage, "serialization"),
+        (s.ClientMessage, "validation"),
+    ]
     for e in ENDPOINTS:
         if e.body is not None:
             roots.append((e.body, "validation"))
@@ -73,92 +86,136 @@ def openapi_document() -> dict[str, Any]:
     paths: dict[str, Any] = {}
     for e in ENDPOINTS:
         paths.setdefault("/api/v1" + e.path, {})[e.method.lower()] = _operation(e, ref)
-    return {"openapi": "3.1.0",
-            "info": {"title": "E-Lab API", "version": s.PROTOCOL, "description": STREAM_TEXT},
-            "paths": paths, "components": {"schemas": dict(sorted(defs.items()))}}
+    return {
+        "openapi": "3.1.0",
+        "info": {"title": "E-Lab API", "version": s.PROTOCOL, "description": STREAM_TEXT},
+        "paths": paths,
+        "components": {"schemas": dict(sorted(defs.items()))},
+    }
 
 
 def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict[str, Any]:
-    op: dict[str, Any] = {"summary": e.summary, "operationId": e.handler.__name__,
-                          "tags": [e.path.split("/")[1]]}
+    op: dict[str, Any] = {
+        "summary": e.summary,
+        "operationId": e.handler.__name__,
+        "tags": [e.path.split("/")[1]],
+    }
     if e.handler.__doc__:
         op["description"] = " ".join(e.handler.__doc__.split())
     if e.params:
-        op["parameters"] = [{"name": p.name, "in": p.where, "required": p.required or
-                             p.where == "path", "description": p.description, "schema": p.schema}
-                            for p in e.params]
+        op["parameters"] = [
+            {
+                "name": p.name,
+                "in": p.where,
+                "required": p.required or p.where == "path",
+                "description": p.description,
+                "schema": p.schema,
+            }
+            for p in e.params
+        ]
     if e.body is not None:
-        op["requestBody"] = {"required": True, "content": {
-            "application/json": {"schema": ref[id(e.body), "validation"]}}}
+        op["requestBody"] = {
+            "required": True,
+            "content": {"application/json": {"schema": ref[id(e.body), "validation"]}},
+        }
     if e.response == "file":
-        content = {m: {"schema": {"type": "string", "format": "binary"}}
-                   for m in ("text/csv", "application/json", "application/x-matlab-data")}
+        content = {
+            m: {"schema": {"type": "string", "format": "binary"}}
+            for m in ("text/csv", "application/json", "application/x-matlab-data")
+        }
     else:
         content = {"application/json": {"schema": ref[id(e.response), "serialization"]}}
-    op["responses"] = {str(e.status): {"description": STATUS_TEXT.get(e.status, "OK"),
-                                       "content": content}}
+    op["responses"] = {
+        str(e.status): {"description": STATUS_TEXT.get(e.status, "OK"), "content": content}
+    }
     for code in e.errors:
-        op["responses"][str(code)] = {"description": STATUS_TEXT[code], "content": {
-            "application/json": {"schema": ref[id(s.ErrorBody), "serialization"]}}}
+        op["responses"][str(code)] = {
+            "description": STATUS_TEXT[code],
+            "content": {"application/json": {"schema": ref[id(s.ErrorBody), "serialization"]}},
+        }
     return op
 
 
 #: The wire schema's roots: what clients send (validation) and what they receive.
 WIRE_ROOTS: list[tuple[Any, Mode]] = [
-    (s.RunCreate, "validation"), (s.ParamsUpdate, "validation"), (s.StepRequest, "validation"),
-    (s.LQRRequest, "validation"), (s.PlaceRequest, "validation"), (s.ClientMessage, "validation"),
-    (s.RunInfo, "serialization"), (s.RunList, "serialization"), (s.ParamsApplied, "serialization"),
-    (s.PlantSummary, "serialization"), (s.PlantDetail, "serialization"),
-    (s.AnalysisInfo, "serialization"), (s.BodeList, "serialization"),
-    (s.StepOut, "serialization"), (s.DesignOut, "serialization"), (s.ErrorBody, "serialization"),
-    (s.ServerMessage, "serialization"), (s.IdentRequest, "validation"),
+    (s.RunCreate, "validation"),
+    (s.ParamsUpdate, "validation"),
+    (s.StepRequest, "validation"),
+    (s.LQRRequest, "validation"),
+    (s.PlaceRequest, "validation"),
+    (s.ClientMessage, "validation"),
+    (s.RunInfo, "serialization"),
+    (s.RunList, "serialization"),
+    (s.ParamsApplied, "serialization"),
+    (s.PlantSummary, "serialization"),
+    (s.PlantDetail, "serialization"),
+    (s.AnalysisInfo, "serialization"),
+    (s.BodeList, "serialization"),
+    (s.StepOut, "serialization"),
+    (s.DesignOut, "serialization"),
+    (s.ErrorBody, "serialization"),
+    (s.ServerMessage, "serialization"),
+    (s.IdentRequest, "validation"),
     (s.IdentOut, "serialization"),
     # the unions by name, as clients build them and as the server describes them
-    (s.Controller, "validation"), (s.Controller, "serialization"),
-    (s.Signal, "validation"), (s.Signal, "serialization")]
+    (s.Controller, "validation"),
+    (s.Controller, "serialization"),
+    (s.Signal, "validation"),
+    (s.Signal, "serialization"),
+]
 
 
 def wire_schema() -> dict[str, Any]:
     """Every wire model as one JSON Schema (``shared/elab.v1.schema.json``)."""
     _, defs = _schemas(WIRE_ROOTS, "#/$defs/{model}")
-    return {"$schema": "https://json-schema.org/draft/2020-12/schema", "$id": s.PROTOCOL,
-            "title": "E-Lab wire protocol elab.v1", "$defs": dict(sorted(defs.items()))}
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": s.PROTOCOL,
+        "title": "E-Lab wire protocol elab.v1",
+        "$defs": dict(sorted(defs.items())),
+    }
 
 
 def reference_page(doc: dict[str, Any]) -> str:
     """The API reference as one self-contained HTML page."""
     esc = html.escape
-    out = [f"<!doctype html><html lang=en><meta charset=utf-8><title>{esc(doc['info']['title'])}"
-           "</title><style>body{font:15px/1.5 system-ui,sans-serif;max-width:960px;margin:2rem "
-           "auto;padding:0 1rem;color:#222}code,pre{font:13px ui-monospace,monospace;background:"
-           "#f4f4f6;border-radius:4px}pre{padding:.6rem;overflow:auto}h3{margin-top:2rem}"
-           ".m{display:inline-block;min-width:4.2em;font-weight:600}"
-           "table{border-collapse:collapse}td,th{padding:.2rem .6rem;border-bottom:1px solid #ddd;"
-           "text-align:left;vertical-align:top}</style>",
-           f"<h1>{esc(doc['info']['title'])} <small>{esc(doc['info']['version'])}</small></h1>",
-           "<p>Machine-readable: <a href=/api/v1/openapi.json>/api/v1/openapi.json</a>. "
-           "Errors are <code>{\"error\": {\"code\", \"message\", \"field\", \"errors\"}}</code>."
-           "</p><h2>Live stream</h2><p>" + esc(doc["info"]["description"])
-           + "</p><h2>Endpoints</h2>"]
+    out = [
+        f"<!doctype html><html lang=en><meta charset=utf-8><title>{esc(doc['info']['title'])}"
+        "</title><style>body{font:15px/1.5 system-ui,sans-serif;max-width:960px;margin:2rem "
+        "auto;padding:0 1rem;color:#222}code,pre{font:13px ui-monospace,monospace;background:"
+        "#f4f4f6;border-radius:4px}pre{padding:.6rem;overflow:auto}h3{margin-top:2rem}"
+        ".m{display:inline-block;min-width:4.2em;font-weight:600}"
+        "table{border-collapse:collapse}td,th{padding:.2rem .6rem;border-bottom:1px solid #ddd;"
+        "text-align:left;vertical-align:top}</style>",
+        f"<h1>{esc(doc['info']['title'])} <small>{esc(doc['info']['version'])}</small></h1>",
+        "<p>Machine-readable: <a href=/api/v1/openapi.json>/api/v1/openapi.json</a>. "
+        'Errors are <code>{"error": {"code", "message", "field", "errors"}}</code>.'
+        "</p><h2>Live stream</h2><p>" + esc(doc["info"]["description"]) + "</p><h2>Endpoints</h2>",
+    ]
     for path, ops in doc["paths"].items():
         for method, op in ops.items():
             out.append(_op_html(method, path, op))
     out.append("<h2>Schemas</h2>")
     for name, schema in doc["components"]["schemas"].items():
-        out.append(f"<h3 id={esc(name)}>{esc(name)}</h3><pre>"
-                   f"{esc(json.dumps(schema, indent=1))}</pre>")
+        out.append(
+            f"<h3 id={esc(name)}>{esc(name)}</h3><pre>{esc(json.dumps(schema, indent=1))}</pre>"
+        )
     return "".join(out)
 
 
 def _op_html(method: str, path: str, op: dict[str, Any]) -> str:
     esc = html.escape
-    parts = [f"<h3><span class=m>{method.upper()}</span> <code>{esc(path)}</code></h3>"
-             f"<p>{esc(op['summary'])}. {esc(op.get('description', ''))}</p>"]
+    parts = [
+        f"<h3><span class=m>{method.upper()}</span> <code>{esc(path)}</code></h3>"
+        f"<p>{esc(op['summary'])}. {esc(op.get('description', ''))}</p>"
+    ]
     if op.get("parameters"):
-        rows = "".join(f"<tr><td><code>{esc(p['name'])}</code></td><td>{p['in']}</td>"
-                       f"<td>{esc(p['description'])}</td></tr>" for p in op["parameters"])
-        parts.append(f"<table><tr><th>parameter</th><th>in</th><th>meaning</th></tr>{rows}"
-                     "</table>")
+        rows = "".join(
+            f"<tr><td><code>{esc(p['name'])}</code></td><td>{p['in']}</td>"
+            f"<td>{esc(p['description'])}</td></tr>"
+            for p in op["parameters"]
+        )
+        parts.append(f"<table><tr><th>parameter</th><th>in</th><th>meaning</th></tr>{rows}</table>")
     if "requestBody" in op:
         parts.append("<p>Body: " + _ref_links(op["requestBody"]) + "</p>")
     codes = ", ".join(f"{c} {esc(r['description'])}" for c, r in op["responses"].items())

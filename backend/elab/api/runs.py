@@ -21,8 +21,11 @@ from elab.runs.manager import RunManager
 from elab.store.base import RunRecord, RunSummary
 
 RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
-FORMATS = {"csv": "text/csv; charset=utf-8", "json": "application/json",
-           "mat": "application/x-matlab-data"}
+FORMATS = {
+    "csv": "text/csv; charset=utf-8",
+    "json": "application/json",
+    "mat": "application/x-matlab-data",
+}
 
 
 def manager(request: HTTPConnection) -> RunManager:
@@ -34,28 +37,48 @@ def run_summary(record: RunSummary) -> s.RunSummaryInfo:
 
 
 def _summary_fields(record: RunSummary) -> dict[str, Any]:
-    return {"id": record.id, "plant": record.plant, "mode": record.mode,
-            "experiment": record.experiment, "status": record.status, "Ts": record.Ts,
-            "channels": [s.ChannelInfo(name=n, unit=u) for n, u in record.channels],
-            "n_planned": record.n_planned, "n_samples": record.n_stored,
-            "created_at": record.created_at, "started_at": record.started_at,
-            "finished_at": record.finished_at, "error": record.error,
-            "url": f"/api/v1/runs/{record.id}"}
+    return {
+        "id": record.id,
+        "plant": record.plant,
+        "mode": record.mode,
+        "experiment": record.experiment,
+        "status": record.status,
+        "Ts": record.Ts,
+        "channels": [s.ChannelInfo(name=n, unit=u) for n, u in record.channels],
+        "n_planned": record.n_planned,
+        "n_samples": record.n_stored,
+        "created_at": record.created_at,
+        "started_at": record.started_at,
+        "finished_at": record.finished_at,
+        "error": record.error,
+        "url": f"/api/v1/runs/{record.id}",
+    }
 
 
 async def run_info(request: HTTPConnection, record: RunRecord) -> s.RunInfo:
     changes = await manager(request).param_changes(record.id)
     base = "/api/v1/runs/" + record.id
     return s.RunInfo(
-        **_summary_fields(record), frame_samples=frame_samples(record.Ts),
-        stream_url=base + "/stream", data_url=base + "/data", request=record.spec,
-        param_changes=[s.ParamChangeInfo(k=c.k, t=c.k * record.Ts, at=c.at, params=c.params)
-                       for c in changes])
+        **_summary_fields(record),
+        frame_samples=frame_samples(record.Ts),
+        stream_url=base + "/stream",
+        data_url=base + "/data",
+        request=record.spec,
+        param_changes=[
+            s.ParamChangeInfo(k=c.k, t=c.k * record.Ts, at=c.at, params=c.params) for c in changes
+        ],
+    )
 
 
-@endpoint("POST", "/runs", "Start a run (simulation); samples stream live and are recorded",
-          body=s.RunCreate, response=s.RunInfo, status=201,
-          errors=(404, 409, 413, 422, 429, 503))
+@endpoint(
+    "POST",
+    "/runs",
+    "Start a run (simulation); samples stream live and are recorded",
+    body=s.RunCreate,
+    response=s.RunInfo,
+    status=201,
+    errors=(404, 409, 413, 422, 429, 503),
+)
 async def create_run(request: Request) -> Response:
     """Starts stepping at once (paced to real time unless ``pace`` is ``fast``). Follow it on
     ``stream_url`` (websocket, subprotocol ``elab.v1``); download it from ``data_url``."""
@@ -63,20 +86,36 @@ async def create_run(request: Request) -> Response:
     plant = get_plant(req.plant)
     if req.mode == "rig":
         raise InvalidInput("mode", "rig", "simulation (the rig is not connected to this server)")
-    req = req.model_copy(update={  # store what ran, with the plant's defaults filled in
-        "signal": req.signal or convert.default_signal(plant),
-        "duration": req.duration if req.duration is not None else plant.signal.duration})
+    req = req.model_copy(
+        update={  # store what ran, with the plant's defaults filled in
+            "signal": req.signal or convert.default_signal(plant),
+            "duration": req.duration if req.duration is not None else plant.signal.duration,
+        }
+    )
     spec = convert.run_spec(req, plant)
     record = await manager(request).create(
-        spec, pace=req.pace, mode=req.mode, experiment=req.experiment,
-        request=req.model_dump(mode="json"), client=client_of(request))
+        spec,
+        pace=req.pace,
+        mode=req.mode,
+        experiment=req.experiment,
+        request=req.model_dump(mode="json"),
+        client=client_of(request),
+    )
     return ok(await run_info(request, record), status=201)
 
 
-@endpoint("GET", "/runs", "List runs, newest first", response=s.RunList, errors=(422,),
-          params=(Param("plant", "query", "only runs of this plant"),
-                  Param("limit", "query", "page size, 1..500 (default 50)", {"type": "integer"}),
-                  Param("offset", "query", "runs to skip (default 0)", {"type": "integer"})))
+@endpoint(
+    "GET",
+    "/runs",
+    "List runs, newest first",
+    response=s.RunList,
+    errors=(422,),
+    params=(
+        Param("plant", "query", "only runs of this plant"),
+        Param("limit", "query", "page size, 1..500 (default 50)", {"type": "integer"}),
+        Param("offset", "query", "runs to skip (default 0)", {"type": "integer"}),
+    ),
+)
 async def list_runs(request: Request) -> Response:
     m = manager(request)
     plant = request.query_params.get("plant")
@@ -85,23 +124,35 @@ async def list_runs(request: Request) -> Response:
     limit = query_int(request, "limit", 50, 1, 500)
     offset = query_int(request, "offset", 0, 0, 10**9)
     records, total = await m.page(plant=plant, limit=limit, offset=offset)
-    return ok(s.RunList(runs=[run_summary(r) for r in records], total=total, limit=limit,
-                        offset=offset))
+    return ok(
+        s.RunList(runs=[run_summary(r) for r in records], total=total, limit=limit, offset=offset)
+    )
 
 
-@endpoint("GET", "/server", "The server: live runs, watchers, the engine, the store, and how "
-          "closely the engine keeps time", response=s.ServerStatus, errors=())
+@endpoint(
+    "GET",
+    "/server",
+    "The server: live runs, watchers, the engine, the store, and how closely the engine keeps time",
+    response=s.ServerStatus,
+    errors=(),
+)
 async def server_status(request: Request) -> Response:
     """For operators and benchmarks: is the engine up and keeping up? Its ticks' lateness
     over the last minute and the trend of that lateness (the drift of the runs' clocks);
     whether its writes to the store work."""
     jobs = request.app.state.jobs
-    return ok(server_model(manager(request).status(), s.JobsInfo(workers=jobs.workers,
-                                                                busy=jobs.busy)))
+    return ok(
+        server_model(manager(request).status(), s.JobsInfo(workers=jobs.workers, busy=jobs.busy))
+    )
 
 
-@endpoint("GET", "/health", "200 when the server can take runs, else 503 and why",
-          response=s.HealthInfo, errors=(503,))
+@endpoint(
+    "GET",
+    "/health",
+    "200 when the server can take runs, else 503 and why",
+    response=s.HealthInfo,
+    errors=(503,),
+)
 async def health(request: Request) -> Response:
     """For a load balancer or a supervisor: the engine is up and ticking and its store
     writes work."""
@@ -117,19 +168,41 @@ async def health(request: Request) -> Response:
 def server_model(status: dict[str, Any], jobs: s.JobsInfo) -> s.ServerStatus:
     st: EngineStatus = status["engine"]
     h = st.health
-    timing = h.timing if h is not None else {
-        "ticks": 0, "tick_s": 0.0, "window_s": 0.0, "late_p50_ms": 0.0, "late_p99_ms": 0.0,
-        "late_max_ms": 0.0, "drift_ms_per_min": 0.0}
+    timing = (
+        h.timing
+        if h is not None
+        else {
+            "ticks": 0,
+            "tick_s": 0.0,
+            "window_s": 0.0,
+            "late_p50_ms": 0.0,
+            "late_p99_ms": 0.0,
+            "late_max_ms": 0.0,
+            "drift_ms_per_min": 0.0,
+        }
+    )
     store = h.store if h is not None else StoreHealth()
     return s.ServerStatus(
-        live_runs=status["live_runs"], watchers=status["watchers"],
+        live_runs=status["live_runs"],
+        watchers=status["watchers"],
         stepper=s.StepperTiming.model_validate(timing),
-        engine=s.EngineInfo(id=st.engine, up=st.up, problem=st.problem, restarts=st.restarts,
-                            pid=st.pid,
-                            heartbeat_age_s=st.heartbeat_age),
-        store=s.StoreInfo(ok=store.ok, error=store.error, since=store.since,
-                          transient=store.transient, pending_bytes=store.pending_bytes),
-        ident=jobs)
+        engine=s.EngineInfo(
+            id=st.engine,
+            up=st.up,
+            problem=st.problem,
+            restarts=st.restarts,
+            pid=st.pid,
+            heartbeat_age_s=st.heartbeat_age,
+        ),
+        store=s.StoreInfo(
+            ok=store.ok,
+            error=store.error,
+            since=store.since,
+            transient=store.transient,
+            pending_bytes=store.pending_bytes,
+        ),
+        ident=jobs,
+    )
 
 
 def client_of(request: HTTPConnection) -> str | None:
@@ -138,8 +211,14 @@ def client_of(request: HTTPConnection) -> str | None:
     return request.client.host if request.client else None
 
 
-@endpoint("GET", "/runs/{run_id}", "A run: state, progress, channels, parameter changes",
-          response=s.RunInfo, params=(RUN_ID,), errors=(404,))
+@endpoint(
+    "GET",
+    "/runs/{run_id}",
+    "A run: state, progress, channels, parameter changes",
+    response=s.RunInfo,
+    params=(RUN_ID,),
+    errors=(404,),
+)
 async def get_run(request: Request) -> Response:
     return ok(await run_info(request, await manager(request).get(request.path_params["run_id"])))
 
@@ -149,28 +228,51 @@ async def _control(request: Request, action: Action) -> Response:
     return ok(await run_info(request, record))
 
 
-@endpoint("POST", "/runs/{run_id}/stop", "Stop a run; its samples so far stay recorded",
-          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409, 503))
+@endpoint(
+    "POST",
+    "/runs/{run_id}/stop",
+    "Stop a run; its samples so far stay recorded",
+    response=s.RunInfo,
+    params=(RUN_ID,),
+    errors=(404, 409, 503),
+)
 async def stop_run(request: Request) -> Response:
     return await _control(request, "stop")
 
 
-@endpoint("POST", "/runs/{run_id}/pause", "Pause a run (its clock stops)",
-          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409, 503))
+@endpoint(
+    "POST",
+    "/runs/{run_id}/pause",
+    "Pause a run (its clock stops)",
+    response=s.RunInfo,
+    params=(RUN_ID,),
+    errors=(404, 409, 503),
+)
 async def pause_run(request: Request) -> Response:
     return await _control(request, "pause")
 
 
-@endpoint("POST", "/runs/{run_id}/resume", "Resume a paused run",
-          response=s.RunInfo, params=(RUN_ID,), errors=(404, 409, 503))
+@endpoint(
+    "POST",
+    "/runs/{run_id}/resume",
+    "Resume a paused run",
+    response=s.RunInfo,
+    params=(RUN_ID,),
+    errors=(404, 409, 503),
+)
 async def resume_run(request: Request) -> Response:
     return await _control(request, "resume")
 
 
-@endpoint("POST", "/runs/{run_id}/params",
-          "Change the controller gains and/or the reference of a live run",
-          body=s.ParamsUpdate, response=s.ParamsApplied, params=(RUN_ID,),
-          errors=(404, 409, 413, 422, 503))
+@endpoint(
+    "POST",
+    "/runs/{run_id}/params",
+    "Change the controller gains and/or the reference of a live run",
+    body=s.ParamsUpdate,
+    response=s.ParamsApplied,
+    params=(RUN_ID,),
+    errors=(404, 409, 413, 422, 503),
+)
 async def set_params(request: Request) -> Response:
     """Applied from the next sample; the change and its sample index are recorded."""
     req = await read_model(request, s.ParamsUpdate)
@@ -186,19 +288,32 @@ async def apply_params(m: RunManager, run_id: str, controller: Any, signal: Any)
         raise InvalidInput("body", {}, "controller and/or signal")
     record = await m.get(run_id)
     plant = get_plant(record.plant)
-    params = {k: v.model_dump(mode="json") for k, v in
-              (("controller", controller), ("signal", signal)) if v is not None}
+    params = {
+        k: v.model_dump(mode="json")
+        for k, v in (("controller", controller), ("signal", signal))
+        if v is not None
+    }
     return await m.set_params(
-        run_id, law=convert.law(controller, plant) if controller else None,
-        reference=convert.signal(signal) if signal else None, params=params)
+        run_id,
+        law=convert.law(controller, plant) if controller else None,
+        reference=convert.signal(signal) if signal else None,
+        params=params,
+    )
 
 
-@endpoint("GET", "/runs/{run_id}/data", "The complete recording as CSV, JSON or MATLAB .mat",
-          response="file", params=(
-              RUN_ID, Param("format", "query", "csv (default), json or mat"),
-              Param("channels", "query", "comma-separated channel names (default: all)"),
-              Param("t_from", "query", "first sample time (s)", {"type": "number"}),
-              Param("t_to", "query", "last sample time (s)", {"type": "number"})))
+@endpoint(
+    "GET",
+    "/runs/{run_id}/data",
+    "The complete recording as CSV, JSON or MATLAB .mat",
+    response="file",
+    params=(
+        RUN_ID,
+        Param("format", "query", "csv (default), json or mat"),
+        Param("channels", "query", "comma-separated channel names (default: all)"),
+        Param("t_from", "query", "first sample time (s)", {"type": "number"}),
+        Param("t_to", "query", "last sample time (s)", {"type": "number"}),
+    ),
+)
 async def get_data(request: Request) -> Response:
     """CSV starts with ``# key: value`` lines (plant, controller, signal, sample time, units,
     parameter changes); numbers are the shortest decimals that read back exactly. The file
@@ -212,24 +327,47 @@ async def get_data(request: Request) -> Response:
     record = await m.get(request.path_params["run_id"])
     read = m.snapshot(record.id)  # at once after: the same moment of a live run
     changes = await m.param_changes(record.id)
-    rec = export.Recording(_header(record), record.Ts, 0, record.n_stored, record.channels,
-                           read, tuple(c for c in changes if c.k < record.n_stored))
+    rec = export.Recording(
+        _header(record),
+        record.Ts,
+        0,
+        record.n_stored,
+        record.channels,
+        read,
+        tuple(c for c in changes if c.k < record.n_stored),
+    )
     names = request.query_params.get("channels")
-    rec = export.select(rec, names.split(",") if names else None,
-                        query_float(request, "t_from"), query_float(request, "t_to"))
+    rec = export.select(
+        rec,
+        names.split(",") if names else None,
+        query_float(request, "t_from"),
+        query_float(request, "t_to"),
+    )
     writers: dict[str, Callable[[export.Recording], Iterator[str] | Iterator[bytes]]] = {
-        "csv": export.iter_csv, "json": export.iter_json, "mat": export.iter_mat}
+        "csv": export.iter_csv,
+        "json": export.iter_json,
+        "mat": export.iter_mat,
+    }
     filename = f"{record.id}-{record.plant}.{fmt}"
-    return StreamingResponse(writers[fmt](rec), media_type=FORMATS[fmt],
-                             headers={"content-disposition": f'attachment; filename="{filename}"'})
+    return StreamingResponse(
+        writers[fmt](rec),
+        media_type=FORMATS[fmt],
+        headers={"content-disposition": f'attachment; filename="{filename}"'},
+    )
 
 
 def _header(record: RunRecord) -> dict[str, str]:
     spec = record.spec
-    return {"run": record.id, "plant": record.plant, "mode": record.mode,
-            "experiment": record.experiment, "status": record.status,
-            "controller": _compact(spec.get("controller")), "signal": _compact(spec.get("signal")),
-            "generator": "elab serve"}
+    return {
+        "run": record.id,
+        "plant": record.plant,
+        "mode": record.mode,
+        "experiment": record.experiment,
+        "status": record.status,
+        "controller": _compact(spec.get("controller")),
+        "signal": _compact(spec.get("signal")),
+        "generator": "elab serve",
+    }
 
 
 def _compact(obj: Any) -> str:

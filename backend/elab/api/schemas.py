@@ -17,8 +17,12 @@ Finite = float  # with allow_inf_nan=False below, NaN and ±inf are refused ever
 
 
 class Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True,
-                              json_schema_serialization_defaults_required=True)
+    model_config = ConfigDict(
+        extra="forbid",
+        allow_inf_nan=False,
+        frozen=True,
+        json_schema_serialization_defaults_required=True,
+    )
 
 
 # -- controllers ------------------------------------------------------------------
@@ -67,7 +71,10 @@ class OpenLoopController(Model):
 
 
 Controller = Annotated[
-    PredefinedController | StateFeedbackController | PIDController | LTIControllerModel
+    PredefinedController
+    | StateFeedbackController
+    | PIDController
+    | LTIControllerModel
     | OpenLoopController,
     Field(discriminator="kind"),
 ]
@@ -157,8 +164,9 @@ class ParamChangeInfo(Model):
     params: dict[str, Any]
 
 
-RunStateName = Literal["created", "running", "paused", "finished", "stopped", "failed",
-                      "interrupted"]
+RunStateName = Literal[
+    "created", "running", "paused", "finished", "stopped", "failed", "interrupted"
+]
 
 
 class RunSummaryInfo(Model):
@@ -198,8 +206,9 @@ class StepperTiming(Model):
     late_p50_ms: float = Field(description="how late a tick began: median (ms)")
     late_p99_ms: float
     late_max_ms: float
-    drift_ms_per_min: float = Field(description="trend of that lateness (ms per minute): the "
-                                    "drift of real-time runs' clocks")
+    drift_ms_per_min: float = Field(
+        description="trend of that lateness (ms per minute): the drift of real-time runs' clocks"
+    )
 
 
 class EngineInfo(Model):
@@ -219,8 +228,10 @@ class StoreInfo(Model):
     ok: bool
     error: str | None
     since: float | None = Field(description="failing since (unix s)")
-    transient: bool = Field(description="being retried (a lock held elsewhere); else failed "
-                            "until someone acts: new runs get 503")
+    transient: bool = Field(
+        description="being retried (a lock held elsewhere); else failed "
+        "until someone acts: new runs get 503"
+    )
     pending_bytes: int = Field(description="samples waiting in memory to be committed")
 
 
@@ -399,10 +410,13 @@ class DesignOut(Model):
 
 
 # -- identification ------------------------------------------------------------------
-Channels = Annotated[list[Annotated[str, Field(min_length=1, max_length=64)]],
-                     Field(min_length=1, max_length=8)]
-Span = Annotated[list[Annotated[int, Field(ge=0, le=50)]],
-                 Field(min_length=2, max_length=2, description="[lowest, highest], inclusive")]
+Channels = Annotated[
+    list[Annotated[str, Field(min_length=1, max_length=64)]], Field(min_length=1, max_length=8)
+]
+Span = Annotated[
+    list[Annotated[int, Field(ge=0, le=50)]],
+    Field(min_length=2, max_length=2, description="[lowest, highest], inclusive"),
+]
 
 
 class RunData(Model):
@@ -527,7 +541,6 @@ class CloseCode(IntEnum):
     NOT_FOUND = 4404
 
 
-
 class Hello(Model):
     type: Literal["hello"] = "hello"
     protocol: Literal["elab.v1"] = "elab.v1"
@@ -573,8 +586,9 @@ class ErrorMessage(Model):
     field: str | None = None
 
 
-ServerMessage = Annotated[Hello | Frame | Status | Skipped | ParamsNotice | ErrorMessage,
-                          Field(discriminator="type")]
+ServerMessage = Annotated[
+    Hello | Frame | Status | Skipped | ParamsNotice | ErrorMessage, Field(discriminator="type")
+]
 
 
 class SetParams(Model):
@@ -602,5 +616,6 @@ class ResumeFrom(Model):
     seq: int = Field(ge=0)
 
 
-ClientMessage = Annotated[SetParams | Pause | Resume | Stop | ResumeFrom,
-                          Field(discriminator="type")]
+ClientMessage = Annotated[
+    SetParams | Pause | Resume | Stop | ResumeFrom, Field(discriminator="type")
+]

@@ -55,33 +55,40 @@ class Settings:
     @classmethod
     def from_env(cls, env: Mapping[str, str] = os.environ) -> Settings:
         d = Limits()
-        limits = Limits(max_live=_int(env, "ELAB_MAX_LIVE_RUNS", d.max_live),
-                        max_live_per_client=_int(env, "ELAB_MAX_LIVE_PER_CLIENT",
-                                                 d.max_live_per_client),
-                        max_duration=_float(env, "ELAB_MAX_DURATION", d.max_duration),
-                        max_samples=_int(env, "ELAB_MAX_RUN_SAMPLES", d.max_samples),
-                        max_recording=_int(env, "ELAB_MAX_RECORDING", d.max_recording),
-                        ts_ratio=_float(env, "ELAB_TS_RATIO", d.ts_ratio))
+        limits = Limits(
+            max_live=_int(env, "ELAB_MAX_LIVE_RUNS", d.max_live),
+            max_live_per_client=_int(env, "ELAB_MAX_LIVE_PER_CLIENT", d.max_live_per_client),
+            max_duration=_float(env, "ELAB_MAX_DURATION", d.max_duration),
+            max_samples=_int(env, "ELAB_MAX_RUN_SAMPLES", d.max_samples),
+            max_recording=_int(env, "ELAB_MAX_RECORDING", d.max_recording),
+            ts_ratio=_float(env, "ELAB_TS_RATIO", d.ts_ratio),
+        )
         e = EngineSettings()
-        engine = EngineSettings(tick=e.tick, flush_interval=e.flush_interval,
-                                retry_for=_float(env, "ELAB_STORE_RETRY", e.retry_for),
-                                max_pending=_int(env, "ELAB_STORE_PENDING", e.max_pending))
-        return cls(data_dir=Path(env.get("ELAB_DATA", "data")), limits=limits,
-                   max_body=_int(env, "ELAB_MAX_BODY", 1 << 20),
-                   max_upload=_int(env, "ELAB_MAX_UPLOAD", 16 << 20),
-                   max_uploads=_int(env, "ELAB_MAX_UPLOADS", 4),
-                   watcher_frames=_int(env, "ELAB_WATCHER_FRAMES", 100), engine=engine,
-                   engine_nice=_int(env, "ELAB_ENGINE_NICE", -5, lo=-20, hi=19),
-                   engine_queue=_int(env, "ELAB_ENGINE_QUEUE", 64 << 20),
-                   engine_timeout=_float(env, "ELAB_ENGINE_TIMEOUT", 10.0),
-                   engine_stall=_float(env, "ELAB_ENGINE_STALL", 30.0),
-                   ident_workers=_int(env, "ELAB_IDENT_WORKERS", 1, hi=64),
-                   ident_timeout=_float(env, "ELAB_IDENT_TIMEOUT", 120.0),
-                   ident_wait=_float(env, "ELAB_IDENT_WAIT", 30.0))
+        engine = EngineSettings(
+            tick=e.tick,
+            flush_interval=e.flush_interval,
+            retry_for=_float(env, "ELAB_STORE_RETRY", e.retry_for),
+            max_pending=_int(env, "ELAB_STORE_PENDING", e.max_pending),
+        )
+        return cls(
+            data_dir=Path(env.get("ELAB_DATA", "data")),
+            limits=limits,
+            max_body=_int(env, "ELAB_MAX_BODY", 1 << 20),
+            max_upload=_int(env, "ELAB_MAX_UPLOAD", 16 << 20),
+            max_uploads=_int(env, "ELAB_MAX_UPLOADS", 4),
+            watcher_frames=_int(env, "ELAB_WATCHER_FRAMES", 100),
+            engine=engine,
+            engine_nice=_int(env, "ELAB_ENGINE_NICE", -5, lo=-20, hi=19),
+            engine_queue=_int(env, "ELAB_ENGINE_QUEUE", 64 << 20),
+            engine_timeout=_float(env, "ELAB_ENGINE_TIMEOUT", 10.0),
+            engine_stall=_float(env, "ELAB_ENGINE_STALL", 30.0),
+            ident_workers=_int(env, "ELAB_IDENT_WORKERS", 1, hi=64),
+            ident_timeout=_float(env, "ELAB_IDENT_TIMEOUT", 120.0),
+            ident_wait=_float(env, "ELAB_IDENT_WAIT", 30.0),
+        )
 
 
-def _int(env: Mapping[str, str], name: str, default: int, lo: int = 1,
-         hi: int = 1 << 62) -> int:
+def _int(env: Mapping[str, str], name: str, default: int, lo: int = 1, hi: int = 1 << 62) -> int:
     raw = env.get(name)
     if raw is None:
         return default

@@ -46,8 +46,12 @@ class Realisation:
     def ss(self) -> ct.StateSpace:
         """The controller as one system from :math:`[r, m]` to :math:`u`."""
         n, n_m = self.A.shape[0], self.D_m.shape[1]
-        return ct.ss(self.A, np.hstack([self.B_r, self.B_m]).reshape(n, 1 + n_m),
-                     self.C.reshape(1, n), np.hstack([self.D_r, self.D_m]))
+        return ct.ss(
+            self.A,
+            np.hstack([self.B_r, self.B_m]).reshape(n, 1 + n_m),
+            self.C.reshape(1, n),
+            np.hstack([self.D_r, self.D_m]),
+        )
 
     @classmethod
     def static(cls, D_r: Matrix, D_m: Matrix, measures_state: bool) -> Realisation:
@@ -102,8 +106,12 @@ def _pid_parameters(law: PID) -> tuple[float, float, float, float]:
         )
     Tf = abs(Kd) / (N * abs(Kp)) if N * abs(Kp) > 0.0 else math.inf
     if not MIN_TF <= Tf <= MAX_TF:
-        raise InvalidInput("controller.N", N, f"a filter N giving T_f = Kd / (N Kp) in "
-                           f"[{MIN_TF:g}, {MAX_TF:g}] s (here T_f = {Tf:.3g} s)")
+        raise InvalidInput(
+            "controller.N",
+            N,
+            f"a filter N giving T_f = Kd / (N Kp) in "
+            f"[{MIN_TF:g}, {MAX_TF:g}] s (here T_f = {Tf:.3g} s)",
+        )
     return Kp, Ki, Kd, Tf
 
 
@@ -122,9 +130,12 @@ def realise(plant: Plant, law: ControlLaw, *, all_pid_states: bool = False) -> R
         return _pid(plant, law, all_pid_states)
     if isinstance(law, LTIController):
         if law.dt is not None:
-            raise InvalidInput("controller.dt", law.dt,
-                               "a continuous controller (dt=None); discrete laws are "
-                               "taken as they are by elab.sim")
+            raise InvalidInput(
+                "controller.dt",
+                law.dt,
+                "a continuous controller (dt=None); discrete laws are "
+                "taken as they are by elab.sim",
+            )
         return _error_feedback(plant, lti_ss(law))
     if isinstance(law, OpenLoop):
         return Realisation.static(np.ones((1, 1)), np.zeros((1, plant.ny)), False)
@@ -212,8 +223,11 @@ def lti_ss(law: LTIController) -> ct.StateSpace:
         if C.shape[0] != 1:
             raise DimensionError("controller.C", law.C, "one row (a single output)")
         return ct.ss(
-            A, columns("controller.B", law.B, A.shape[0]), C,
-            shaped("controller.D", law.D, (1, 1)), _dt(law),
+            A,
+            columns("controller.B", law.B, A.shape[0]),
+            C,
+            shaped("controller.D", law.D, (1, 1)),
+            _dt(law),
         )
     num = _polynomials.clean(finite_array("controller.num", law.num, (None,)), 0.0)
     den = _polynomials.clean(finite_array("controller.den", law.den, (None,)), 0.0)
@@ -245,7 +259,14 @@ def _pid(plant: Plant, law: PID, all_states: bool) -> Realisation:
     c = np.array([[Ki, -Kd / Tf]])[:, keep]
     e_ref = np.eye(plant.ny)[[plant.reference_output]]
     names = ("pid_integral", "pid_derivative_filter")
-    return Realisation(A, b, -b @ e_ref, c, np.array([[Kp + Kd / Tf]]),
-                       -(Kp + Kd / Tf) * e_ref, False,
-                       tuple(n for n, k in zip(names, keep, strict=True) if k),
-                       0 if keep[0] else None)
+    return Realisation(
+        A,
+        b,
+        -b @ e_ref,
+        c,
+        np.array([[Kp + Kd / Tf]]),
+        -(Kp + Kd / Tf) * e_ref,
+        False,
+        tuple(n for n, k in zip(names, keep, strict=True) if k),
+        0 if keep[0] else None,
+    )

@@ -192,8 +192,11 @@ def place(A: Any, B: Any, poles: Any) -> Placement:
     B = columns("B", B, A.shape[0])
     p = _conjugate_pairs(complex_vector("poles", poles), A.shape[0])
     if np.max(np.abs(p)) > MAX_POLE:
-        raise InvalidInput("poles", poles, f"poles with |p| ≤ {MAX_POLE:g} rad/s (beyond, the "
-                           "gains overflow double precision)")
+        raise InvalidInput(
+            "poles",
+            poles,
+            f"poles with |p| ≤ {MAX_POLE:g} rad/s (beyond, the gains overflow double precision)",
+        )
     report = controllability(A, B)
     if not report.full:
         raise InvalidInput(

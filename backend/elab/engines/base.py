@@ -155,8 +155,14 @@ class Engine(Protocol):
     async def control(self, run_id: str, action: Action) -> int:
         """Pause, resume or stop a run; returns the sample index it happened at."""
 
-    async def replace(self, run_id: str, *, law: ControlLaw | None, reference: Signal | None,
-                      params: dict[str, Any]) -> int:
+    async def replace(
+        self,
+        run_id: str,
+        *,
+        law: ControlLaw | None,
+        reference: Signal | None,
+        params: dict[str, Any],
+    ) -> int:
         """A new law and/or reference from the next sample on (recorded with ``params``, what
         the client asked for); returns that sample's index. :class:`InvalidInput` for a law
         whose controller state differs in size from the run's."""

@@ -107,8 +107,17 @@ class WireEvents:
         self._out.put(wire.frame(wire.changed_out(change)))
 
     def params(self, engine: str, run_id: str, change: ParamChange) -> None:
-        self._out.put(wire.frame({"ev": "params", "run": run_id, "k": change.k,
-                                  "params": change.params, "at": change.at}))
+        self._out.put(
+            wire.frame(
+                {
+                    "ev": "params",
+                    "run": run_id,
+                    "k": change.k,
+                    "params": change.params,
+                    "at": change.at,
+                }
+            )
+        )
 
     def committed(self, engine: str, counts: dict[str, int]) -> None:
         self._out.put(wire.frame({"ev": "committed", "counts": counts}))
@@ -125,8 +134,11 @@ class WireEvents:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    logging.basicConfig(stream=sys.stderr, level=logging.WARNING,
-                        format="elab engine %(process)d: %(levelname)s %(message)s")
+    logging.basicConfig(
+        stream=sys.stderr,
+        level=logging.WARNING,
+        format="elab engine %(process)d: %(levelname)s %(message)s",
+    )
     options = json.loads(args.settings)
     _prioritise(int(options.pop("nice", 0)))
     max_queue = int(options.pop("max_queue", 64 << 20))
@@ -134,13 +146,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     sock = socket.socket(fileno=args.fd)
     outbox = Outbox(sock, max_queue, backlog_bytes=min(4 << 20, max_queue // 4))
     store = SQLiteStore(Path(args.database), migrate=False)
-    engine = SimulationEngine(args.engine, store, WireEvents(outbox), settings,
-                              backlog=outbox.backlogged)
+    engine = SimulationEngine(
+        args.engine, store, WireEvents(outbox), settings, backlog=outbox.backlogged
+    )
     interrupted = engine.start()
-    outbox.put(wire.frame({"ev": "ready", "engine": engine.id, "pid": os.getpid(),
-                           "interrupted": interrupted}))
-    beat = threading.Thread(target=_heartbeat, args=(engine, outbox), name="elab-engine-beat",
-                            daemon=True)
+    outbox.put(
+        wire.frame(
+            {"ev": "ready", "engine": engine.id, "pid": os.getpid(), "interrupted": interrupted}
+        )
+    )
+    beat = threading.Thread(
+        target=_heartbeat, args=(engine, outbox), name="elab-engine-beat", daemon=True
+    )
     beat.start()
     reason = "the web server process ended"
     workers = ThreadPoolExecutor(2, thread_name_prefix="elab-engine-cmd")
@@ -154,8 +171,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _serve(sock: socket.socket, engine: SimulationEngine, outbox: Outbox,
-           workers: ThreadPoolExecutor) -> str | None:
+def _serve(
+    sock: socket.socket, engine: SimulationEngine, outbox: Outbox, workers: ThreadPoolExecutor
+) -> str | None:
     """Commands until the web process closes us (its reason) or goes away (``None``)."""
     while True:
         message = _receive(sock)
@@ -171,12 +189,28 @@ def _serve(sock: socket.socket, engine: SimulationEngine, outbox: Outbox,
         elif op == "control":
             _reply_when(engine.control(h["run"], h["action"]), outbox, cid, int)
         elif op == "replace":
-            _reply_when(workers.submit(engine.replace, h["run"], law=wire.typed(h["law"]),
-                                       reference=wire.typed(h["reference"]),
-                                       params=h["params"]), outbox, cid, int)
+            _reply_when(
+                workers.submit(
+                    engine.replace,
+                    h["run"],
+                    law=wire.typed(h["law"]),
+                    reference=wire.typed(h["reference"]),
+                    params=h["params"],
+                ),
+                outbox,
+                cid,
+                int,
+            )
         else:
-            outbox.put(wire.frame({"ev": "reply", "id": cid, "error": wire.error_out(
-                ElabError(f"unknown engine command {op!r}"))}))
+            outbox.put(
+                wire.frame(
+                    {
+                        "ev": "reply",
+                        "id": cid,
+                        "error": wire.error_out(ElabError(f"unknown engine command {op!r}")),
+                    }
+                )
+            )
 
 
 def _reply_when(fut: Future[Any], outbox: Outbox, cid: Any, out: Callable[[Any], Any]) -> None:
@@ -238,8 +272,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--fd", type=int, required=True, help="the socket to the web process")
     p.add_argument("--engine", required=True, help="this engine's id (its runs in the store)")
     p.add_argument("--database", required=True, help="the SQLite store")
-    p.add_argument("--settings", default="{}", help="EngineSettings as JSON, plus nice, "
-                   "max_queue")
+    p.add_argument("--settings", default="{}", help="EngineSettings as JSON, plus nice, max_queue")
     return p
 
 

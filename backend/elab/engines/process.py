@@ -46,9 +46,17 @@ _STARTUP = 120.0  # s an engine may take to load (numpy, scipy, the compiled loo
 class ProcessEngine:
     """Starts ``python -m elab.engines.child`` and forwards commands and events."""
 
-    def __init__(self, engine_id: str, database: Path, settings: EngineSettings, *,
-                 nice: int = 0, max_queue: int = 64 << 20, command_timeout: float = 10.0,
-                 stall_timeout: float = 30.0) -> None:
+    def __init__(
+        self,
+        engine_id: str,
+        database: Path,
+        settings: EngineSettings,
+        *,
+        nice: int = 0,
+        max_queue: int = 64 << 20,
+        command_timeout: float = 10.0,
+        stall_timeout: float = 30.0,
+    ) -> None:
         self.id = engine_id
         self.database = database
         self.settings = settings
@@ -111,8 +119,16 @@ class ProcessEngine:
             elif not h.store.ok:
                 warning = f"the run store is busy, retrying: {h.store.error}"
         pid = self._proc.pid if self._proc is not None and self._ready else None
-        return EngineStatus(engine=self.id, up=self._ready, problem=problem, warning=warning,
-                            pid=pid, restarts=self._restarts, heartbeat_age=age, health=h)
+        return EngineStatus(
+            engine=self.id,
+            up=self._ready,
+            problem=problem,
+            warning=warning,
+            pid=pid,
+            restarts=self._restarts,
+            heartbeat_age=age,
+            health=h,
+        )
 
     # -- commands ------------------------------------------------------------------
     async def add(self, order: RunOrder) -> RunRecord:
@@ -121,15 +137,33 @@ class ProcessEngine:
     async def control(self, run_id: str, action: Action) -> int:
         return int(await self._call({"op": "control", "run": run_id, "action": action}))
 
-    async def replace(self, run_id: str, *, law: ControlLaw | None, reference: Signal | None,
-                      params: dict[str, Any]) -> int:
-        return int(await self._call({"op": "replace", "run": run_id, "law": wire.plain(law),
-                                     "reference": wire.plain(reference), "params": params}))
+    async def replace(
+        self,
+        run_id: str,
+        *,
+        law: ControlLaw | None,
+        reference: Signal | None,
+        params: dict[str, Any],
+    ) -> int:
+        return int(
+            await self._call(
+                {
+                    "op": "replace",
+                    "run": run_id,
+                    "law": wire.plain(law),
+                    "reference": wire.plain(reference),
+                    "params": params,
+                }
+            )
+        )
 
     async def _call(self, header: dict[str, Any]) -> Any:
         if not self._ready or self._writer is None:
-            raise Unavailable(f"the simulation engine is not running ({self._problem}); it "
-                              "restarts by itself, try again shortly", retry_after=2.0)
+            raise Unavailable(
+                f"the simulation engine is not running ({self._problem}); it "
+                "restarts by itself, try again shortly",
+                retry_after=2.0,
+            )
         cid = next(self._ids)
         fut: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
         self._pending[cid] = fut
@@ -137,8 +171,10 @@ class ProcessEngine:
             self._writer.write(wire.frame({**header, "id": cid}))
             return await asyncio.wait_for(self._answer(fut), self.command_timeout)
         except TimeoutError:
-            raise Unavailable(f"the simulation engine did not answer within "
-                              f"{self.command_timeout:g} s", retry_after=5.0) from None
+            raise Unavailable(
+                f"the simulation engine did not answer within {self.command_timeout:g} s",
+                retry_after=5.0,
+            ) from None
         finally:
             self._pending.pop(cid, None)
 
@@ -151,13 +187,24 @@ class ProcessEngine:
     async def _spawn(self) -> None:
         parent, child = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
         options = {**asdict(self.settings), "nice": self.nice, "max_queue": self.max_queue}
-        cmd = [sys.executable, "-m", "elab.engines.child", "--fd", str(child.fileno()),
-               "--engine", self.id, "--database", str(self.database),
-               "--settings", json.dumps(options)]
+        cmd = [
+            sys.executable,
+            "-m",
+            "elab.engines.child",
+            "--fd",
+            str(child.fileno()),
+            "--engine",
+            self.id,
+            "--database",
+            str(self.database),
+            "--settings",
+            json.dumps(options),
+        ]
         # its own session: a Ctrl-C at the terminal reaches the web process, which then
         # closes the engine in order (runs interrupted, everything stored)
-        self._proc = subprocess.Popen(cmd, pass_fds=(child.fileno(),), start_new_session=True,
-                                      stdin=subprocess.DEVNULL)
+        self._proc = subprocess.Popen(
+            cmd, pass_fds=(child.fileno(),), start_new_session=True, stdin=subprocess.DEVNULL
+        )
         child.close()
         reader, self._writer = await asyncio.open_unix_connection(sock=parent)
         try:
@@ -165,14 +212,19 @@ class ProcessEngine:
         except (TimeoutError, asyncio.IncompleteReadError, ConnectionError) as exc:
             self._proc.kill()
             code = await asyncio.to_thread(self._proc.wait)
-            raise ElabError(f"the simulation engine did not start ({_ended(code)}; its "
-                            f"messages are in the server's log)") from exc
+            raise ElabError(
+                f"the simulation engine did not start ({_ended(code)}; its "
+                f"messages are in the server's log)"
+            ) from exc
         if header.get("ev") != "ready":
             raise ElabError(f"the simulation engine said {header!r} instead of ready")
         self._ready, self._problem, self._beat = True, None, time.monotonic()
         if header["interrupted"]:
-            log.warning("engine %s: runs interrupted by its earlier end: %s", self.id,
-                        ", ".join(header["interrupted"]))
+            log.warning(
+                "engine %s: runs interrupted by its earlier end: %s",
+                self.id,
+                ", ".join(header["interrupted"]),
+            )
         self._reading = self._spawn_task(self._read_loop(reader))
 
     async def _read_loop(self, reader: asyncio.StreamReader) -> None:
@@ -243,8 +295,9 @@ class ProcessEngine:
             proc, beat = self._proc, self._beat
             if self._ready and beat is not None and proc is not None:
                 if time.monotonic() - beat > self.stall_timeout:
-                    log.error("engine %s sent nothing for %g s: killing it", self.id,
-                              self.stall_timeout)
+                    log.error(
+                        "engine %s sent nothing for %g s: killing it", self.id, self.stall_timeout
+                    )
                     proc.send_signal(signal.SIGKILL)
                 continue
             if self._ready or (self._reading is not None and not self._reading.done()):

@@ -67,11 +67,17 @@ class _Param:
 class Recorder:
     """The writer thread of one engine and what waits for it."""
 
-    def __init__(self, store: RunStore, *, interval: float = 0.25, retry_for: float = 30.0,
-                 max_pending: int = 256 << 20,
-                 on_committed: Callable[[dict[str, int]], None] = lambda counts: None,
-                 on_stored: Callable[[str], None] = lambda run_id: None,
-                 on_fault: Callable[[StoreHealth], None] = lambda health: None) -> None:
+    def __init__(
+        self,
+        store: RunStore,
+        *,
+        interval: float = 0.25,
+        retry_for: float = 30.0,
+        max_pending: int = 256 << 20,
+        on_committed: Callable[[dict[str, int]], None] = lambda counts: None,
+        on_stored: Callable[[str], None] = lambda run_id: None,
+        on_fault: Callable[[StoreHealth], None] = lambda health: None,
+    ) -> None:
         self.store = store
         self.interval = interval
         self.retry_for = retry_for
@@ -154,8 +160,11 @@ class Recorder:
 
     def _flush_samples(self) -> None:
         with self._lock:  # one row per run per flush: its pending chunks joined
-            batch = [(rid, t.chunks[0][0], _joined([d for _, d in t.chunks]))
-                     for rid, t in self._tails.items() if t.chunks]
+            batch = [
+                (rid, t.chunks[0][0], _joined([d for _, d in t.chunks]))
+                for rid, t in self._tails.items()
+                if t.chunks
+            ]
             counts = {rid: len(t.chunks) for rid, t in self._tails.items()}
         if not batch:
             return
@@ -181,8 +190,12 @@ class Recorder:
                 if isinstance(op, _Param):
                     self.store.add_param_change(op.run_id, op.change)
                 else:
-                    self.store.set_status(op.run_id, op.state.value, error=op.error,
-                                          finished_at=time.time() if op.final else None)
+                    self.store.set_status(
+                        op.run_id,
+                        op.state.value,
+                        error=op.error,
+                        finished_at=time.time() if op.final else None,
+                    )
             except StoreError:
                 raise
             except ElabError:  # the run is not in the store (a bug): nothing to retry
@@ -207,8 +220,13 @@ class Recorder:
                 delay = self._fault(exc, delay)
             except Exception:  # a bug: reported, and the thread goes on trying
                 log.exception("the writer failed")
-                self._set_health(StoreHealth(ok=False, error="internal error in the writer "
-                                             "(see the server log)", since=time.time()))
+                self._set_health(
+                    StoreHealth(
+                        ok=False,
+                        error="internal error in the writer (see the server log)",
+                        since=time.time(),
+                    )
+                )
                 delay = _FAILED_RETRY
             finally:
                 self.last_flush = time.monotonic()
@@ -217,15 +235,17 @@ class Recorder:
         now = time.time()
         since = self.health.since or now
         pending = self.pending_bytes()
-        give_up = (not exc.transient or now - since >= self.retry_for
-                   or pending > self.max_pending)
+        give_up = not exc.transient or now - since >= self.retry_for or pending > self.max_pending
         if give_up:
             with self._lock:  # the runs fail; what was not committed cannot be
                 for tail in self._tails.values():
                     tail.chunks = []
                 pending = 0
-        self._set_health(StoreHealth(ok=False, error=str(exc), since=since,
-                                     transient=not give_up, pending_bytes=pending))
+        self._set_health(
+            StoreHealth(
+                ok=False, error=str(exc), since=since, transient=not give_up, pending_bytes=pending
+            )
+        )
         return _FAILED_RETRY if give_up else min(max(self.interval, 2 * delay), _RETRY_CAP)
 
     def _set_health(self, health: StoreHealth) -> None:

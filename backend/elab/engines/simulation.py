@@ -56,26 +56,37 @@ class EngineSettings:
 def channels_of(run: CompiledRun) -> tuple[tuple[str, str], ...]:
     """Recorded columns ``r, u, y…, x…`` with units (the time column is derived)."""
     p = run.spec.plant
-    empty = Samples(p, run.Ts, 0, np.zeros(0), np.zeros(0), np.zeros((0, p.ny)),
-                    np.zeros((0, p.nx)))
+    empty = Samples(
+        p, run.Ts, 0, np.zeros(0), np.zeros(0), np.zeros((0, p.ny)), np.zeros((0, p.nx))
+    )
     return tuple((c.name, c.unit) for c, _ in empty.channels()[1:])
 
 
 class SimulationEngine:
     """Steps and records runs; every method is safe to call from any thread."""
 
-    def __init__(self, engine_id: str, store: RunStore, events: EngineEvents,
-                 settings: EngineSettings | None = None, *,
-                 backlog: Callable[[], bool] = lambda: False) -> None:
+    def __init__(
+        self,
+        engine_id: str,
+        store: RunStore,
+        events: EngineEvents,
+        settings: EngineSettings | None = None,
+        *,
+        backlog: Callable[[], bool] = lambda: False,
+    ) -> None:
         self.id = engine_id
         self.store = store
         self._events = events
         self.settings = settings = settings or EngineSettings()
-        self.recorder = Recorder(store, interval=settings.flush_interval,
-                                 retry_for=settings.retry_for, max_pending=settings.max_pending,
-                                 on_committed=lambda counts: events.committed(self.id, counts),
-                                 on_stored=lambda run_id: events.stored(self.id, run_id),
-                                 on_fault=self._on_fault)
+        self.recorder = Recorder(
+            store,
+            interval=settings.flush_interval,
+            retry_for=settings.retry_for,
+            max_pending=settings.max_pending,
+            on_committed=lambda counts: events.committed(self.id, counts),
+            on_stored=lambda run_id: events.stored(self.id, run_id),
+            on_fault=self._on_fault,
+        )
         self.stepper = Stepper(self._on_tick, tick=settings.tick, backlog=backlog)
         self._runs: dict[str, CompiledRun] = {}  # live runs as last changed
         self._changing = threading.Lock()
@@ -104,19 +115,29 @@ class SimulationEngine:
         """Check, store and start a run; its record."""
         if self.recorder.failed:
             h = self.recorder.health
-            raise Unavailable(f"new runs are refused while the run store fails: {h.error}",
-                              retry_after=5.0)
+            raise Unavailable(
+                f"new runs are refused while the run store fails: {h.error}", retry_after=5.0
+            )
         run = compile_run(order.spec)
         mono = time.monotonic()
         # sample 0 just after the stepper's next tick, so each tick completes a frame;
         # started_at: the wall time of sample 0
         origin = self.stepper.origin(mono, run.Ts) if order.pace == "realtime" else mono
         now = time.time() + (origin - mono)
-        record = RunRecord(id=order.id, plant=order.spec.plant.id, mode=order.mode,
-                           experiment=order.experiment, spec=order.request,
-                           status=RunState.RUNNING.value, Ts=run.Ts, channels=channels_of(run),
-                           n_planned=run.n_samples, created_at=now, started_at=now,
-                           engine=self.id)
+        record = RunRecord(
+            id=order.id,
+            plant=order.spec.plant.id,
+            mode=order.mode,
+            experiment=order.experiment,
+            spec=order.request,
+            status=RunState.RUNNING.value,
+            Ts=run.Ts,
+            channels=channels_of(run),
+            n_planned=run.n_samples,
+            created_at=now,
+            started_at=now,
+            engine=self.id,
+        )
         self.store.create_run(record)
         self.recorder.open(record.id, len(record.channels))
         self._runs[record.id] = run
@@ -127,22 +148,32 @@ class SimulationEngine:
     def control(self, run_id: str, action: Action) -> Future[int]:
         return self.stepper.control(run_id, action)
 
-    def replace(self, run_id: str, *, law: ControlLaw | None, reference: Signal | None,
-                params: dict[str, Any]) -> int:
+    def replace(
+        self,
+        run_id: str,
+        *,
+        law: ControlLaw | None,
+        reference: Signal | None,
+        params: dict[str, Any],
+    ) -> int:
         """A new law and/or reference from the next sample on; the change is recorded and
         reported; returns that sample's index."""
         with self._changing:  # one change at a time: each starts from the last
             old = self._runs.get(run_id)
             if old is None:
                 raise Conflict(f"run {run_id} has ended: it no longer steps")
-            spec = replace(old.spec, law=law or old.spec.law,
-                           reference=reference or old.spec.reference)
+            spec = replace(
+                old.spec, law=law or old.spec.law, reference=reference or old.spec.reference
+            )
             run = compile_run(spec)
             if law is not None and run.controller.nc != old.controller.nc:
-                raise InvalidInput("controller", params.get("controller"),
-                                   f"a {type(old.spec.law).__name__} law like the run's (its "
-                                   "controller state size cannot change mid-run); start a new "
-                                   "run instead")
+                raise InvalidInput(
+                    "controller",
+                    params.get("controller"),
+                    f"a {type(old.spec.law).__name__} law like the run's (its "
+                    "controller state size cannot change mid-run); start a new "
+                    "run instead",
+                )
             k = self.stepper.replace(run_id, run, controller=law is not None).result()
             self._runs[run_id] = run
         change = ParamChange(k=k, params=params, at=time.time())
@@ -160,12 +191,19 @@ class SimulationEngine:
         stepping = self.stepper.alive and quiet < max(1.0, 10 * self.stepper.tick)
         store = self.recorder.health
         if not (self.recorder.alive and now - self.recorder.last_flush < 10.0):
-            store = StoreHealth(ok=False, error="the writer thread is not working",
-                                since=store.since or time.time())
+            store = StoreHealth(
+                ok=False, error="the writer thread is not working", since=store.since or time.time()
+            )
         store = replace(store, pending_bytes=self.recorder.pending_bytes())
-        return Health(engine=self.id, pid=os.getpid(), live_runs=self.stepper.live_count,
-                      timing=self.stepper.timing(), store=store, stepping=stepping,
-                      at=time.time())
+        return Health(
+            engine=self.id,
+            pid=os.getpid(),
+            live_runs=self.stepper.live_count,
+            timing=self.stepper.timing(),
+            store=store,
+            stepping=stepping,
+            at=time.time(),
+        )
 
     # -- from the threads ------------------------------------------------------------
     def _on_tick(self, blocks: list[Block], changes: list[Changed]) -> None:
@@ -183,9 +221,11 @@ class SimulationEngine:
     def _on_fault(self, health: StoreHealth) -> None:
         """In the writer thread: a failed store fails the live runs."""
         if not health.ok and not health.transient:
-            self.stepper.end(None, RunState.FAILED,
-                             f"storage failed: {health.error}; the recording keeps the "
-                             "samples stored before")
+            self.stepper.end(
+                None,
+                RunState.FAILED,
+                f"storage failed: {health.error}; the recording keeps the samples stored before",
+            )
         self._events.health(self.id, self.health())
 
 

@@ -68,10 +68,15 @@ class Stepper:
     the state changes (pauses, resumes, ends) since the last call; ``backlog()`` true holds
     fast runs back (their samples would only pile up in front of a slow consumer)."""
 
-    def __init__(self, on_tick: Callable[[list[Block], list[Changed]], None], *,
-                 tick: float = 0.02, fast_block: int = 1024,
-                 clock: Callable[[], float] = time.monotonic,
-                 backlog: Callable[[], bool] = lambda: False) -> None:
+    def __init__(
+        self,
+        on_tick: Callable[[list[Block], list[Changed]], None],
+        *,
+        tick: float = 0.02,
+        fast_block: int = 1024,
+        clock: Callable[[], float] = time.monotonic,
+        backlog: Callable[[], bool] = lambda: False,
+    ) -> None:
         self._on_tick = on_tick
         self.tick = tick
         self._fast_block = fast_block
@@ -111,8 +116,9 @@ class Stepper:
 
     def control(self, run_id: str, action: str) -> Future[int]:
         """Pause, resume or stop; the sample index it happened at, or :class:`Conflict`."""
-        target = {"pause": RunState.PAUSED, "resume": RunState.RUNNING,
-                  "stop": RunState.STOPPED}[action]
+        target = {"pause": RunState.PAUSED, "resume": RunState.RUNNING, "stop": RunState.STOPPED}[
+            action
+        ]
         return self._call(lambda: self._control(run_id, target))
 
     def replace(self, run_id: str, run: CompiledRun, *, controller: bool) -> Future[int]:
@@ -176,8 +182,11 @@ class Stepper:
         return live.k
 
     def _end_many(self, run_ids: list[str] | None, state: Final, reason: str) -> list[str]:
-        lives = list(self._runs.values()) if run_ids is None else [
-            self._runs[i] for i in run_ids if i in self._runs]
+        lives = (
+            list(self._runs.values())
+            if run_ids is None
+            else [self._runs[i] for i in run_ids if i in self._runs]
+        )
         if lives:
             self._on_tick([], [self._end(live, state, reason) for live in lives])
         return [live.id for live in lives]
@@ -207,8 +216,13 @@ class Stepper:
                 blocks, ended = self._step(min(now, deadline))
             except Exception as exc:  # a bug must not stop the thread and hang every run
                 log.exception("stepping failed; ending the live runs")
-                blocks, ended = [], [self._end(live, RunState.FAILED, f"internal error: {exc!r}")
-                                     for live in list(self._runs.values())]
+                blocks, ended = (
+                    [],
+                    [
+                        self._end(live, RunState.FAILED, f"internal error: {exc!r}")
+                        for live in list(self._runs.values())
+                    ],
+                )
             if blocks or ended:
                 self._on_tick(blocks, ended)
             fast = self._fast_due()
@@ -223,14 +237,24 @@ class Stepper:
         its due time, so this trend is the drift of the runs' clocks against the monotonic
         clock."""
         late = np.array(self._late.copy())  # deque.copy is atomic; the thread appends
-        out: dict[str, float | int] = {"ticks": self.ticks, "tick_s": self.tick,
-                                       "window_s": 0.0, "late_p50_ms": 0.0, "late_p99_ms": 0.0,
-                                       "late_max_ms": 0.0, "drift_ms_per_min": 0.0}
+        out: dict[str, float | int] = {
+            "ticks": self.ticks,
+            "tick_s": self.tick,
+            "window_s": 0.0,
+            "late_p50_ms": 0.0,
+            "late_p99_ms": 0.0,
+            "late_max_ms": 0.0,
+            "drift_ms_per_min": 0.0,
+        }
         if late.shape[0] >= 2:
             t, lag = late[:, 0], late[:, 1] * 1e3
-            out.update(window_s=float(t[-1] - t[0]), late_p50_ms=float(np.percentile(lag, 50)),
-                       late_p99_ms=float(np.percentile(lag, 99)), late_max_ms=float(lag.max()),
-                       drift_ms_per_min=_trend(t - t[0], lag) * 60.0)
+            out.update(
+                window_s=float(t[-1] - t[0]),
+                late_p50_ms=float(np.percentile(lag, 50)),
+                late_p99_ms=float(np.percentile(lag, 99)),
+                late_max_ms=float(lag.max()),
+                drift_ms_per_min=_trend(t - t[0], lag) * 60.0,
+            )
         return out
 
     def align(self, t: float) -> float:
@@ -273,8 +297,9 @@ class Stepper:
                     group = [live for live, ok in zip(group, fine, strict=True) if ok]
                     data = data[fine]
                 if group:
-                    blocks.append(Block([live.id for live in group],
-                                        [live.k for live in group], data))
+                    blocks.append(
+                        Block([live.id for live in group], [live.k for live in group], data)
+                    )
                     for live in group:
                         live.k += n
         for live in [r for r in self._runs.values() if r.k >= r.run.n_samples]:

@@ -30,9 +30,21 @@ HEADER_BYTES = _FRAME.size
 MAX_HEADER = 64 << 20  # a header longer than this is a broken stream, not a message
 
 #: the types a run spec may contain, by name
-_TYPES: dict[str, type] = {cls.__name__: cls for cls in (
-    laws.StateFeedback, laws.PID, laws.LTIController, laws.OpenLoop, signals.Step,
-    signals.Square, signals.Sine, signals.Chirp, signals.PRBS, signals.Samples)}
+_TYPES: dict[str, type] = {
+    cls.__name__: cls
+    for cls in (
+        laws.StateFeedback,
+        laws.PID,
+        laws.LTIController,
+        laws.OpenLoop,
+        signals.Step,
+        signals.Square,
+        signals.Sine,
+        signals.Chirp,
+        signals.PRBS,
+        signals.Samples,
+    )
+}
 
 
 def frame(header: dict[str, Any], payload: bytes = b"") -> bytes:
@@ -51,8 +63,10 @@ def lengths(prefix: bytes) -> tuple[int, int]:
 
 # -- run specs ------------------------------------------------------------------------
 def spec_out(spec: RunSpec) -> dict[str, Any]:
-    return {f.name: spec.plant.id if f.name == "plant" else plain(getattr(spec, f.name))
-            for f in dataclasses.fields(spec)}
+    return {
+        f.name: spec.plant.id if f.name == "plant" else plain(getattr(spec, f.name))
+        for f in dataclasses.fields(spec)
+    }
 
 
 def spec_in(data: dict[str, Any]) -> RunSpec:
@@ -66,8 +80,10 @@ def plain(value: Any) -> Any:
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         if type(value).__name__ not in _TYPES:
             raise TypeError(f"{type(value).__name__} cannot go to an engine")
-        return {"type": type(value).__name__,
-                **{f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)}}
+        return {
+            "type": type(value).__name__,
+            **{f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)},
+        }
     if isinstance(value, tuple | list):
         return [plain(v) for v in value]
     return value
@@ -84,13 +100,25 @@ def typed(value: Any) -> Any:
 
 
 def order_out(order: RunOrder) -> dict[str, Any]:
-    return {"id": order.id, "spec": spec_out(order.spec), "pace": order.pace,
-            "mode": order.mode, "experiment": order.experiment, "request": order.request}
+    return {
+        "id": order.id,
+        "spec": spec_out(order.spec),
+        "pace": order.pace,
+        "mode": order.mode,
+        "experiment": order.experiment,
+        "request": order.request,
+    }
 
 
 def order_in(data: dict[str, Any]) -> RunOrder:
-    return RunOrder(id=data["id"], spec=spec_in(data["spec"]), pace=data["pace"],
-                    mode=data["mode"], experiment=data["experiment"], request=data["request"])
+    return RunOrder(
+        id=data["id"],
+        spec=spec_in(data["spec"]),
+        pace=data["pace"],
+        mode=data["mode"],
+        experiment=data["experiment"],
+        request=data["request"],
+    )
 
 
 def record_out(record: RunRecord) -> dict[str, Any]:
@@ -113,15 +141,21 @@ def blocks_in(header: dict[str, Any], payload: bytes) -> list[Block]:
     for run_ids, k0, n, ncols in header["groups"]:
         size = len(run_ids) * n * ncols * 8
         data = np.frombuffer(payload, "<f8", count=size // 8, offset=at).reshape(
-            len(run_ids), n, ncols)
+            len(run_ids), n, ncols
+        )
         out.append(Block(run_ids, k0, data))
         at += size
     return out
 
 
 def changed_out(change: Changed) -> dict[str, Any]:
-    return {"ev": "changed", "run": change.run_id, "state": change.state.value,
-            "k": change.k, "error": change.error}
+    return {
+        "ev": "changed",
+        "run": change.run_id,
+        "state": change.state.value,
+        "k": change.k,
+        "error": change.error,
+    }
 
 
 def changed_in(h: dict[str, Any]) -> Changed:

@@ -53,8 +53,7 @@ class IdData:
     def __post_init__(self) -> None:
         y, u = _columns("y", self.y), _columns("u", self.u)
         if y.shape[0] != u.shape[0]:
-            raise InvalidInput("u", f"{u.shape[0]} samples",
-                               f"as many samples as y ({y.shape[0]})")
+            raise InvalidInput("u", f"{u.shape[0]} samples", f"as many samples as y ({y.shape[0]})")
         if y.shape[0] < 2:
             raise InvalidInput("y", f"{y.shape[0]} samples", "at least 2 samples")
         if y.shape[0] > MAX_SAMPLES:
@@ -67,8 +66,12 @@ class IdData:
         object.__setattr__(self, "y", y)
         object.__setattr__(self, "u", u)
         object.__setattr__(self, "Ts", float(Ts))
-        for attr, n, stem in (("output_names", y.shape[1], "y"), ("input_names", u.shape[1], "u"),
-                              ("output_units", y.shape[1], ""), ("input_units", u.shape[1], "")):
+        for attr, n, stem in (
+            ("output_names", y.shape[1], "y"),
+            ("input_names", u.shape[1], "u"),
+            ("output_units", y.shape[1], ""),
+            ("input_units", u.shape[1], ""),
+        ):
             given = tuple(getattr(self, attr))
             if not given:
                 given = tuple(f"{stem}{i + 1}" if stem else "" for i in range(n))
@@ -116,8 +119,7 @@ class IdData:
                 raise InvalidInput("split", at, "a sample count or a fraction in (0, 1)")
             n = round(at * self.N)
         if not 2 <= n <= self.N - 2:
-            raise InvalidInput("split", at, f"leaving at least 2 samples on each side of "
-                                            f"{self.N}")
+            raise InvalidInput("split", at, f"leaving at least 2 samples on each side of {self.N}")
         return self[:n], self[n:]
 
 
@@ -152,7 +154,9 @@ def require_exciting(u: Array, order: int, field: str = "u") -> None:
         s = np.linalg.eigvalsh(lags.T @ lags)[::-1]
         if s[0] <= 0 or s[-1] <= 1e-13 * s[0]:
             what = "constant" if np.ptp(x) == 0 else f"not persistently exciting of order {order}"
-            raise InvalidInput(f"{field}[{j}]" if u.shape[1] > 1 else field,
-                               f"an input that is {what}",
-                               f"an input that excites the system: persistently exciting of "
-                               f"order ≥ {order} (e.g. PRBS, a chirp or white noise)")
+            raise InvalidInput(
+                f"{field}[{j}]" if u.shape[1] > 1 else field,
+                f"an input that is {what}",
+                f"an input that excites the system: persistently exciting of "
+                f"order ≥ {order} (e.g. PRBS, a chirp or white noise)",
+            )

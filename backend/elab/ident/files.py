@@ -48,14 +48,24 @@ class Table:
             raise InvalidInput("output", outputs, "at least one output column")
         ts = Ts if Ts is not None else self.Ts
         if ts is None:
-            raise InvalidInput("Ts", None, "a sample time: the file has none (no '# sample "
-                                           "time' line and no evenly spaced 't' column)")
+            raise InvalidInput(
+                "Ts",
+                None,
+                "a sample time: the file has none (no '# sample "
+                "time' line and no evenly spaced 't' column)",
+            )
         u = np.column_stack([self.column(n, "input") for n in inputs])
         y = np.column_stack([self.column(n, "output") for n in outputs])
         unit = dict(zip(self.names, self.units, strict=True))
-        return IdData(y, u, ts, output_names=tuple(outputs), input_names=tuple(inputs),
-                      output_units=tuple(unit[n] for n in outputs),
-                      input_units=tuple(unit[n] for n in inputs))
+        return IdData(
+            y,
+            u,
+            ts,
+            output_names=tuple(outputs),
+            input_names=tuple(inputs),
+            output_units=tuple(unit[n] for n in outputs),
+            input_units=tuple(unit[n] for n in inputs),
+        )
 
 
 def read_csv(text: str) -> Table:
@@ -78,8 +88,11 @@ def read_csv(text: str) -> Table:
     data = np.empty((len(rows), len(names)))
     for i, row in enumerate(rows):
         if len(row) != len(names):
-            raise InvalidInput(f"data row {i + 1}", f"{len(row)} values",
-                               f"{len(names)} values, one per column ({', '.join(names)})")
+            raise InvalidInput(
+                f"data row {i + 1}",
+                f"{len(row)} values",
+                f"{len(names)} values, one per column ({', '.join(names)})",
+            )
         try:
             data[i] = [float(v) for v in row]
         except ValueError:
@@ -101,8 +114,9 @@ def read_json(text: str | bytes) -> Table:
         channels = doc.get("channels", [])
         if not isinstance(channels, list):
             raise InvalidInput("data.channels", channels, "a list of {name, unit} objects")
-        units = {str(c.get("name")): str(c.get("unit", "")) for c in channels
-                 if isinstance(c, dict)}
+        units = {
+            str(c.get("name")): str(c.get("unit", "")) for c in channels if isinstance(c, dict)
+        }
         if "t" in doc:
             cols = {"t": doc["t"], **cols}
             units["t"] = "s"
@@ -130,8 +144,12 @@ def read_json(text: str | bytes) -> Table:
         raise InvalidInput("data", f"columns of lengths {sorted(lengths)}", "equal lengths")
     if Ts is not None and (not isinstance(Ts, int | float) or isinstance(Ts, bool)):
         raise InvalidInput("Ts", Ts, "a number of seconds")
-    return _table(names, [str(units.get(n, "")) for n in names], np.column_stack(arrays),
-                  None if Ts is None else float(Ts))
+    return _table(
+        names,
+        [str(units.get(n, "")) for n in names],
+        np.column_stack(arrays),
+        None if Ts is None else float(Ts),
+    )
 
 
 def _table(names: list[str], units: list[str], data: Array, Ts: float | None) -> Table:
@@ -156,8 +174,9 @@ def _parse_json(text: str | bytes) -> Any:
     except json.JSONDecodeError as exc:
         raise InvalidInput("data", f"invalid JSON ({exc.msg} at {exc.pos})", "JSON") from None
     except RecursionError:
-        raise InvalidInput("data", "JSON nested too deeply", "a JSON object of columns "
-                           "(lists of numbers)") from None
+        raise InvalidInput(
+            "data", "JSON nested too deeply", "a JSON object of columns (lists of numbers)"
+        ) from None
 
 
 def _no_constant(name: str) -> float:
@@ -193,15 +212,18 @@ def _header_Ts(header: list[str]) -> float | None:
             try:
                 return float(m.group(1))
             except ValueError:
-                raise InvalidInput("data", f"# {line[:60]}", "a header line '# sample time: "
-                                   "<seconds> s', e.g. '# sample time: 0.001 s'") from None
+                raise InvalidInput(
+                    "data",
+                    f"# {line[:60]}",
+                    "a header line '# sample time: <seconds> s', e.g. '# sample time: 0.001 s'",
+                ) from None
     return None
 
 
 def _units(header: list[str], names: list[str]) -> list[str]:
     for line in header:
         if line.startswith("units:"):
-            found = dict(re.findall(r"([^,\s]+) \[([^\]]*)\]", line[len("units:"):]))
+            found = dict(re.findall(r"([^,\s]+) \[([^\]]*)\]", line[len("units:") :]))
             return [found.get(n, "") for n in names]
     return ["" for _ in names]
 
@@ -211,12 +233,11 @@ def read_table(raw: bytes, fmt: str) -> Table:
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
-        raise InvalidInput("data", "bytes that are not UTF-8 text",
-                           "a CSV or JSON text file") from None
+        raise InvalidInput(
+            "data", "bytes that are not UTF-8 text", "a CSV or JSON text file"
+        ) from None
     if fmt == "csv":
         return read_csv(text)
     if fmt == "json":
         return read_json(text)
     raise InvalidInput("format", fmt, "csv or json")
-
-

@@ -103,7 +103,7 @@ class LinearModel:
         # x(t | t−h): start from x̂(t−h+1 | t−h) and apply h − 1 noise-free steps
         h = horizon
         X = np.zeros((N, self.n))
-        X[h - 1:] = xh[: N - h + 1]
+        X[h - 1 :] = xh[: N - h + 1]
         for j in range(h - 1):
             idx = np.arange(h - 1, N)
             X[idx] = X[idx] @ A.T + u[idx - (h - 1) + j] @ B.T

@@ -43,16 +43,24 @@ class Correlation:
 
     def as_dict(self) -> dict[str, Any]:
         band = self.k_sigma * self.sigma
-        return {"lags": self.lags.tolist(), "impulse": self.impulse.tolist(),
-                "band": [band] * len(self.lags), "delay": self.delay}
+        return {
+            "lags": self.lags.tolist(),
+            "impulse": self.impulse.tolist(),
+            "band": [band] * len(self.lags),
+            "delay": self.delay,
+        }
 
 
-def cra(data: IdData, max_lag: int = 30, prewhiten_order: int = 10,
-        k_sigma: float = 3.0) -> Correlation:
+def cra(
+    data: IdData, max_lag: int = 30, prewhiten_order: int = 10, k_sigma: float = 3.0
+) -> Correlation:
     """Impulse response estimate of a single-input single-output data set."""
     if data.ny != 1 or data.nu != 1:
-        raise InvalidInput("data", f"{data.ny} outputs, {data.nu} inputs",
-                           "one output and one input for correlation analysis")
+        raise InvalidInput(
+            "data",
+            f"{data.ny} outputs, {data.nu} inputs",
+            "one output and one input for correlation analysis",
+        )
     if not isinstance(max_lag, int) or max_lag < 1:
         raise InvalidInput("max_lag", max_lag, "an integer ≥ 1")
     if not isinstance(prewhiten_order, int) or prewhiten_order < 0:
@@ -62,8 +70,12 @@ def cra(data: IdData, max_lag: int = 30, prewhiten_order: int = 10,
     N = data.N
     if 4 * (max_lag + prewhiten_order + 1) > N:
         need = 4 * (max_lag + prewhiten_order + 1)
-        raise InvalidInput("data", f"{N} samples", f"at least {need} samples for {max_lag} "
-                           f"lags and a prewhitening order of {prewhiten_order}")
+        raise InvalidInput(
+            "data",
+            f"{N} samples",
+            f"at least {need} samples for {max_lag} "
+            f"lags and a prewhitening order of {prewhiten_order}",
+        )
     require_exciting(data.u, 1)
     u, y = data.u[:, 0], data.y[:, 0]
     a = _ar(u, prewhiten_order)
@@ -71,11 +83,12 @@ def cra(data: IdData, max_lag: int = 30, prewhiten_order: int = 10,
     yf = scipy.signal.lfilter(a, [1.0], y)[prewhiten_order:]
     n = w.shape[0]
     rw0 = float(w @ w) / n
-    g = np.array([float(yf[k:] @ w[:n - k]) / n for k in range(max_lag + 1)]) / rw0
+    g = np.array([float(yf[k:] @ w[: n - k]) / n for k in range(max_lag + 1)]) / rw0
     sigma = float(np.sqrt(float(yf @ yf) / n / (n * rw0)))
     outside = np.flatnonzero(np.abs(g) > k_sigma * sigma)
-    return Correlation(np.arange(max_lag + 1), g, sigma, float(k_sigma),
-                       int(outside[0]) if outside.size else None)
+    return Correlation(
+        np.arange(max_lag + 1), g, sigma, float(k_sigma), int(outside[0]) if outside.size else None
+    )
 
 
 def _ar(u: Array, order: int) -> Array:
@@ -83,7 +96,7 @@ def _ar(u: Array, order: int) -> Array:
     if order == 0:
         return np.array([1.0])
     N = u.shape[0]
-    Phi = np.column_stack([-u[order - i:N - i] for i in range(1, order + 1)])
+    Phi = np.column_stack([-u[order - i : N - i] for i in range(1, order + 1)])
     theta, *_ = np.linalg.lstsq(Phi, u[order:], rcond=None)
     return np.asarray(np.r_[1.0, theta], dtype=np.float64)
 
@@ -98,25 +111,32 @@ class Spectrum:
     window: int
 
     def as_dict(self) -> dict[str, Any]:
-        return {"omega": self.omega.tolist(), "magnitude": np.abs(self.G).tolist(),
-                "phase_deg": np.degrees(np.unwrap(np.angle(self.G))).tolist(),
-                "noise_spectrum": self.noise.tolist(), "window": self.window}
+        return {
+            "omega": self.omega.tolist(),
+            "magnitude": np.abs(self.G).tolist(),
+            "phase_deg": np.degrees(np.unwrap(np.angle(self.G))).tolist(),
+            "noise_spectrum": self.noise.tolist(),
+            "window": self.window,
+        }
 
 
 def spa(data: IdData, window: int | None = None, omega: Array | None = None) -> Spectrum:
     """Blackman–Tukey spectral analysis (Ljung 1999, sec. 6.4), as MATLAB's ``spa``:
 
-        Φ̂_yu(ω) = Σ_{|τ| ≤ M} W_M(τ) R̂_yu(τ) e^{−iωτTs},  W_M(τ) = ½ (1 + cos(πτ/M)),
-        Ĝ = Φ̂_yu / Φ̂_u,   Φ̂_v = Ts (Φ̂_y − |Φ̂_yu|² / Φ̂_u),
+            Φ̂_yu(ω) = Σ_{|τ| ≤ M} W_M(τ) R̂_yu(τ) e^{−iωτTs},  W_M(τ) = ½ (1 + cos(πτ/M)),
+            Ĝ = Φ̂_yu / Φ̂_u,   Φ̂_v = Ts (Φ̂_y − |Φ̂_yu|² / Φ̂_u),
 
-    with R̂_yu(τ) = (1/N) Σ y(t+τ) u(t), the lag window M = min(N/10, 30) by default and
-    MATLAB's grid ω = k π / (128 Ts), k = 1 … 128. The noise spectrum carries MATLAB's
-factor Ts (white noise of variance λ has Φ̂_v = λ Ts), so it integrates to the variance
-over (−π/Ts, π/Ts] divided by 2π.
+        with R̂_yu(τ) = (1/N) Σ y(t+τ) u(t), the lag window M = min(N/10, 30) by default and
+        MATLAB's grid ω = k π / (128 Ts), k = 1 … 128. The noise spectrum carries MATLAB's
+    factor Ts (white noise of variance λ has Φ̂_v = λ Ts), so it integrates to the variance
+    over (−π/Ts, π/Ts] divided by 2π.
     """
     if data.ny != 1 or data.nu != 1:
-        raise InvalidInput("data", f"{data.ny} outputs, {data.nu} inputs",
-                           "one output and one input for spectral analysis")
+        raise InvalidInput(
+            "data",
+            f"{data.ny} outputs, {data.nu} inputs",
+            "one output and one input for spectral analysis",
+        )
     N = data.N
     M = min(N // 10, 30) if window is None else window
     if not isinstance(M, int) or not 2 <= M < N // 2:
@@ -130,8 +150,7 @@ over (−π/Ts, π/Ts] divided by 2π.
     lag_window = 0.5 * (1 + np.cos(np.pi * tau / M))
 
     def cov(a: Array, b: Array) -> Array:  # R_ab(τ) = (1/N) Σ a(t+τ) b(t)
-        return np.array([a[k:] @ b[:N - k] if k >= 0 else a[:N + k] @ b[-k:]
-                         for k in tau]) / N
+        return np.array([a[k:] @ b[: N - k] if k >= 0 else a[: N + k] @ b[-k:] for k in tau]) / N
 
     E = np.exp(-1j * np.outer(w * data.Ts, tau))
     phi_yu = E @ (lag_window * cov(y, u))
@@ -154,13 +173,19 @@ class SineResponse:
     samples_used: int
 
     def as_dict(self) -> dict[str, Any]:
-        return {"frequency_hz": self.frequency_hz, "omega": self.omega,
-                "magnitude": self.magnitude, "phase_deg": self.phase_deg,
-                "periods_used": self.periods_used, "samples_used": self.samples_used}
+        return {
+            "frequency_hz": self.frequency_hz,
+            "omega": self.omega,
+            "magnitude": self.magnitude,
+            "phase_deg": self.phase_deg,
+            "periods_used": self.periods_used,
+            "samples_used": self.samples_used,
+        }
 
 
-def sine_response(data: IdData, frequency_hz: float,
-                  periods_skip: int | None = None) -> SineResponse:
+def sine_response(
+    data: IdData, frequency_hz: float, periods_skip: int | None = None
+) -> SineResponse:
     """Frequency analysis by correlation (Ljung 1999, sec. 6.1): with u(t) = α cos(ωt·Ts)
     (any phase and offset) and the transient dropped, over a whole number of periods
 
@@ -173,38 +198,54 @@ def sine_response(data: IdData, frequency_hz: float,
     nearest whole number of samples, which leaves an error of order 1/n.
     """
     if data.ny != 1 or data.nu != 1:
-        raise InvalidInput("data", f"{data.ny} outputs, {data.nu} inputs",
-                           "one output and one input for sine analysis")
+        raise InvalidInput(
+            "data",
+            f"{data.ny} outputs, {data.nu} inputs",
+            "one output and one input for sine analysis",
+        )
     nyquist = 0.5 / data.Ts
-    if (not isinstance(frequency_hz, numbers.Real) or isinstance(frequency_hz, bool)
-            or not 0 < frequency_hz < nyquist):
-        raise InvalidInput("frequency_hz", frequency_hz,
-                           f"a frequency in (0, {nyquist:g}) Hz (below Nyquist, 1/(2 Ts))")
+    if (
+        not isinstance(frequency_hz, numbers.Real)
+        or isinstance(frequency_hz, bool)
+        or not 0 < frequency_hz < nyquist
+    ):
+        raise InvalidInput(
+            "frequency_hz",
+            frequency_hz,
+            f"a frequency in (0, {nyquist:g}) Hz (below Nyquist, 1/(2 Ts))",
+        )
     period = 1 / (frequency_hz * data.Ts)  # samples per period
     N = data.N
     if periods_skip is None:
         skip = max(1, math.ceil(N / 4 / period - 1e-9))
-    elif (not isinstance(periods_skip, int) or isinstance(periods_skip, bool)
-          or periods_skip < 0):
+    elif not isinstance(periods_skip, int) or isinstance(periods_skip, bool) or periods_skip < 0:
         raise InvalidInput("periods_skip", periods_skip, "an integer ≥ 0")
     else:
         skip = periods_skip
     start = math.ceil(skip * period - 1e-9)
     periods = math.floor((N - start) / period + 1e-9)
     if periods < 1:
-        raise InvalidInput("data", f"{N} samples", f"at least one whole period "
-                           f"({period:.4g} samples) after the {start} samples skipped "
-                           f"({skip} periods of transient)")
+        raise InvalidInput(
+            "data",
+            f"{N} samples",
+            f"at least one whole period "
+            f"({period:.4g} samples) after the {start} samples skipped "
+            f"({skip} periods of transient)",
+        )
     n = min(round(periods * period), N - start)
     omega = 2 * math.pi * frequency_hz
     t = np.arange(start, start + n)
     kernel = np.exp(-1j * omega * data.Ts * t)
-    Y = 2 / n * complex(data.y[start:start + n, 0] @ kernel)
-    U = 2 / n * complex(data.u[start:start + n, 0] @ kernel)
-    u_rms = float(np.sqrt(np.mean(data.u[start:start + n, 0] ** 2)))
+    Y = 2 / n * complex(data.y[start : start + n, 0] @ kernel)
+    U = 2 / n * complex(data.u[start : start + n, 0] @ kernel)
+    u_rms = float(np.sqrt(np.mean(data.u[start : start + n, 0] ** 2)))
     if abs(U) <= 1e-9 * max(u_rms, 1e-300):
-        raise InvalidInput("u", "an input without a component at "
-                           f"{frequency_hz:g} Hz", "a sine at the test frequency")
+        raise InvalidInput(
+            "u",
+            f"an input without a component at {frequency_hz:g} Hz",
+            "a sine at the test frequency",
+        )
     G = Y / U
-    return SineResponse(float(frequency_hz), omega, abs(G), math.degrees(cmath.phase(G)),
-                        periods, n)
+    return SineResponse(
+        float(frequency_hz), omega, abs(G), math.degrees(cmath.phase(G)), periods, n
+    )

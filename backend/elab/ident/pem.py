@@ -36,8 +36,9 @@ from elab.ident.polynomial import from_polynomials, regressors
 Array = NDArray[np.float64]
 
 
-def armax(data: IdData, na: int, nb: int, nc: int, nk: int = 1, max_iter: int = 50,
-          tol: float = 1e-6) -> LinearModel:
+def armax(
+    data: IdData, na: int, nb: int, nc: int, nk: int = 1, max_iter: int = 50, tol: float = 1e-6
+) -> LinearModel:
     """The prediction-error ARMAX model A(q) y = B(q) u(t − nk) + C(q) e.
 
     Start (pseudo-linear regression): the residuals ê of an ARX model of orders
@@ -53,9 +54,12 @@ def armax(data: IdData, na: int, nb: int, nc: int, nk: int = 1, max_iter: int = 
     start_h = max(ha, hb + nk - 1)
     N, need = data.N, start_h + ha + hb
     if need >= N:
-        raise InvalidInput("data", f"{data.N} samples",
-                           f"more than {need} samples for [na nb nc nk] = [{na} {nb} {nc} {nk}] "
-                           f"(the start is an ARX model of orders [{ha} {hb} {nk}])")
+        raise InvalidInput(
+            "data",
+            f"{data.N} samples",
+            f"more than {need} samples for [na nb nc nk] = [{na} {nb} {nc} {nk}] "
+            f"(the start is an ARX model of orders [{ha} {hb} {nk}])",
+        )
     require_exciting(data.u, na + nb)
     start = max(na, nb + nk - 1)
     d = na + nb + nc
@@ -64,44 +68,68 @@ def armax(data: IdData, na: int, nb: int, nc: int, nk: int = 1, max_iter: int = 
     # start: pseudo-linear regression on the residuals of a high-order ARX model
     Ph, Yh = regressors(y, u, ha, hb, nk, start_h)
     e_hat = np.zeros(nc + N)  # ê(t) at nc + t; zero before sample start_h
-    e_hat[nc + start_h:] = Yh - Ph @ _lstsq(Ph, Yh)
+    e_hat[nc + start_h :] = Yh - Ph @ _lstsq(Ph, Yh)
     if e_hat @ e_hat <= 1e-20 * (y @ y):  # noise-free data: C is not identifiable; start at 1
         theta = np.r_[_lstsq(Phi, Y), np.zeros(nc)]
     else:
-        E = np.column_stack([e_hat[nc + start - k:nc + N - k] for k in range(1, nc + 1)])
+        E = np.column_stack([e_hat[nc + start - k : nc + N - k] for k in range(1, nc + 1)])
         theta = _lstsq(np.column_stack([Phi, E]), Y)
 
     def residuals(th: Array) -> Array:
-        return np.asarray(scipy.signal.lfilter([1.0], np.r_[1.0, th[na + nb:]],
-                                               Y - Phi @ th[:na + nb]), dtype=np.float64)
+        return np.asarray(
+            scipy.signal.lfilter([1.0], np.r_[1.0, th[na + nb :]], Y - Phi @ th[: na + nb]),
+            dtype=np.float64,
+        )
 
     def gradient(th: Array, eps: Array) -> Array:
-        lags = np.column_stack([np.r_[np.zeros(k), eps[:eps.shape[0] - k]]
-                                for k in range(1, nc + 1)])
-        return np.asarray(scipy.signal.lfilter([1.0], np.r_[1.0, th[na + nb:]],
-                                               np.column_stack([Phi, lags]), axis=0),
-                          dtype=np.float64)
+        lags = np.column_stack(
+            [np.r_[np.zeros(k), eps[: eps.shape[0] - k]] for k in range(1, nc + 1)]
+        )
+        return np.asarray(
+            scipy.signal.lfilter(
+                [1.0], np.r_[1.0, th[na + nb :]], np.column_stack([Phi, lags]), axis=0
+            ),
+            dtype=np.float64,
+        )
 
     def stabilise(th: Array) -> Array:
-        return np.asarray(np.r_[th[:na + nb], _reflect(np.r_[1.0, th[na + nb:]])[1:]],
-                          dtype=np.float64)
+        return np.asarray(
+            np.r_[th[: na + nb], _reflect(np.r_[1.0, th[na + nb :]])[1:]], dtype=np.float64
+        )
 
-    theta, eps, iterations = _gauss_newton(stabilise(theta), residuals, gradient, stabilise,
-                                           max_iter, tol)
+    theta, eps, iterations = _gauss_newton(
+        stabilise(theta), residuals, gradient, stabilise, max_iter, tol
+    )
     n = eps.shape[0]
     loss = float(eps @ eps / n)
-    a, c = np.r_[1.0, theta[:na]], np.r_[1.0, theta[na + nb:]]
-    b = np.r_[np.zeros(nk), theta[na:na + nb]]
+    a, c = np.r_[1.0, theta[:na]], np.r_[1.0, theta[na + nb :]]
+    b = np.r_[np.zeros(nk), theta[na : na + nb]]
     m = from_polynomials(a, b, c, data.Ts, loss)
     return LinearModel(
-        m.A, m.B, m.C, m.D, m.K, data.Ts, np.array([[loss]]), kind="armax",
+        m.A,
+        m.B,
+        m.C,
+        m.D,
+        m.K,
+        data.Ts,
+        np.array([[loss]]),
+        kind="armax",
         orders={"na": na, "nb": nb, "nc": nc, "nk": nk},
-        parameters={"A": a.tolist(), "B": b.tolist(), "C": c.tolist(), "loss": loss,
-                    "iterations": iterations, "fpe": _fpe(loss, d, n), "samples": n})
+        parameters={
+            "A": a.tolist(),
+            "B": b.tolist(),
+            "C": c.tolist(),
+            "loss": loss,
+            "iterations": iterations,
+            "fpe": _fpe(loss, d, n),
+            "samples": n,
+        },
+    )
 
 
-def oe(data: IdData, nb: int, nf: int, nk: int = 1, max_iter: int = 50,
-       tol: float = 1e-6) -> LinearModel:
+def oe(
+    data: IdData, nb: int, nf: int, nk: int = 1, max_iter: int = 50, tol: float = 1e-6
+) -> LinearModel:
     """The prediction-error output-error model y = B(q)/F(q) u(t − nk) + e.
 
     Start: the ARX model of orders [nf, nb, nk], refined by instrumental variables (the
@@ -116,8 +144,11 @@ def oe(data: IdData, nb: int, nf: int, nk: int = 1, max_iter: int = 50,
     start = max(nf, nb + nk - 1)
     N, d = data.N, nb + nf
     if start + 2 * d >= N:
-        raise InvalidInput("data", f"{data.N} samples", f"more than {start + 2 * d} samples "
-                           f"for [nb nf nk] = [{nb} {nf} {nk}] ({d} parameters)")
+        raise InvalidInput(
+            "data",
+            f"{data.N} samples",
+            f"more than {start + 2 * d} samples for [nb nf nk] = [{nb} {nf} {nk}] ({d} parameters)",
+        )
     require_exciting(data.u, nb + nf)
     Phi, Y = regressors(y, u, nf, nb, nk, start)
     theta = _lstsq(Phi, Y)  # θ = [f₁ … f_nf, b₁ … b_nb]
@@ -126,8 +157,10 @@ def oe(data: IdData, nb: int, nf: int, nk: int = 1, max_iter: int = 50,
         return np.asarray(np.r_[_reflect(np.r_[1.0, th[:nf]])[1:], th[nf:]], dtype=np.float64)
 
     def simulate(th: Array) -> Array:
-        return np.asarray(scipy.signal.lfilter(np.r_[np.zeros(nk), th[nf:]],
-                                               np.r_[1.0, th[:nf]], u), dtype=np.float64)
+        return np.asarray(
+            scipy.signal.lfilter(np.r_[np.zeros(nk), th[nf:]], np.r_[1.0, th[:nf]], u),
+            dtype=np.float64,
+        )
 
     for _ in range(2):  # instrumental variables: z(t) = [−x lags, u lags], x the ARX simulation
         theta = stabilise(theta)
@@ -139,27 +172,49 @@ def oe(data: IdData, nb: int, nf: int, nk: int = 1, max_iter: int = 50,
 
     def gradient(th: Array, eps: Array) -> Array:
         yhat = np.r_[np.zeros(nf), y - eps]  # ŷ and u before the data: zero (at rest)
-        cols = [-yhat[nf - i:nf + N - i] for i in range(1, nf + 1)]
+        cols = [-yhat[nf - i : nf + N - i] for i in range(1, nf + 1)]
         upad = np.r_[np.zeros(nk + nb), u]
-        cols += [upad[nb - j:nb - j + N] for j in range(nb)]
-        return np.asarray(scipy.signal.lfilter([1.0], np.r_[1.0, th[:nf]],
-                                               np.column_stack(cols), axis=0), dtype=np.float64)
+        cols += [upad[nb - j : nb - j + N] for j in range(nb)]
+        return np.asarray(
+            scipy.signal.lfilter([1.0], np.r_[1.0, th[:nf]], np.column_stack(cols), axis=0),
+            dtype=np.float64,
+        )
 
-    theta, eps, iterations = _gauss_newton(stabilise(theta), residuals, gradient, stabilise,
-                                           max_iter, tol)
+    theta, eps, iterations = _gauss_newton(
+        stabilise(theta), residuals, gradient, stabilise, max_iter, tol
+    )
     loss = float(eps @ eps / N)
     f, b = np.r_[1.0, theta[:nf]], np.r_[np.zeros(nk), theta[nf:]]
     m = from_polynomials(f, b, f, data.Ts, loss)
     return LinearModel(
-        m.A, m.B, m.C, m.D, m.K, data.Ts, np.array([[loss]]), kind="oe",
+        m.A,
+        m.B,
+        m.C,
+        m.D,
+        m.K,
+        data.Ts,
+        np.array([[loss]]),
+        kind="oe",
         orders={"nb": nb, "nf": nf, "nk": nk},
-        parameters={"B": b.tolist(), "F": f.tolist(), "loss": loss, "iterations": iterations,
-                    "fpe": _fpe(loss, d, N), "samples": N})
+        parameters={
+            "B": b.tolist(),
+            "F": f.tolist(),
+            "loss": loss,
+            "iterations": iterations,
+            "fpe": _fpe(loss, d, N),
+            "samples": N,
+        },
+    )
 
 
-def _gauss_newton(theta: Array, residuals: Callable[[Array], Array],
-                  gradient: Callable[[Array, Array], Array], stabilise: Callable[[Array], Array],
-                  max_iter: int, tol: float) -> tuple[Array, Array, int]:
+def _gauss_newton(
+    theta: Array,
+    residuals: Callable[[Array], Array],
+    gradient: Callable[[Array, Array], Array],
+    stabilise: Callable[[Array], Array],
+    max_iter: int,
+    tol: float,
+) -> tuple[Array, Array, int]:
     """Levenberg–Marquardt on V = Σ ε²: θ, ε(θ) and the number of steps taken."""
     eps = residuals(theta)
     V = float(eps @ eps)
@@ -213,8 +268,11 @@ def _fpe(loss: float, d: int, n: int) -> float:
 
 def _siso(data: IdData, what: str) -> tuple[Array, Array]:
     if data.ny != 1 or data.nu != 1:
-        raise InvalidInput("data", f"{data.ny} outputs and {data.nu} inputs",
-                           f"one output and one input for {what}")
+        raise InvalidInput(
+            "data",
+            f"{data.ny} outputs and {data.nu} inputs",
+            f"one output and one input for {what}",
+        )
     return data.y[:, 0], data.u[:, 0]
 
 

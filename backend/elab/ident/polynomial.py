@@ -31,8 +31,11 @@ Array = NDArray[np.float64]
 
 def _siso(data: IdData, what: str) -> tuple[Array, Array]:
     if data.ny != 1 or data.nu != 1:
-        raise InvalidInput("data", f"{data.ny} outputs and {data.nu} inputs",
-                           f"one output and one input for {what}")
+        raise InvalidInput(
+            "data",
+            f"{data.ny} outputs and {data.nu} inputs",
+            f"one output and one input for {what}",
+        )
     return data.y[:, 0], data.u[:, 0]
 
 
@@ -45,8 +48,8 @@ def _check_orders(na: int, nb: int, nk: int) -> None:
 def regressors(y: Array, u: Array, na: int, nb: int, nk: int, start: int) -> tuple[Array, Array]:
     """Φ (rows φ(t)ᵀ for t = start … N−1) and Y = y(start …)."""
     N = y.shape[0]
-    cols = [-y[start - i:N - i] for i in range(1, na + 1)]
-    cols += [u[start - nk - j:N - nk - j] for j in range(nb)]
+    cols = [-y[start - i : N - i] for i in range(1, na + 1)]
+    cols += [u[start - nk - j : N - nk - j] for j in range(nb)]
     return np.column_stack(cols) if cols else np.zeros((N - start, 0)), y[start:]
 
 
@@ -57,8 +60,11 @@ def arx(data: IdData, na: int, nb: int, nk: int = 1) -> LinearModel:
     start = max(na, nb + nk - 1)
     d = na + nb
     if data.N - start <= d:
-        raise InvalidInput("data", f"{data.N} samples", f"more than {start + d} samples for "
-                           f"[na nb nk] = [{na} {nb} {nk}] ({d} parameters)")
+        raise InvalidInput(
+            "data",
+            f"{data.N} samples",
+            f"more than {start + d} samples for [na nb nk] = [{na} {nb} {nk}] ({d} parameters)",
+        )
     require_exciting(data.u, nb)
     Phi, Y = regressors(y, u, na, nb, nk, start)
     theta, *_ = np.linalg.lstsq(Phi, Y, rcond=None)
@@ -75,12 +81,26 @@ def arx(data: IdData, na: int, nb: int, nk: int = 1) -> LinearModel:
     b = np.r_[np.zeros(nk), theta[na:]]
     model = from_polynomials(a, b, np.array([1.0]), data.Ts, lam)
     return LinearModel(
-        model.A, model.B, model.C, model.D, model.K, data.Ts, np.array([[lam]]), kind="arx",
+        model.A,
+        model.B,
+        model.C,
+        model.D,
+        model.K,
+        data.Ts,
+        np.array([[lam]]),
+        kind="arx",
         orders={"na": na, "nb": nb, "nk": nk},
-        parameters={"A": a.tolist(), "B": b.tolist(), "dA": np.r_[0.0, sd[:na]].tolist(),
-                    "dB": np.r_[np.zeros(nk), sd[na:]].tolist(), "loss": loss,
-                    "fpe": loss * (1 + d / n) / (1 - d / n), "aic": math.log(loss) + 2 * d / n,
-                    "samples": n})
+        parameters={
+            "A": a.tolist(),
+            "B": b.tolist(),
+            "dA": np.r_[0.0, sd[:na]].tolist(),
+            "dB": np.r_[np.zeros(nk), sd[na:]].tolist(),
+            "loss": loss,
+            "fpe": loss * (1 + d / n) / (1 - d / n),
+            "aic": math.log(loss) + 2 * d / n,
+            "samples": n,
+        },
+    )
 
 
 def from_polynomials(a: Array, b: Array, c: Array, Ts: float, lam: float) -> LinearModel:
@@ -131,8 +151,11 @@ def arxstruc(ze: IdData, zv: IdData, structures: Array) -> Array:
     na_max, nb_max = int(S[:, 0].max()), int(S[:, 1].max())
     head = max(na_max, int((S[:, 1] + S[:, 2]).max()) - 1)  # rows where a lag is missing
     if ze.N - head <= na_max + nb_max:
-        raise InvalidInput("ze", f"{ze.N} samples", f"more than {head + na_max + nb_max} "
-                                                    "samples for these structures")
+        raise InvalidInput(
+            "ze",
+            f"{ze.N} samples",
+            f"more than {head + na_max + nb_max} samples for these structures",
+        )
     require_exciting(ze.u, nb_max)
     out = np.empty((S.shape[0], 4))
     for nk in np.unique(S[:, 2]):
@@ -159,8 +182,9 @@ def _padded(y: Array, u: Array, na: int, nb: int, nk: int) -> tuple[Array, Array
     return regressors(np.r_[np.zeros(pad), y], np.r_[np.zeros(pad), u], na, nb, nk, pad)
 
 
-def selstruc(V: Array, criterion: Literal[0, "aic", "mdl"] | float = 0,
-             N: int | None = None) -> tuple[int, int, int]:
+def selstruc(
+    V: Array, criterion: Literal[0, "aic", "mdl"] | float = 0, N: int | None = None
+) -> tuple[int, int, int]:
     """The structure with the least (penalised) loss. ``0``: the loss itself; ``"aic"``:
     V (1 + 2d/N); ``"mdl"``: V (1 + log(N) d/N); a number α: V (1 + α d/N); d = na + nb.
     ``N`` (default: 1000, as the losses carry no sample count) weighs the penalty."""

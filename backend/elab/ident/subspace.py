@@ -55,8 +55,9 @@ class Subspace:
     @property
     def max_order(self) -> int:
         """The largest order the horizon supports (n < s, as SLICOT requires)."""
-        return min(self.horizon - 1, int(np.sum(self.singular_values > 1e-12 *
-                                                self.singular_values[0])))
+        return min(
+            self.horizon - 1, int(np.sum(self.singular_values > 1e-12 * self.singular_values[0]))
+        )
 
 
 def decompose(data: IdData, horizon: int | None = None) -> Subspace:
@@ -66,13 +67,16 @@ def decompose(data: IdData, horizon: int | None = None) -> Subspace:
     s_cap = (N + 1) // (2 * (nu + ny + 1))
     s = min(s_cap, 16) if horizon is None else horizon
     if not isinstance(s, int) or isinstance(s, bool) or not 2 <= s <= min(s_cap, MAX_HORIZON):
-        raise InvalidInput("horizon", horizon, f"an integer in 2 … {min(s_cap, MAX_HORIZON)} "
-                                               f"for {N} samples ((N+1) / (2 (nu+ny+1)))")
+        raise InvalidInput(
+            "horizon",
+            horizon,
+            f"an integer in 2 … {min(s_cap, MAX_HORIZON)} for {N} samples ((N+1) / (2 (nu+ny+1)))",
+        )
     require_exciting(data.u, 2 * s)
     j = N - 2 * s + 1
 
     def hankel(x: Array, start: int) -> Array:  # s block rows, j columns
-        return np.vstack([x[start + i:start + i + j].T for i in range(s)])
+        return np.vstack([x[start + i : start + i + j].T for i in range(s)])
 
     Up, Uf = hankel(data.u, 0), hankel(data.u, s)
     Yp, Yf = hankel(data.y, 0), hankel(data.y, s)
@@ -101,24 +105,44 @@ def _lq_factor(H: Array) -> Array:
     return np.asarray(R[: H.shape[0]].T, dtype=np.float64)
 
 
-def n4sid(data: IdData, order: int | None = None, horizon: int | None = None,
-          orders: range | None = None, stable: bool = True,
-          sub: Subspace | None = None) -> LinearModel:
+def n4sid(
+    data: IdData,
+    order: int | None = None,
+    horizon: int | None = None,
+    orders: range | None = None,
+    stable: bool = True,
+    sub: Subspace | None = None,
+) -> LinearModel:
     """The state-space model of ``order`` (or the best of ``orders`` by :func:`choose_order`;
     default range 1 … 10) in innovations form, with its singular values in ``parameters``."""
     sub = decompose(data, horizon) if sub is None else sub
     if order is None:
         order = choose_order(sub, orders or range(1, 11))[0]
     if not isinstance(order, int) or isinstance(order, bool) or not 1 <= order <= sub.max_order:
-        raise InvalidInput("order", order, f"an integer in 1 … {sub.max_order} for horizon "
-                                           f"{sub.horizon} (order < horizon)")
+        raise InvalidInput(
+            "order",
+            order,
+            f"an integer in 1 … {sub.max_order} for horizon {sub.horizon} (order < horizon)",
+        )
     A, C, unstable = _shift(sub, order, stable)
     B, D, x0 = _input_matrices(data, A, C)
     K, lam = _kalman_gain(sub, A, B, C, D)
-    return LinearModel(A, B, C, D, K, data.Ts, lam, kind="n4sid",
-                       orders={"n": order, "horizon": sub.horizon},
-                       parameters={"singular_values": sub.singular_values.tolist(),
-                                   "x0": x0.tolist(), "stabilised": unstable})
+    return LinearModel(
+        A,
+        B,
+        C,
+        D,
+        K,
+        data.Ts,
+        lam,
+        kind="n4sid",
+        orders={"n": order, "horizon": sub.horizon},
+        parameters={
+            "singular_values": sub.singular_values.tolist(),
+            "x0": x0.tolist(),
+            "stabilised": unstable,
+        },
+    )
 
 
 def choose_order(sub: Subspace, orders: range) -> tuple[int, list[dict[str, Any]]]:
@@ -129,17 +153,21 @@ def choose_order(sub: Subspace, orders: range) -> tuple[int, list[dict[str, Any]
     top = sub.max_order
     valid = [n for n in orders if 1 <= n <= top]
     if not valid:
-        raise InvalidInput("orders", f"{orders.start} … {orders.stop - 1}",
-                           f"orders in 1 … {top} for horizon {sub.horizon}")
+        raise InvalidInput(
+            "orders",
+            f"{orders.start} … {orders.stop - 1}",
+            f"orders in 1 … {top} for horizon {sub.horizon}",
+        )
     rows = []
     for n in valid:
         A, C, _ = _shift(sub, n, True)
         B, D, x0 = _input_matrices(data, A, C)
         err = data.y - _simulate_fast(A, B, C, D, x0, data.u)
-        V = float(np.mean(err ** 2))
+        V = float(np.mean(err**2))
         d = n * (2 * data.ny + data.nu) + data.ny * data.nu
-        rows.append({"order": n, "loss": V,
-                     "mdl": math.log(max(V, 1e-300)) + d * math.log(data.N) / data.N})
+        rows.append(
+            {"order": n, "loss": V, "mdl": math.log(max(V, 1e-300)) + d * math.log(data.N) / data.N}
+        )
     best = min(rows, key=lambda r: r["mdl"])
     return int(best["order"]), rows
 
@@ -163,7 +191,7 @@ def _markov(A: Array, C: Array, N: int) -> Array:
     filled, P = 1, A.copy()  # P = A^filled
     while filled < N:
         m = min(filled, N - filled)
-        out[filled:filled + m] = out[:m] @ P
+        out[filled : filled + m] = out[:m] @ P
         filled += m
         P = P @ P if filled < N else P
     return out
@@ -179,11 +207,13 @@ def _input_matrices(data: IdData, A: Array, C: Array) -> tuple[Array, Array, Arr
     for k in range(nu):  # D: u_k appears in output i
         cols.append(np.asarray(np.kron(data.u[:, k][:, None], np.eye(ny)), dtype=np.float64))
     M = np.hstack(cols)
-    theta = np.asarray(scipy.linalg.lstsq(M, data.y.reshape(-1), lapack_driver="gelsy",
-                                          check_finite=False)[0], dtype=np.float64)
+    theta = np.asarray(
+        scipy.linalg.lstsq(M, data.y.reshape(-1), lapack_driver="gelsy", check_finite=False)[0],
+        dtype=np.float64,
+    )
     x0 = theta[:n]
-    B = theta[n:n + n * nu].reshape(nu, n).T
-    D = theta[n + n * nu:].reshape(nu, ny).T
+    B = theta[n : n + n * nu].reshape(nu, n).T
+    D = theta[n + n * nu :].reshape(nu, ny).T
     return B, D, x0
 
 
@@ -212,8 +242,7 @@ def _simulate_fast(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) 
     return np.asarray(y, dtype=np.float64)
 
 
-def _kalman_gain(sub: Subspace, A: Array, B: Array, C: Array,
-                 D: Array) -> tuple[Array, Array]:
+def _kalman_gain(sub: Subspace, A: Array, B: Array, C: Array, D: Array) -> tuple[Array, Array]:
     """K of the steady-state Kalman filter for the covariances of the residuals of the
     state equations on X̂ = Γ_s⁺ (Γ_s X̂), and the innovation covariance."""
     data, s, n = sub.data, sub.horizon, A.shape[0]
@@ -221,7 +250,7 @@ def _kalman_gain(sub: Subspace, A: Array, B: Array, C: Array,
     # Γ_s = U₁ Σ₁^½ has orthogonal columns: X̂ = Γ_s⁺ (Γ_s X̂) = Σ₁^−½ U₁ᵀ (Γ_s X̂)
     X = sub.states_basis[:n] / np.sqrt(sub.singular_values[:n])[:, None]  # times s … s+j−1
     j = X.shape[1]
-    U, Y = data.u[s:s + j].T, data.y[s:s + j].T
+    U, Y = data.u[s : s + j].T, data.y[s : s + j].T
     W = X[:, 1:] - A @ X[:, :-1] - B @ U[:, :-1]
     V = Y - C @ X - D @ U
     V = V[:, :-1]

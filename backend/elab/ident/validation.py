@@ -37,19 +37,25 @@ def fit_percent(y: Array, yhat: Array) -> Array:
         return np.where(spread > 0, 100 * (1 - err / spread), -np.inf)
 
 
-def compare(model: LinearModel, data: IdData, horizon: int | None = None,
-            x0: Literal["zero", "estimate"] = "zero") -> Comparison:
+def compare(
+    model: LinearModel,
+    data: IdData,
+    horizon: int | None = None,
+    x0: Literal["zero", "estimate"] = "zero",
+) -> Comparison:
     """Fit % of ``model`` on ``data``: simulation (``horizon`` None) or k-step prediction."""
     if data.ny != model.ny or data.nu != model.nu:
-        raise InvalidInput("data", f"{data.ny} outputs, {data.nu} inputs",
-                           f"{model.ny} outputs and {model.nu} inputs, as the model")
+        raise InvalidInput(
+            "data",
+            f"{data.ny} outputs, {data.nu} inputs",
+            f"{model.ny} outputs and {model.nu} inputs, as the model",
+        )
     if x0 not in ("zero", "estimate"):
         raise InvalidInput("x0", x0, "'zero' or 'estimate'")
     start = np.zeros(model.n)
     if x0 == "estimate" and model.n:
         start = _initial_state(model, data)
-    yhat = (model.simulate(data.u, start) if horizon is None
-            else model.predict(data, horizon, start))
+    yhat = model.simulate(data.u, start) if horizon is None else model.predict(data, horizon, start)
     return Comparison(fit_percent(data.y, yhat), yhat, start)
 
 
@@ -86,25 +92,46 @@ class Residuals:
         return bool(np.all(np.abs(self.cross_correlation) <= self.bound))
 
     def as_dict(self) -> dict[str, object]:
-        return {"lags": self.lags.tolist(), "autocorrelation": self.autocorrelation.tolist(),
-                "cross_lags": self.cross_lags.tolist(),
-                "cross_correlation": self.cross_correlation.tolist(), "bound": self.bound,
-                "white": self.white, "independent": self.independent}
+        return {
+            "lags": self.lags.tolist(),
+            "autocorrelation": self.autocorrelation.tolist(),
+            "cross_lags": self.cross_lags.tolist(),
+            "cross_correlation": self.cross_correlation.tolist(),
+            "bound": self.bound,
+            "white": self.white,
+            "independent": self.independent,
+        }
 
 
 def resid(model: LinearModel, data: IdData, max_lag: int = 25) -> Residuals:
     """Correlations of the residuals of a single-output, single-input model on ``data``."""
     if data.ny != 1 or data.nu != 1 or model.ny != 1 or model.nu != 1:
-        raise InvalidInput("data", f"{data.ny} outputs, {data.nu} inputs",
-                           "one output and one input for residual analysis")
+        raise InvalidInput(
+            "data",
+            f"{data.ny} outputs, {data.nu} inputs",
+            "one output and one input for residual analysis",
+        )
     if not isinstance(max_lag, int) or not 1 <= max_lag < data.N // 4:
         raise InvalidInput("max_lag", max_lag, f"an integer in 1 … {data.N // 4 - 1}")
     eps = (data.y - model.predict(data, 1))[:, 0]
     u = data.u[:, 0] - data.u[:, 0].mean()
     N = eps.shape[0]
-    re = np.array([eps[k:] @ eps[:N - k] for k in range(max_lag + 1)]) / N
-    cross = np.array([(eps[k:] @ u[:N - k]) if k >= 0 else (eps[:N + k] @ u[-k:])
-                      for k in range(-max_lag, max_lag + 1)]) / N
+    re = np.array([eps[k:] @ eps[: N - k] for k in range(max_lag + 1)]) / N
+    cross = (
+        np.array(
+            [
+                (eps[k:] @ u[: N - k]) if k >= 0 else (eps[: N + k] @ u[-k:])
+                for k in range(-max_lag, max_lag + 1)
+            ]
+        )
+        / N
+    )
     scale = np.sqrt(re[0] * (u @ u) / N)
-    return Residuals(eps, np.arange(max_lag + 1), re / re[0], np.arange(-max_lag, max_lag + 1),
-                     cross / scale if scale > 0 else cross, 2.58 / np.sqrt(N))
+    return Residuals(
+        eps,
+        np.arange(max_lag + 1),
+        re / re[0],
+        np.arange(-max_lag, max_lag + 1),
+        cross / scale if scale > 0 else cross,
+        2.58 / np.sqrt(N),
+    )

@@ -35,8 +35,12 @@ Array = NDArray[np.float64]
 Progress = Callable[[str, float], None]
 MAX_POINTS = 5000
 MAX_SEARCH = 2000  # ARX structures in one order search
-KINDS = {"arx": ("na", "nb", "nk"), "armax": ("na", "nb", "nc", "nk"),
-         "oe": ("nb", "nf", "nk"), "n4sid": ("order", "horizon")}
+KINDS = {
+    "arx": ("na", "nb", "nk"),
+    "armax": ("na", "nb", "nc", "nk"),
+    "oe": ("nb", "nf", "nk"),
+    "n4sid": ("order", "horizon"),
+}
 
 
 @dataclass(frozen=True)
@@ -49,8 +53,9 @@ class ModelRequest:
 
     @property
     def name(self) -> str:
-        return f"{self.kind} " + " ".join(str(self.orders[k]) for k in KINDS[self.kind]
-                                          if self.orders.get(k))
+        return f"{self.kind} " + " ".join(
+            str(self.orders[k]) for k in KINDS[self.kind] if self.orders.get(k)
+        )
 
 
 @dataclass(frozen=True)
@@ -78,8 +83,12 @@ class Result:
     notes: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"data": self.data, "analyses": self.analyses, "models": self.models,
-                "notes": self.notes}
+        return {
+            "data": self.data,
+            "analyses": self.analyses,
+            "models": self.models,
+            "notes": self.notes,
+        }
 
 
 def parse_model(text: str) -> ModelRequest:
@@ -108,15 +117,25 @@ def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
     ze, zv = data.split(float(plan.split))
     if plan.detrend != "none":  # each part its own trend, as MATLAB's standard experiment
         ze, zv = ze.detrend(plan.detrend), zv.detrend(plan.detrend)
-    z = IdData(np.vstack([ze.y, zv.y]), np.vstack([ze.u, zv.u]), data.Ts,
-               data.output_names, data.input_names, data.output_units, data.input_units,
-               data.k0, ze.trend)
+    z = IdData(
+        np.vstack([ze.y, zv.y]),
+        np.vstack([ze.u, zv.u]),
+        data.Ts,
+        data.output_names,
+        data.input_names,
+        data.output_units,
+        data.input_units,
+        data.k0,
+        ze.trend,
+    )
     siso = z.ny == 1 and z.nu == 1
     out = Result(data=_data_view(z, ze.N))
     report("data", 0.02)
     if not siso and (plan.correlation or plan.spectral or plan.arx_search or plan.sine_hz):
-        out.notes.append(f"{z.ny} outputs and {z.nu} inputs: correlation, spectral and sine "
-                         "analysis and the ARX search need one of each; they were skipped")
+        out.notes.append(
+            f"{z.ny} outputs and {z.nu} inputs: correlation, spectral and sine "
+            "analysis and the ARX search need one of each; they were skipped"
+        )
     if siso and plan.correlation:
         c = cra(ze, max_lag=min(plan.max_lag, max(ze.N // 4 - 12, 1)))
         out.analyses["correlation"] = c.as_dict() | {"Ts": z.Ts}
@@ -132,8 +151,12 @@ def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
         sub = decompose(ze, plan.horizon)
         orders = plan.n4sid_orders or range(1, min(10, sub.max_order) + 1)
         best, rows = choose_order(sub, orders)
-        out.analyses["n4sid_orders"] = {"horizon": sub.horizon, "best": best, "orders": rows,
-                                        "singular_values": sub.singular_values.tolist()}
+        out.analyses["n4sid_orders"] = {
+            "horizon": sub.horizon,
+            "best": best,
+            "orders": rows,
+            "singular_values": sub.singular_values.tolist(),
+        }
         report("subspace", 0.6)
     else:
         sub, best = None, 0
@@ -146,28 +169,40 @@ def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
     return out
 
 
-def _arx_search(ze: IdData, zv: IdData, ranges: tuple[range, range, range],
-                report: Progress) -> dict[str, Any]:
+def _arx_search(
+    ze: IdData, zv: IdData, ranges: tuple[range, range, range], report: Progress
+) -> dict[str, Any]:
     S = struc(*ranges)
     if S.shape[0] > MAX_SEARCH:
-        raise InvalidInput("arx_search", f"{S.shape[0]} structures",
-                           f"at most {MAX_SEARCH} structures (na × nb × nk)")
+        raise InvalidInput(
+            "arx_search",
+            f"{S.shape[0]} structures",
+            f"at most {MAX_SEARCH} structures (na × nb × nk)",
+        )
     parts = []
     delays = np.unique(S[:, 2])
     for i, nk in enumerate(delays):  # one delay at a time, to report progress
         parts.append(arxstruc(ze, zv, S[S[:, 2] == nk]))
         report("arx search", 0.1 + 0.4 * (i + 1) / len(delays))
     V = np.vstack(parts)
-    return {"rows": V.tolist(), "best": list(selstruc(V, 0)),
-            "aic": list(selstruc(V, "aic", zv.N)), "mdl": list(selstruc(V, "mdl", zv.N))}
+    return {
+        "rows": V.tolist(),
+        "best": list(selstruc(V, 0)),
+        "aic": list(selstruc(V, "aic", zv.N)),
+        "mdl": list(selstruc(V, "mdl", zv.N)),
+    }
 
 
-def _estimate(ze: IdData, r: ModelRequest, sub: Any, best: int, horizon: int | None,
-              i: int) -> LinearModel:
+def _estimate(
+    ze: IdData, r: ModelRequest, sub: Any, best: int, horizon: int | None, i: int
+) -> LinearModel:
     o = r.orders
     if r.kind != "n4sid" and (ze.ny != 1 or ze.nu != 1):
-        raise InvalidInput(f"models[{i}].kind", r.kind, f"n4sid for {ze.ny} outputs and "
-                                                        f"{ze.nu} inputs ({r.kind}: one each)")
+        raise InvalidInput(
+            f"models[{i}].kind",
+            r.kind,
+            f"n4sid for {ze.ny} outputs and {ze.nu} inputs ({r.kind}: one each)",
+        )
     try:
         if r.kind == "arx":
             return arx(ze, o["na"], o["nb"], o["nk"])
@@ -190,18 +225,30 @@ def _describe(m: LinearModel, r: ModelRequest, ze: IdData, zv: IdData, i: int) -
     est = compare(m, ze, x0="estimate")
     out: dict[str, Any] = {
         "name": r.name if r.kind != "n4sid" or r.orders.get("order") else f"n4sid {m.n}",
-        "kind": m.kind, "orders": m.orders, "parameters": _jsonable(m.parameters),
-        "fit": {"validation_simulation": sim.fit.tolist(),
-                "validation_simulation_x0": sim_x0.fit.tolist(),
-                "validation_one_step": one.fit.tolist(),
-                "estimation_simulation": est.fit.tolist()},
+        "kind": m.kind,
+        "orders": m.orders,
+        "parameters": _jsonable(m.parameters),
+        "fit": {
+            "validation_simulation": sim.fit.tolist(),
+            "validation_simulation_x0": sim_x0.fit.tolist(),
+            "validation_one_step": one.fit.tolist(),
+            "estimation_simulation": est.fit.tolist(),
+        },
         "noise_variance": m.noise_variance.tolist(),
         "poles": [[p.real, p.imag] for p in m.poles],
         "stable": bool(np.all(np.abs(m.poles) < 1)) if m.n else True,
-        "ss": {"A": m.A.tolist(), "B": m.B.tolist(), "C": m.C.tolist(), "D": m.D.tolist(),
-               "K": m.K.tolist(), "Ts": m.Ts},
-        "tf": _tf(m), "continuous": _continuous(m),
-        "simulated": _thin(sim.yhat), "one_step": _thin(one.yhat),
+        "ss": {
+            "A": m.A.tolist(),
+            "B": m.B.tolist(),
+            "C": m.C.tolist(),
+            "D": m.D.tolist(),
+            "K": m.K.tolist(),
+            "Ts": m.Ts,
+        },
+        "tf": _tf(m),
+        "continuous": _continuous(m),
+        "simulated": _thin(sim.yhat),
+        "one_step": _thin(one.yhat),
     }
     if ze.ny == 1 and ze.nu == 1:
         lag = min(25, zv.N // 4 - 1)
@@ -212,15 +259,23 @@ def _describe(m: LinearModel, r: ModelRequest, ze: IdData, zv: IdData, i: int) -
 def _tf(m: LinearModel) -> list[list[dict[str, list[float]]]]:
     """Discrete transfer functions, [output][input], coefficients in powers of z."""
     tf = m.to_tf()
-    return [[{"num": np.ravel(tf.num[i][j]).tolist(), "den": np.ravel(tf.den[i][j]).tolist()}
-             for j in range(m.nu)] for i in range(m.ny)]
+    return [
+        [
+            {"num": np.ravel(tf.num[i][j]).tolist(), "den": np.ravel(tf.den[i][j]).tolist()}
+            for j in range(m.nu)
+        ]
+        for i in range(m.ny)
+    ]
 
 
 def _continuous(m: LinearModel) -> dict[str, Any] | None:
     """The model in continuous time (inverse zero-order hold), if it has no pole on the
     negative real axis or at zero (where the matrix logarithm has no real value)."""
-    if m.n == 0 or np.any(np.abs(m.poles) < 1e-9) or np.any(
-            (np.abs(m.poles.imag) < 1e-12) & (m.poles.real < 0)):
+    if (
+        m.n == 0
+        or np.any(np.abs(m.poles) < 1e-9)
+        or np.any((np.abs(m.poles.imag) < 1e-12) & (m.poles.real < 0))
+    ):
         return None
     try:
         c = _d2c_zoh(m)  # python-control 0.10 has c2d but no d2c
@@ -229,8 +284,12 @@ def _continuous(m: LinearModel) -> dict[str, Any] | None:
     A = np.real_if_close(np.asarray(c.A))
     if np.iscomplexobj(A):
         return None
-    return {"A": A.tolist(), "B": np.asarray(c.B).tolist(), "C": np.asarray(c.C).tolist(),
-            "D": np.asarray(c.D).tolist()}
+    return {
+        "A": A.tolist(),
+        "B": np.asarray(c.B).tolist(),
+        "C": np.asarray(c.C).tolist(),
+        "D": np.asarray(c.D).tolist(),
+    }
 
 
 def _d2c_zoh(m: LinearModel) -> ct.StateSpace:
@@ -253,10 +312,20 @@ def _thin(a: Array) -> list[list[float]]:
 
 def _data_view(z: IdData, n_est: int) -> dict[str, Any]:
     step = max(1, math.ceil(z.N / MAX_POINTS))
-    return {"N": z.N, "Ts": z.Ts, "estimation": n_est, "step": step, "trend": z.trend,
-            "t": z.t[::step].tolist(), "u": z.u[::step].T.tolist(), "y": z.y[::step].T.tolist(),
-            "input_names": list(z.input_names), "output_names": list(z.output_names),
-            "input_units": list(z.input_units), "output_units": list(z.output_units)}
+    return {
+        "N": z.N,
+        "Ts": z.Ts,
+        "estimation": n_est,
+        "step": step,
+        "trend": z.trend,
+        "t": z.t[::step].tolist(),
+        "u": z.u[::step].T.tolist(),
+        "y": z.y[::step].T.tolist(),
+        "input_names": list(z.input_names),
+        "output_names": list(z.output_names),
+        "input_units": list(z.input_units),
+        "output_units": list(z.output_units),
+    }
 
 
 def _jsonable(obj: Any) -> Any:

@@ -61,9 +61,7 @@ PLANT = Plant(
     reference_state=0,
     predefined=PID(Kp=1.0, Ki=0.05, Kd=0.0),
     predefined_design="PID Kp = 1, Ki = 0.05, Kd = 0: stable but slow, to be improved",
-    sensors=Sensors(
-        quantum=(2 * math.pi * DRUM_RADIUS / 4096, 0.0), noise_std=(5e-5, 1e-3)
-    ),
+    sensors=Sensors(quantum=(2 * math.pi * DRUM_RADIUS / 4096, 0.0), noise_std=(5e-5, 1e-3)),
     signal=SignalDefaults(kind="step", amplitude=0.5, duration=20.0),
     operating_point=frozen_matrix([[0, 0, 0, 0]])[0],
 )

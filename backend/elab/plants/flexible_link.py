@@ -34,9 +34,7 @@ PLANT = Plant(
     id="flexible_link",
     name="Rotary flexible link",
     summary="A servo turns a flexible steel link; control the angle, damp the vibration.",
-    A=frozen_matrix(
-        [[0, 0, 1, 0], [0, 0, 0, 1], [0, 566.46, -37.022, 0], [0, -921.77, 37.022, 0]]
-    ),
+    A=frozen_matrix([[0, 0, 1, 0], [0, 0, 0, 1], [0, 566.46, -37.022, 0], [0, -921.77, 37.022, 0]]),
     B=frozen_matrix([[0], [0], [65.113], [-65.113]]),
     C=frozen_matrix([[1, 0, 0, 0], [0, 1, 0, 0]]),
     D=frozen_matrix([[0], [0]]),

@@ -79,8 +79,9 @@ class Table:
 
     def __post_init__(self) -> None:
         if self.data.ndim != 2 or self.data.shape[1] != len(self.channels):
-            raise DimensionError("data", self.data.shape,
-                                 f"shape (n, {len(self.channels)}), one column per channel")
+            raise DimensionError(
+                "data", self.data.shape, f"shape (n, {len(self.channels)}), one column per channel"
+            )
         self.data.setflags(write=False)
         self.recording  # noqa: B018  (checks the channel names)
 
@@ -92,19 +93,35 @@ class Table:
     @property
     def recording(self) -> Recording:
         data = self.data
-        return Recording(self.header, self.Ts, self.k0, data.shape[0], self.channels,
-                         lambda i0, i1: data[i0:i1], self.param_changes)
+        return Recording(
+            self.header,
+            self.Ts,
+            self.k0,
+            data.shape[0],
+            self.channels,
+            lambda i0, i1: data[i0:i1],
+            self.param_changes,
+        )
 
 
 def table_from_samples(samples: Samples, header: dict[str, str]) -> Table:
     """The channels of ``samples`` (``r, u, y…, x…``) as a table."""
     chans = samples.channels()[1:]  # without t, which a table computes
-    return Table(header, samples.Ts, samples.k0, tuple((c.name, c.unit) for c, _ in chans),
-                 np.column_stack([v for _, v in chans]))
+    return Table(
+        header,
+        samples.Ts,
+        samples.k0,
+        tuple((c.name, c.unit) for c, _ in chans),
+        np.column_stack([v for _, v in chans]),
+    )
 
 
-def select(rec: Recording | Table, channels: list[str] | None = None,
-           t_from: float | None = None, t_to: float | None = None) -> Recording:
+def select(
+    rec: Recording | Table,
+    channels: list[str] | None = None,
+    t_from: float | None = None,
+    t_to: float | None = None,
+) -> Recording:
     """The given channels (all if ``None``, in the order given) at times in ``[t_from, t_to]``.
 
     A sample is kept when its time ``(k0 + i)·Ts`` lies in the closed interval;
@@ -118,9 +135,15 @@ def select(rec: Recording | Table, channels: list[str] | None = None,
     def part(a: int, b: int) -> Array:
         return read(i0 + a, i0 + b)[:, cols]
 
-    return Recording(rec.header, rec.Ts, rec.k0 + i0, i1 - i0,
-                     tuple(rec.channels[j] for j in cols), part,
-                     tuple(c for c in rec.param_changes if c.k < rec.k0 + i1))
+    return Recording(
+        rec.header,
+        rec.Ts,
+        rec.k0 + i0,
+        i1 - i0,
+        tuple(rec.channels[j] for j in cols),
+        part,
+        tuple(c for c in rec.param_changes if c.k < rec.k0 + i1),
+    )
 
 
 def to_csv(data: Table | Recording | Samples, header: dict[str, str] | None = None) -> str:
@@ -162,15 +185,18 @@ def to_json(data: Table | Recording) -> bytes:
 def iter_json(rec: Recording, rows: int = PART) -> Iterator[bytes]:
     """The JSON of :func:`to_json` in parts: the columns one after another, each read in
     parts of ``rows`` (so a download holds one part, not the recording)."""
-    head = {"header": rec.header, "Ts": rec.Ts, "k0": rec.k0,
-            "channels": [{"name": n, "unit": u} for n, u in rec.channels]}
+    head = {
+        "header": rec.header,
+        "Ts": rec.Ts,
+        "k0": rec.k0,
+        "channels": [{"name": n, "unit": u} for n, u in rec.channels],
+    }
     yield _dumps(head)[:-1].encode() + b',"t":['
     yield from _json_numbers(rec.t(i0, i0 + m) for i0, m in _spans(rec.n, rows))
     yield b'],"data":{'
     for j, (name, _) in enumerate(rec.channels):
         yield (b"," if j else b"") + _dumps(name).encode() + b":["
-        yield from _json_numbers(_finite(rec, data[:, j], i0, name)
-                                 for i0, data in rec.parts(rows))
+        yield from _json_numbers(_finite(rec, data[:, j], i0, name) for i0, data in rec.parts(rows))
         yield b"]"
     changes = [{"k": c.k, "t": c.k * rec.Ts, "params": c.params} for c in rec.param_changes]
     yield b'},"param_changes":' + _dumps(changes).encode() + b"}"
@@ -193,8 +219,9 @@ def iter_mat(rec: Recording, rows: int = PART) -> Iterator[bytes]:
     header and one element per variable: each part is a file of one variable written by
     ``scipy.io.savemat``, the header kept from the first only.
     """
-    yield _mat({"t": rec.t()[:, None], "Ts": np.float64(rec.Ts), "k0": np.float64(rec.k0)},
-               header=True)
+    yield _mat(
+        {"t": rec.t()[:, None], "Ts": np.float64(rec.Ts), "k0": np.float64(rec.k0)}, header=True
+    )
     names = _matlab_names([n for n, _ in rec.channels])
     for j, var in enumerate(names):
         column = np.concatenate([np.zeros(0)] + [d[:, j] for _, d in rec.parts(rows)])
@@ -202,7 +229,8 @@ def iter_mat(rec: Recording, rows: int = PART) -> Iterator[bytes]:
     meta: dict[str, Any] = {
         "channels": np.array(names, dtype=object),
         "units": np.array([f"{n} [{u}]" for n, u in rec.channels], dtype=object),
-        "header": np.array([f"{k}: {v}" for k, v in rec.header.items()] or [""])}
+        "header": np.array([f"{k}: {v}" for k, v in rec.header.items()] or [""]),
+    }
     if rec.param_changes:
         meta["param_changes"] = np.array([_change_line(rec, c) for c in rec.param_changes])
     yield _mat(meta)
@@ -229,10 +257,30 @@ def describe(obj: Any) -> str:
 
 # -- helpers -------------------------------------------------------------------
 _RESERVED = frozenset({"t", "Ts", "k0", "channels", "units", "header", "param_changes"})
-_MATLAB_KEYWORDS = frozenset({
-    "break", "case", "catch", "classdef", "continue", "else", "elseif", "end", "for",
-    "function", "global", "if", "otherwise", "parfor", "persistent", "return", "spmd",
-    "switch", "try", "while"})
+_MATLAB_KEYWORDS = frozenset(
+    {
+        "break",
+        "case",
+        "catch",
+        "classdef",
+        "continue",
+        "else",
+        "elseif",
+        "end",
+        "for",
+        "function",
+        "global",
+        "if",
+        "otherwise",
+        "parfor",
+        "persistent",
+        "return",
+        "spmd",
+        "switch",
+        "try",
+        "while",
+    }
+)
 _NAMELENGTHMAX = 63
 
 
@@ -261,9 +309,12 @@ def _finite(rec: Recording, values: Array, i0: int, name: str) -> Array:
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
         i = i0 + int(bad[0])
-        raise InvalidInput(f"data.{name}", float(values[bad[0]]),
-                           f"finite values (at t = {float(rec.t(i, i + 1)[0]):g} s; JSON has no "
-                           "NaN or infinity, export CSV or .mat instead)")
+        raise InvalidInput(
+            f"data.{name}",
+            float(values[bad[0]]),
+            f"finite values (at t = {float(rec.t(i, i + 1)[0]):g} s; JSON has no "
+            "NaN or infinity, export CSV or .mat instead)",
+        )
     return values
 
 
@@ -339,7 +390,7 @@ def _matlab_names(names: list[str]) -> list[str]:
         i = 2
         while var in taken:
             suffix = f"_{i}"
-            var = base[:_NAMELENGTHMAX - len(suffix)] + suffix
+            var = base[: _NAMELENGTHMAX - len(suffix)] + suffix
             i += 1
         taken.add(var)
         out.append(var)

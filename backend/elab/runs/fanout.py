@@ -49,8 +49,9 @@ def frame_samples(Ts: float) -> int:
 class Codec(Protocol):
     """The stream's messages as bytes."""
 
-    def frames(self, names: tuple[str, ...], F: int, k0: NDArray[np.int64],
-               data: Array) -> list[bytes]:
+    def frames(
+        self, names: tuple[str, ...], F: int, k0: NDArray[np.int64], data: Array
+    ) -> list[bytes]:
         """``frame`` messages of R runs at once: samples ``k0[i] ..`` of run ``i`` are
         ``data[i]`` (R × n × channels, columns in the order of ``names``)."""
 
@@ -198,8 +199,13 @@ class Sender:
                 if w.sending or not w.direct:  # another sender has it
                     continue
                 try:
-                    while (w.direct and w.pull_from is None and not w.closed and w.has_next
-                           and not p.stuck):
+                    while (
+                        w.direct
+                        and w.pull_from is None
+                        and not w.closed
+                        and w.has_next
+                        and not p.stuck
+                    ):
                         await w.send_next()
                 except (OSError, RuntimeError):  # the connection broke (or closed): its
                     w.close()  # stream handler ends
@@ -214,14 +220,23 @@ class Sender:
 
     def _stuck(self, p: _Pass) -> None:
         p.stuck = True
-        self._start(p.batch[p.at + 1:])
+        self._start(p.batch[p.at + 1 :])
 
 
 class RunChannel:
     """The watchers of one run and the framing of its samples."""
 
-    def __init__(self, names: tuple[str, ...], Ts: float, read: Reader, codec: Codec, *,
-                 edge: int = 0, ended: bool = False, sender: Sender | None = None) -> None:
+    def __init__(
+        self,
+        names: tuple[str, ...],
+        Ts: float,
+        read: Reader,
+        codec: Codec,
+        *,
+        edge: int = 0,
+        ended: bool = False,
+        sender: Sender | None = None,
+    ) -> None:
         self.names = names
         self.codec = codec
         self.sender = sender or Sender()

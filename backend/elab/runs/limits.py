@@ -36,21 +36,34 @@ class Limits:
         Ts = plant.Ts if spec.Ts is None else spec.Ts
         lowest = plant.Ts / self.ts_ratio
         if not Ts >= lowest:
-            raise InvalidInput("Ts", Ts, f"a sample time ≥ {lowest:g} s for {plant.id} (its "
-                               f"default {plant.Ts:g} s / {self.ts_ratio:g}, ELAB_TS_RATIO)")
+            raise InvalidInput(
+                "Ts",
+                Ts,
+                f"a sample time ≥ {lowest:g} s for {plant.id} (its "
+                f"default {plant.Ts:g} s / {self.ts_ratio:g}, ELAB_TS_RATIO)",
+            )
         if not 0 < spec.duration <= self.max_duration:
-            raise InvalidInput("duration", spec.duration,
-                               f"a duration in (0, {self.max_duration:g}] s (ELAB_MAX_DURATION)")
+            raise InvalidInput(
+                "duration",
+                spec.duration,
+                f"a duration in (0, {self.max_duration:g}] s (ELAB_MAX_DURATION)",
+            )
         n = round(spec.duration / Ts)
         if n > self.max_samples:
-            raise InvalidInput("duration", spec.duration,
-                               f"at most {self.max_samples} samples per run "
-                               f"(ELAB_MAX_RUN_SAMPLES): with Ts = {Ts:g} s a duration "
-                               f"≤ {self.max_samples * Ts:g} s")
+            raise InvalidInput(
+                "duration",
+                spec.duration,
+                f"at most {self.max_samples} samples per run "
+                f"(ELAB_MAX_RUN_SAMPLES): with Ts = {Ts:g} s a duration "
+                f"≤ {self.max_samples * Ts:g} s",
+            )
         size = n * channels * 8
         if size > self.max_recording:
             longest = self.max_recording // (channels * 8) * Ts
-            raise InvalidInput("duration", spec.duration,
-                               f"a recording of at most {self.max_recording} bytes "
-                               f"(ELAB_MAX_RECORDING; {channels} channels of 8-byte samples): "
-                               f"with Ts = {Ts:g} s a duration ≤ {longest:g} s")
+            raise InvalidInput(
+                "duration",
+                spec.duration,
+                f"a recording of at most {self.max_recording} bytes "
+                f"(ELAB_MAX_RECORDING; {channels} channels of 8-byte samples): "
+                f"with Ts = {Ts:g} s a duration ≤ {longest:g} s",
+            )

@@ -58,8 +58,12 @@ class _Run:
     moved: asyncio.Event = field(default_factory=asyncio.Event)  # committed grew / it ended
 
     def current(self) -> RunRecord:
-        return replace(self.record, status=self.state.value, n_stored=self.next_k,
-                       error=self.error or self.record.error)
+        return replace(
+            self.record,
+            status=self.state.value,
+            n_stored=self.next_k,
+            error=self.error or self.record.error,
+        )
 
 
 def new_run_id() -> str:
@@ -69,8 +73,9 @@ def new_run_id() -> str:
 class RunManager:
     """All runs as this web process sees them; implements ``EngineEvents``."""
 
-    def __init__(self, store: RunStore, engine: Engine, codec: Codec, *,
-                 limits: Limits | None = None) -> None:
+    def __init__(
+        self, store: RunStore, engine: Engine, codec: Codec, *, limits: Limits | None = None
+    ) -> None:
         self.store = store
         self.engine = engine
         self.codec = codec
@@ -96,9 +101,11 @@ class RunManager:
     def status(self) -> dict[str, Any]:
         """Live runs, connected watchers, and the engine as it reports itself."""
         st = self.engine.status()
-        return {"live_runs": self.live_count,
-                "watchers": sum(len(ch.watchers) for ch in self._channels.values()),
-                "engine": st}
+        return {
+            "live_runs": self.live_count,
+            "watchers": sum(len(ch.watchers) for ch in self._channels.values()),
+            "engine": st,
+        }
 
     async def get(self, run_id: str) -> RunRecord:
         run = self._runs.get(run_id)
@@ -106,11 +113,13 @@ class RunManager:
             return run.current()
         return await asyncio.to_thread(self.store.get_run, run_id)
 
-    async def page(self, *, plant: str | None, limit: int,
-                   offset: int) -> tuple[list[RunSummary], int]:
+    async def page(
+        self, *, plant: str | None, limit: int, offset: int
+    ) -> tuple[list[RunSummary], int]:
         """A page of runs, newest first (live ones with their current state)."""
-        runs, total = await asyncio.to_thread(self.store.list_runs, plant=plant, limit=limit,
-                                              offset=offset)
+        runs, total = await asyncio.to_thread(
+            self.store.list_runs, plant=plant, limit=limit, offset=offset
+        )
         return [self._runs[r.id].current() if r.id in self._runs else r for r in runs], total
 
     async def param_changes(self, run_id: str) -> list[ParamChange]:
@@ -139,7 +148,7 @@ class RunManager:
             at = k0 + sum(p.shape[0] for p in parts)
             for c0, rows in recent:
                 if c0 <= at < c0 + rows.shape[0] and at < stop:
-                    parts.append(rows[at - c0:min(stop, c0 + rows.shape[0]) - c0])
+                    parts.append(rows[at - c0 : min(stop, c0 + rows.shape[0]) - c0])
                     at += parts[-1].shape[0]
             if not parts:
                 return np.zeros((0, nch))
@@ -148,8 +157,16 @@ class RunManager:
         return read
 
     # -- lifecycle ---------------------------------------------------------------
-    async def create(self, spec: RunSpec, *, pace: Pace, mode: str, experiment: str,
-                     request: dict[str, Any], client: str | None = None) -> RunRecord:
+    async def create(
+        self,
+        spec: RunSpec,
+        *,
+        pace: Pace,
+        mode: str,
+        experiment: str,
+        request: dict[str, Any],
+        client: str | None = None,
+    ) -> RunRecord:
         """Check the run against the limits and start it on the engine."""
         plant = spec.plant
         self.limits.check(spec, 2 + plant.ny + plant.nx)
@@ -168,14 +185,20 @@ class RunManager:
         live = [r for r in self._runs.values() if r.state.live]
         total = len(live) + self._starting.total()
         if total >= self.limits.max_live:
-            raise TooMany(f"{total} runs are live, the limit of this server "
-                          f"(ELAB_MAX_LIVE_RUNS = {self.limits.max_live}); retry when one "
-                          "has ended", retry_after=10.0)
+            raise TooMany(
+                f"{total} runs are live, the limit of this server "
+                f"(ELAB_MAX_LIVE_RUNS = {self.limits.max_live}); retry when one "
+                "has ended",
+                retry_after=10.0,
+            )
         mine = sum(r.client == client for r in live) + self._starting[client]
         if mine >= self.limits.max_live_per_client:
-            raise TooMany(f"you have {mine} live runs, the limit per client "
-                          f"(ELAB_MAX_LIVE_PER_CLIENT = {self.limits.max_live_per_client}); "
-                          "stop one or retry when one has ended", retry_after=10.0)
+            raise TooMany(
+                f"you have {mine} live runs, the limit per client "
+                f"(ELAB_MAX_LIVE_PER_CLIENT = {self.limits.max_live_per_client}); "
+                "stop one or retry when one has ended",
+                retry_after=10.0,
+            )
 
     async def control(self, run_id: str, action: Action) -> RunRecord:
         """Pause, resume or stop; :class:`Conflict` if the run cannot (it has ended)."""
@@ -186,13 +209,20 @@ class RunManager:
             run = self._runs.get(run_id)
             if run is None or not run.state.live:  # it ended meanwhile
                 record = await self.get(run_id)
-                raise Conflict(f"run {run_id} has ended ({record.status}): it cannot "
-                               f"{action}") from None
+                raise Conflict(
+                    f"run {run_id} has ended ({record.status}): it cannot {action}"
+                ) from None
             raise
         return await self.get(run_id)
 
-    async def set_params(self, run_id: str, *, law: ControlLaw | None, reference: Signal | None,
-                         params: dict[str, Any]) -> int:
+    async def set_params(
+        self,
+        run_id: str,
+        *,
+        law: ControlLaw | None,
+        reference: Signal | None,
+        params: dict[str, Any],
+    ) -> int:
         """Apply a new law and/or reference from the next sample; returns that sample."""
         await self._require_live(run_id)
         return await self.engine.replace(run_id, law=law, reference=reference, params=params)
@@ -207,9 +237,15 @@ class RunManager:
         """The live channel of a run, or a replay channel over its recording."""
         ch = self._channels.get(record.id)
         if ch is None:
-            ch = RunChannel(tuple(n for n, _ in record.channels), record.Ts,
-                            self._reader(record.id), self.codec, edge=record.n_stored,
-                            ended=True, sender=self._sender)
+            ch = RunChannel(
+                tuple(n for n, _ in record.channels),
+                record.Ts,
+                self._reader(record.id),
+                self.codec,
+                edge=record.n_stored,
+                ended=True,
+                sender=self._sender,
+            )
             self._channels[record.id] = ch
         return ch
 
@@ -222,13 +258,13 @@ class RunManager:
     def _reader(self, run_id: str) -> Any:
         async def read(k0: int, k1: int) -> Array:
             return await self.read(run_id, k0, k1)
+
         return read
 
     # -- events from the engines (on the loop) ----------------------------------------
     def started(self, engine: str, record: RunRecord) -> None:
         names = tuple(n for n, _ in record.channels)
-        ch = RunChannel(names, record.Ts, self._reader(record.id), self.codec,
-                        sender=self._sender)
+        ch = RunChannel(names, record.Ts, self._reader(record.id), self.codec, sender=self._sender)
         self._channels[record.id] = ch
         self._runs[record.id] = _Run(record, engine, ch, self._clients.get(record.id))
 
@@ -270,8 +306,7 @@ class RunManager:
         if run is None:
             return
         run.changes.append(change)
-        run.channel.control(self.codec.params(change.k, change.k * run.record.Ts,
-                                              change.params))
+        run.channel.control(self.codec.params(change.k, change.k * run.record.Ts, change.params))
 
     def committed(self, engine: str, counts: dict[str, int]) -> None:
         for run_id, n in counts.items():
@@ -297,8 +332,7 @@ class RunManager:
         """The engine died: its live runs are interrupted, with what it had committed."""
         lost = [r for r in self._runs.values() if r.engine == engine and r.state.live]
         for run in lost:
-            self.changed(engine, Changed(run.record.id, RunState.INTERRUPTED, run.next_k,
-                                         reason))
+            self.changed(engine, Changed(run.record.id, RunState.INTERRUPTED, run.next_k, reason))
         self._spawn(self._store_lost(engine, reason, lost))
 
     async def _store_lost(self, engine: str, reason: str, runs: list[_Run]) -> None:
@@ -326,8 +360,12 @@ class RunManager:
         if run.filling is not None:
             run.filling.append((k0, rows))
         elif k0 > run.next_k:
-            log.warning("run %s: samples %d..%d did not arrive; reading them from the store",
-                        run.record.id, run.next_k, k0)
+            log.warning(
+                "run %s: samples %d..%d did not arrive; reading them from the store",
+                run.record.id,
+                run.next_k,
+                k0,
+            )
             run.filling = [(k0, rows)]
             self._spawn(self._fill(run, k0))
         # k0 < next_k: samples already published (cannot happen in order); ignored

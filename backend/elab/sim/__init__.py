@@ -14,7 +14,21 @@ from elab.sim.signals import Samples as UserSamples
 from elab.sim.spec import CompiledRun, RunSpec, compile_run
 
 __all__ = [
-    "PRBS", "Batch", "Chirp", "CompiledRun", "DiscreteController", "RunSpec", "Samples",
-    "Signal", "Simulation", "Sine", "Square", "Step", "UserSamples", "compile_run",
-    "discretise", "make_signal", "simulate",
+    "PRBS",
+    "Batch",
+    "Chirp",
+    "CompiledRun",
+    "DiscreteController",
+    "RunSpec",
+    "Samples",
+    "Signal",
+    "Simulation",
+    "Sine",
+    "Square",
+    "Step",
+    "UserSamples",
+    "compile_run",
+    "discretise",
+    "make_signal",
+    "simulate",
 ]

@@ -22,14 +22,21 @@ Array = NDArray[np.float64]
 
 # name -> shape from (R, NX, NY, NC, NW, L)
 _MATRICES: dict[str, Callable[..., tuple[int, ...]]] = {
-    "Ad": lambda R, X, Y, C, W, L: (R, X, X), "Bd": lambda R, X, Y, C, W, L: (R, X),
-    "C": lambda R, X, Y, C, W, L: (R, Y, X), "Ac": lambda R, X, Y, C, W, L: (R, C, C),
-    "Bc": lambda R, X, Y, C, W, L: (R, C, W), "Cc": lambda R, X, Y, C, W, L: (R, C),
-    "Dc": lambda R, X, Y, C, W, L: (R, W), "Lw": lambda R, X, Y, C, W, L: (R, C),
-    "u_lim": lambda R, X, Y, C, W, L: (R,), "quantum": lambda R, X, Y, C, W, L: (R, Y),
-    "x": lambda R, X, Y, C, W, L: (R, X), "xc": lambda R, X, Y, C, W, L: (R, C),
+    "Ad": lambda R, X, Y, C, W, L: (R, X, X),
+    "Bd": lambda R, X, Y, C, W, L: (R, X),
+    "C": lambda R, X, Y, C, W, L: (R, Y, X),
+    "Ac": lambda R, X, Y, C, W, L: (R, C, C),
+    "Bc": lambda R, X, Y, C, W, L: (R, C, W),
+    "Cc": lambda R, X, Y, C, W, L: (R, C),
+    "Dc": lambda R, X, Y, C, W, L: (R, W),
+    "Lw": lambda R, X, Y, C, W, L: (R, C),
+    "u_lim": lambda R, X, Y, C, W, L: (R,),
+    "quantum": lambda R, X, Y, C, W, L: (R, Y),
+    "x": lambda R, X, Y, C, W, L: (R, X),
+    "xc": lambda R, X, Y, C, W, L: (R, C),
     "exo": lambda R, X, Y, C, W, L: (R, L, 2 + Y),
-    "y_op": lambda R, X, Y, C, W, L: (R, Y), "x_op": lambda R, X, Y, C, W, L: (R, X),
+    "y_op": lambda R, X, Y, C, W, L: (R, Y),
+    "x_op": lambda R, X, Y, C, W, L: (R, X),
 }
 
 
@@ -55,8 +62,9 @@ class Batch:
         slot = next((s for s in range(self._dims[0]) if s not in self._runs), self._dims[0])
         p, c = run.spec.plant, run.controller
         R, X, Y, C, _, L = self._dims
-        self._resize(max(R, slot + 1 if slot < R else 2 * R), max(X, p.nx), max(Y, p.ny),
-                     max(C, c.nc), L)
+        self._resize(
+            max(R, slot + 1 if slot < R else 2 * R), max(X, p.nx), max(Y, p.ny), max(C, c.nc), L
+        )
         self._runs[slot] = run
         self._load(slot, run)
         self._k[slot] = 0
@@ -106,9 +114,28 @@ class Batch:
         if self._out.shape[1] < n or self._out.shape[0] < R or self._out.shape[2] != width:
             self._out = np.zeros((R, max(n, self._out.shape[1]), width))
         a = self._a
-        advance(active, n, a["Ad"], a["Bd"], a["C"], a["Ac"], a["Bc"], a["Cc"], a["Dc"], a["Lw"],
-                self._use_state, a["u_lim"], a["quantum"], a["x"], a["xc"], a["exo"],
-                self._exo_off, a["y_op"], a["x_op"], self._out)
+        advance(
+            active,
+            n,
+            a["Ad"],
+            a["Bd"],
+            a["C"],
+            a["Ac"],
+            a["Bc"],
+            a["Cc"],
+            a["Dc"],
+            a["Lw"],
+            self._use_state,
+            a["u_lim"],
+            a["quantum"],
+            a["x"],
+            a["xc"],
+            a["exo"],
+            self._exo_off,
+            a["y_op"],
+            a["x_op"],
+            self._out,
+        )
         self._k[active] += n
         self._last_n = n
         return self._out[:, :n]
@@ -124,8 +151,15 @@ class Batch:
         run, n = self._runs[slot], self._last_n
         ys, xs = self.columns(slot)
         o = self._out[slot, :n]
-        return Samples(run.spec.plant, run.Ts, int(self._k[slot]) - n, o[:, 0].copy(),
-                       o[:, 1].copy(), o[:, ys].copy(), o[:, xs].copy())
+        return Samples(
+            run.spec.plant,
+            run.Ts,
+            int(self._k[slot]) - n,
+            o[:, 0].copy(),
+            o[:, 1].copy(),
+            o[:, ys].copy(),
+            o[:, xs].copy(),
+        )
 
     def _load(self, s: int, run: CompiledRun, keep_state: bool = False) -> None:
         a, p, c = self._a, run.spec.plant, run.controller

@@ -65,8 +65,9 @@ def discretise(law: ControlLaw, plant: Plant, Ts: float) -> DiscreteController:
     sys = real.ss()
     if sys.nstates == 0:
         D = np.asarray(sys.D, dtype=np.float64)[0]
-        return DiscreteController(np.zeros((0, 0)), np.zeros((0, D.size)), np.zeros(0), D,
-                                  np.zeros(0), feedback)
+        return DiscreteController(
+            np.zeros((0, 0)), np.zeros((0, D.size)), np.zeros(0), D, np.zeros(0), feedback
+        )
     d = ct.c2d(sys, Ts, method="tustin")
     Lw = np.zeros(sys.nstates)
     if isinstance(law, PID) and real.integrator is not None and law.Ki != 0:
@@ -88,8 +89,12 @@ def pid_tracking_time(law: PID) -> float:
 
 def _arrays(d: ct.StateSpace) -> tuple[Array, Array, Array, Array]:
     n = d.nstates
-    return (np.asarray(d.A, np.float64).reshape(n, n), np.asarray(d.B, np.float64).reshape(n, -1),
-            np.asarray(d.C, np.float64).reshape(-1)[:n], np.asarray(d.D, np.float64)[0])
+    return (
+        np.asarray(d.A, np.float64).reshape(n, n),
+        np.asarray(d.B, np.float64).reshape(n, -1),
+        np.asarray(d.C, np.float64).reshape(-1)[:n],
+        np.asarray(d.D, np.float64)[0],
+    )
 
 
 def _discrete_lti(law: LTIController, plant: Plant, Ts: float) -> DiscreteController:

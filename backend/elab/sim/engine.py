@@ -69,8 +69,15 @@ class Simulation:
 
     def _empty(self) -> Samples:
         p = self.compiled.spec.plant
-        return Samples(p, self.compiled.Ts, self.k, np.zeros(0), np.zeros(0),
-                       np.zeros((0, p.ny)), np.zeros((0, p.nx)))
+        return Samples(
+            p,
+            self.compiled.Ts,
+            self.k,
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros((0, p.ny)),
+            np.zeros((0, p.nx)),
+        )
 
 
 def simulate(spec: RunSpec) -> Samples:

@@ -51,8 +51,20 @@ def measure(s: int, C: Any, x: Any, v: Any, quantum: Any, y: Any) -> None:  # pr
 
 
 @njit(cache=True, nogil=True, inline="always")
-def control_step(s: int, r: float, z: Any, e: float, Ac: Any, Bc: Any, Cc: Any, Dc: Any,
-                 Lw: Any, u_lim: Any, xc: Any, xcn: Any) -> float:  # pragma: no cover
+def control_step(
+    s: int,
+    r: float,
+    z: Any,
+    e: float,
+    Ac: Any,
+    Bc: Any,
+    Cc: Any,
+    Dc: Any,
+    Lw: Any,
+    u_lim: Any,
+    xc: Any,
+    xcn: Any,
+) -> float:  # pragma: no cover
     """One sample of the discrete controller in slot ``s``: returns
     ``u = sat(Cc ξ + Dc [r, z] + e)`` (V) and writes the next controller state
     ``Ac ξ + Bc [r, z] + Lw (u − unsaturated u)`` (back-calculation anti-windup) into
@@ -89,9 +101,26 @@ def plant_step(s: int, Ad: Any, Bd: Any, x: Any, u: float, xn: Any) -> None:  # 
 
 @njit(cache=True, nogil=True)
 def advance(
-    slots: Any, n: int, Ad: Any, Bd: Any, C: Any, Ac: Any, Bc: Any, Cc: Any, Dc: Any,
-    Lw: Any, use_state: Any, u_lim: Any, quantum: Any, x: Any, xc: Any, exo: Any,
-    exo_off: Any, y_op: Any, x_op: Any, out: Any,
+    slots: Any,
+    n: int,
+    Ad: Any,
+    Bd: Any,
+    C: Any,
+    Ac: Any,
+    Bc: Any,
+    Cc: Any,
+    Dc: Any,
+    Lw: Any,
+    use_state: Any,
+    u_lim: Any,
+    quantum: Any,
+    x: Any,
+    xc: Any,
+    exo: Any,
+    exo_off: Any,
+    y_op: Any,
+    x_op: Any,
+    out: Any,
 ) -> None:  # pragma: no cover - compiled; covered through elab.sim.batch
     NX, NY, NC = x.shape[1], C.shape[1], xc.shape[1]
     NZ = Dc.shape[1] - 1

@@ -46,18 +46,21 @@ class Samples:
         """Every recorded channel with its unit, in a fixed order."""
         p = self.plant
         ref = p.outputs[p.reference_output]
-        chans = [(Channel("t", "s", "time"), self.t),
-                 (Channel("r", ref.unit, f"reference for {ref.label}"), self.r),
-                 (Channel("u", p.inputs[0].unit, p.inputs[0].label), self.u)]
+        chans = [
+            (Channel("t", "s", "time"), self.t),
+            (Channel("r", ref.unit, f"reference for {ref.label}"), self.r),
+            (Channel("u", p.inputs[0].unit, p.inputs[0].label), self.u),
+        ]
         chans += [(c, self.y[:, i]) for i, c in enumerate(p.outputs)]
-        chans += [(Channel(f"x_{c.name}", c.unit, f"state {c.label}"), self.x[:, i])
-                  for i, c in enumerate(p.states)]
+        chans += [
+            (Channel(f"x_{c.name}", c.unit, f"state {c.label}"), self.x[:, i])
+            for i, c in enumerate(p.states)
+        ]
         return chans
 
     def head(self, n: int) -> Samples:
         """The first ``n`` samples."""
-        return Samples(self.plant, self.Ts, self.k0, self.r[:n], self.u[:n], self.y[:n],
-                       self.x[:n])
+        return Samples(self.plant, self.Ts, self.k0, self.r[:n], self.u[:n], self.y[:n], self.x[:n])
 
     @staticmethod
     def concatenate(parts: list[Samples]) -> Samples:
@@ -66,5 +69,9 @@ class Samples:
         for a, b in pairwise(parts):
             if b.k0 != a.k0 + a.n:
                 raise ValueError(f"chunks are not consecutive: {a.k0}+{a.n} then {b.k0}")
-        return Samples(first.plant, first.Ts, first.k0,
-                       *(np.concatenate([getattr(p, f) for p in parts]) for f in "ruyx"))
+        return Samples(
+            first.plant,
+            first.Ts,
+            first.k0,
+            *(np.concatenate([getattr(p, f) for p in parts]) for f in "ruyx"),
+        )

@@ -161,7 +161,12 @@ class Samples:
 
 Signal = Step | Square | Sine | Chirp | PRBS | Samples
 SIGNAL_KINDS: dict[str, type[Signal]] = {
-    "step": Step, "square": Square, "sine": Sine, "chirp": Chirp, "prbs": PRBS, "samples": Samples,
+    "step": Step,
+    "square": Square,
+    "sine": Sine,
+    "chirp": Chirp,
+    "prbs": PRBS,
+    "samples": Samples,
 }
 
 
@@ -173,13 +178,19 @@ def make_signal(kind: str, **params: float | int | tuple[float, ...]) -> Signal:
         raise InvalidInput("signal.kind", kind, ", ".join(SIGNAL_KINDS)) from None
     for name, value in params.items():
         if name not in cls.__dataclass_fields__:
-            raise InvalidInput(f"signal.{name}", value, f"parameters of {kind}: "
-                               + ", ".join(cls.__dataclass_fields__))
+            raise InvalidInput(
+                f"signal.{name}",
+                value,
+                f"parameters of {kind}: " + ", ".join(cls.__dataclass_fields__),
+            )
         if name not in ("values", "order"):
             finite_float(f"signal.{name}", value)
     for name, f in cls.__dataclass_fields__.items():
         if name not in params and f.default is MISSING and f.default_factory is MISSING:
-            raise InvalidInput(f"signal.{name}", None, f"a value: {kind} needs "
-                               + ", ".join(n for n, g in cls.__dataclass_fields__.items()
-                                           if g.default is MISSING))
+            raise InvalidInput(
+                f"signal.{name}",
+                None,
+                f"a value: {kind} needs "
+                + ", ".join(n for n, g in cls.__dataclass_fields__.items() if g.default is MISSING),
+            )
     return cls(**params)  # type: ignore[arg-type]

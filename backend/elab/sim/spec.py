@@ -89,14 +89,20 @@ def compile_run(spec: RunSpec) -> CompiledRun:
     _check_sample_time(spec.law, plant, Ts)
     d = ct.c2d(ct.ss(plant.A, plant.B, plant.C, plant.D), Ts, method="zoh")
     saturate = plant.saturate if spec.saturate is None else spec.saturate
-    u_max = plant.u_max if spec.u_max is None else finite_float(
-        "u_max", spec.u_max, 0.0, lo_open=True)
+    u_max = (
+        plant.u_max if spec.u_max is None else finite_float("u_max", spec.u_max, 0.0, lo_open=True)
+    )
     return CompiledRun(
-        spec=spec, Ts=Ts, n_samples=max(1, round(duration / Ts)),
-        Ad=np.asarray(d.A, dtype=np.float64), Bd=np.asarray(d.B, dtype=np.float64)[:, 0],
-        controller=discretise(spec.law, plant, Ts), u_lim=u_max if saturate else math.inf,
+        spec=spec,
+        Ts=Ts,
+        n_samples=max(1, round(duration / Ts)),
+        Ad=np.asarray(d.A, dtype=np.float64),
+        Bd=np.asarray(d.B, dtype=np.float64)[:, 0],
+        controller=discretise(spec.law, plant, Ts),
+        u_lim=u_max if saturate else math.inf,
         quantum=np.array(plant.sensors.quantum if spec.quantize else (0.0,) * plant.ny),
-        noise_std=np.array(plant.sensors.noise_std), x0=_initial_state(spec),
+        noise_std=np.array(plant.sensors.noise_std),
+        x0=_initial_state(spec),
     )
 
 
@@ -105,8 +111,11 @@ def _check_sample_time(law: ControlLaw, plant: Plant, Ts: float) -> None:
     fastest = float(np.max(np.abs(poles))) if poles.size else 0.0
     if fastest * Ts > MAX_POLE_TS:
         raise InvalidInput(
-            "Ts", Ts, f"a sample time ≤ {MAX_POLE_TS}/|λ|max = {MAX_POLE_TS / fastest:.3g} s "
-            f"(fastest pole of plant and controller: {fastest:.4g} rad/s)")
+            "Ts",
+            Ts,
+            f"a sample time ≤ {MAX_POLE_TS}/|λ|max = {MAX_POLE_TS / fastest:.3g} s "
+            f"(fastest pole of plant and controller: {fastest:.4g} rad/s)",
+        )
 
 
 def _initial_state(spec: RunSpec) -> Array:
@@ -116,7 +125,9 @@ def _initial_state(spec: RunSpec) -> Array:
     x0 = finite_array("x0", spec.x0, (plant.nx,))
     for s, lo, hi in plant.initial_state_ranges:
         if not lo <= x0[s] <= hi:
-            raise InvalidInput(f"x0[{s}] ({plant.states[s].name})", float(x0[s]),
-                               f"[{lo:.4g}, {hi:.4g}] {plant.states[s].unit} "
-                               "(the linear model's validity range)")
+            raise InvalidInput(
+                f"x0[{s}] ({plant.states[s].name})",
+                float(x0[s]),
+                f"[{lo:.4g}, {hi:.4g}] {plant.states[s].unit} (the linear model's validity range)",
+            )
     return x0 - plant.operating_point

@@ -40,7 +40,7 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             n INTEGER NOT NULL, data BLOB NOT NULL, PRIMARY KEY (run_id, k0))""",
     ),
     (  # 2: the engine that steps a run (its restart interrupts only its own runs), and a
-       # row to write when checking that writing works
+        # row to write when checking that writing works
         "ALTER TABLE runs ADD COLUMN engine TEXT",
         "CREATE INDEX runs_by_engine ON runs (engine, status)",
         "CREATE TABLE probe (id INTEGER PRIMARY KEY CHECK (id = 1), at REAL NOT NULL)",
@@ -88,15 +88,19 @@ def check_version(conn: sqlite3.Connection, path: Path) -> None:
     migrate: the engines open a file the web process has migrated)."""
     found = _version(conn, path)
     if found != SCHEMA_VERSION:
-        raise ElabError(f"{path}: store schema version {found}; this process expects "
-                        f"{SCHEMA_VERSION} (start the server, which upgrades the file, first)")
+        raise ElabError(
+            f"{path}: store schema version {found}; this process expects "
+            f"{SCHEMA_VERSION} (start the server, which upgrades the file, first)"
+        )
 
 
 def _version(conn: sqlite3.Connection, path: Path) -> int:
     version = int(conn.execute("PRAGMA user_version").fetchone()[0])
     if version > SCHEMA_VERSION:
-        raise ElabError(f"{path}: store schema version {version} was written by a newer "
-                        f"E-Lab; this E-Lab reads versions up to {SCHEMA_VERSION}")
+        raise ElabError(
+            f"{path}: store schema version {version} was written by a newer "
+            f"E-Lab; this E-Lab reads versions up to {SCHEMA_VERSION}"
+        )
     return version
 
 
@@ -113,8 +117,9 @@ class Checkpointer:
         self._due = threading.Event()
         self._closing = False
         self.error: str | None = None
-        self._thread = threading.Thread(target=self._loop, name="elab-store-checkpoint",
-                                        daemon=True)
+        self._thread = threading.Thread(
+            target=self._loop, name="elab-store-checkpoint", daemon=True
+        )
         self._thread.start()
 
     def poke(self) -> None:

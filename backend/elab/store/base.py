@@ -77,14 +77,22 @@ class RunStore(Protocol):
 
     def create_run(self, record: RunRecord) -> None: ...
 
-    def set_status(self, run_id: str, status: str, *, started_at: float | None = None,
-                   finished_at: float | None = None, error: str | None = None) -> None:
+    def set_status(
+        self,
+        run_id: str,
+        status: str,
+        *,
+        started_at: float | None = None,
+        finished_at: float | None = None,
+        error: str | None = None,
+    ) -> None:
         """Set ``status`` and those of the other fields that are given."""
 
     def get_run(self, run_id: str) -> RunRecord: ...
 
-    def list_runs(self, *, plant: str | None = None, limit: int = 50,
-                  offset: int = 0) -> tuple[list[RunSummary], int]:
+    def list_runs(
+        self, *, plant: str | None = None, limit: int = 50, offset: int = 0
+    ) -> tuple[list[RunSummary], int]:
         """A page of runs, newest first, and how many match in all."""
 
     def mark_interrupted(self, engine: str, reason: str) -> list[str]:

@@ -37,8 +37,10 @@ from elab.lifecycle import RunState
 from elab.store import _db
 from elab.store.base import Array, ParamChange, RunRecord, RunSummary, StoreError
 
-_SUMMARY = ("id, plant, mode, experiment, status, Ts, channels, n_planned, n_stored, "
-            "created_at, started_at, finished_at, error, engine")
+_SUMMARY = (
+    "id, plant, mode, experiment, status, Ts, channels, n_planned, n_stored, "
+    "created_at, started_at, finished_at, error, engine"
+)
 _COLUMNS = _SUMMARY + ", spec"
 _NEWEST_FIRST = "ORDER BY created_at DESC, rowid DESC"
 # the chunk holding ``start`` and every later one starting before ``stop``
@@ -81,8 +83,12 @@ class SQLiteStore:
     def __enter__(self) -> SQLiteStore:
         return self
 
-    def __exit__(self, kind: type[BaseException] | None, value: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        value: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         self.close()
 
     # -- runs ------------------------------------------------------------------
@@ -91,18 +97,38 @@ class SQLiteStore:
             raise InvalidInput("n_stored", record.n_stored, "0 for a new run (the store counts)")
         if not record.channels:
             raise InvalidInput("channels", record.channels, "at least one (name, unit) pair")
-        row = (record.id, record.plant, record.mode, record.experiment, _status(record.status),
-               record.Ts, json.dumps([list(c) for c in record.channels]), record.n_planned, 0,
-               record.created_at, record.started_at, record.finished_at, record.error,
-               record.engine, _json("spec", record.spec))
+        row = (
+            record.id,
+            record.plant,
+            record.mode,
+            record.experiment,
+            _status(record.status),
+            record.Ts,
+            json.dumps([list(c) for c in record.channels]),
+            record.n_planned,
+            0,
+            record.created_at,
+            record.started_at,
+            record.finished_at,
+            record.error,
+            record.engine,
+            _json("spec", record.spec),
+        )
         with self._transaction() as conn:
             try:
                 conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 15)})", row)
             except sqlite3.IntegrityError:
                 raise Conflict(f"run {record.id!r} already exists; choose another id") from None
 
-    def set_status(self, run_id: str, status: str, *, started_at: float | None = None,
-                   finished_at: float | None = None, error: str | None = None) -> None:
+    def set_status(
+        self,
+        run_id: str,
+        status: str,
+        *,
+        started_at: float | None = None,
+        finished_at: float | None = None,
+        error: str | None = None,
+    ) -> None:
         given = {"started_at": started_at, "finished_at": finished_at, "error": error}
         values = {"status": _status(status)} | {k: v for k, v in given.items() if v is not None}
         sets = ", ".join(f"{k} = :{k}" for k in values)
@@ -118,8 +144,9 @@ class SQLiteStore:
             raise NotFound("run", run_id)
         return RunRecord(**_summary_fields(row[:-1]), spec=json.loads(row[-1]))
 
-    def list_runs(self, *, plant: str | None = None, limit: int = 50,
-                  offset: int = 0) -> tuple[list[RunSummary], int]:
+    def list_runs(
+        self, *, plant: str | None = None, limit: int = 50, offset: int = 0
+    ) -> tuple[list[RunSummary], int]:
         if limit < 0:
             raise InvalidInput("limit", limit, "an integer >= 0")
         if offset < 0:
@@ -127,18 +154,26 @@ class SQLiteStore:
         where, args = ("WHERE plant = ?", (plant,)) if plant is not None else ("", ())
         with self._snapshot() as conn:
             total = conn.execute(f"SELECT count(*) FROM runs {where}", args).fetchone()[0]
-            rows = conn.execute(f"SELECT {_SUMMARY} FROM runs {where} {_NEWEST_FIRST} "
-                                "LIMIT ? OFFSET ?", (*args, limit, offset)).fetchall()
+            rows = conn.execute(
+                f"SELECT {_SUMMARY} FROM runs {where} {_NEWEST_FIRST} LIMIT ? OFFSET ?",
+                (*args, limit, offset),
+            ).fetchall()
         return [RunSummary(**_summary_fields(r)) for r in rows], int(total)
 
     def mark_interrupted(self, engine: str, reason: str) -> list[str]:
         marks = ", ".join("?" * len(_LIVE))
         mine = f"engine = ? AND status IN ({marks})"
         with self._transaction() as conn:
-            ids = [r[0] for r in conn.execute(
-                f"SELECT id FROM runs WHERE {mine} ORDER BY created_at", (engine, *_LIVE))]
-            conn.execute(f"UPDATE runs SET status = ?, finished_at = ?, error = ? WHERE {mine}",
-                         (RunState.INTERRUPTED.value, time.time(), reason, engine, *_LIVE))
+            ids = [
+                r[0]
+                for r in conn.execute(
+                    f"SELECT id FROM runs WHERE {mine} ORDER BY created_at", (engine, *_LIVE)
+                )
+            ]
+            conn.execute(
+                f"UPDATE runs SET status = ?, finished_at = ?, error = ? WHERE {mine}",
+                (RunState.INTERRUPTED.value, time.time(), reason, engine, *_LIVE),
+            )
         return ids
 
     # -- parameter changes -----------------------------------------------------
@@ -148,14 +183,18 @@ class SQLiteStore:
         params = _json("params", change.params)
         with self._transaction() as conn:
             _size(conn, run_id)
-            conn.execute("INSERT INTO param_changes (run_id, k, at, params) VALUES (?, ?, ?, ?)",
-                         (run_id, change.k, change.at, params))
+            conn.execute(
+                "INSERT INTO param_changes (run_id, k, at, params) VALUES (?, ?, ?, ?)",
+                (run_id, change.k, change.at, params),
+            )
 
     def param_changes(self, run_id: str) -> list[ParamChange]:
         with self._snapshot() as conn:
             _size(conn, run_id)
-            rows = conn.execute("SELECT k, params, at FROM param_changes WHERE run_id = ? "
-                                "ORDER BY k, rowid", (run_id,)).fetchall()
+            rows = conn.execute(
+                "SELECT k, params, at FROM param_changes WHERE run_id = ? ORDER BY k, rowid",
+                (run_id,),
+            ).fetchall()
         return [ParamChange(k, json.loads(p), at) for k, p, at in rows]
 
     # -- samples ---------------------------------------------------------------
@@ -169,19 +208,28 @@ class SQLiteStore:
             for run_id, k0, data in items:
                 n_stored, nch = sizes.get(run_id) or self._size(conn, run_id)
                 if k0 != n_stored:
-                    raise InvalidInput("k0", k0, f"{n_stored}, the next sample of run {run_id!r}"
-                                       f" (chunks are consecutive; expected {n_stored})")
+                    raise InvalidInput(
+                        "k0",
+                        k0,
+                        f"{n_stored}, the next sample of run {run_id!r}"
+                        f" (chunks are consecutive; expected {n_stored})",
+                    )
                 if data.ndim != 2 or data.shape[1] != nch:
-                    raise DimensionError("data", data.shape,
-                                         f"shape (n, {nch}), one column per channel of {run_id}")
+                    raise DimensionError(
+                        "data", data.shape, f"shape (n, {nch}), one column per channel of {run_id}"
+                    )
                 n = data.shape[0]
                 sizes[run_id] = (k0 + n, nch)
                 if n == 0:
                     continue
-                conn.execute("INSERT INTO chunks (run_id, k0, n, data) VALUES (?, ?, ?, ?)",
-                             (run_id, k0, n, np.ascontiguousarray(data, dtype="<f8").data))
-            conn.executemany("UPDATE runs SET n_stored = ? WHERE id = ?",
-                             [(n, run_id) for run_id, (n, _) in sizes.items()])
+                conn.execute(
+                    "INSERT INTO chunks (run_id, k0, n, data) VALUES (?, ?, ?, ?)",
+                    (run_id, k0, n, np.ascontiguousarray(data, dtype="<f8").data),
+                )
+            conn.executemany(
+                "UPDATE runs SET n_stored = ? WHERE id = ?",
+                [(n, run_id) for run_id, (n, _) in sizes.items()],
+            )
 
     def _size(self, conn: sqlite3.Connection, run_id: str) -> tuple[int, int]:
         """``(n_stored, channels)``; a run's channels never change, so they are read once."""
@@ -205,15 +253,18 @@ class SQLiteStore:
             out = np.empty((stop - start, nch), dtype=np.float64)
             filled = 0
             if stop > start:
-                for c0, n, blob in conn.execute(_OVERLAPPING,
-                                                {"id": run_id, "start": start, "stop": stop}):
+                for c0, n, blob in conn.execute(
+                    _OVERLAPPING, {"id": run_id, "start": start, "stop": stop}
+                ):
                     lo, hi = max(start, c0), min(stop, c0 + n)
                     chunk = np.frombuffer(blob, dtype="<f8").reshape(n, nch)
-                    out[lo - start:hi - start] = chunk[lo - c0:hi - c0]
+                    out[lo - start : hi - start] = chunk[lo - c0 : hi - c0]
                     filled += hi - lo
         if filled != stop - start:
-            raise ElabError(f"{self.path}: run {run_id!r} has {stop - start - filled} of samples "
-                            f"[{start}, {stop}) missing; the file is damaged")
+            raise ElabError(
+                f"{self.path}: run {run_id!r} has {stop - start - filled} of samples "
+                f"[{start}, {stop}) missing; the file is damaged"
+            )
         return out
 
     # -- health ----------------------------------------------------------------
@@ -275,14 +326,38 @@ def _size(conn: sqlite3.Connection, run_id: str) -> tuple[int, int]:
 
 
 def _summary_fields(row: tuple[Any, ...]) -> dict[str, Any]:
-    (id_, plant, mode, experiment, status, Ts, channels, n_planned, n_stored,
-     created_at, started_at, finished_at, error, engine) = row
-    return {"id": id_, "plant": plant, "mode": mode, "experiment": experiment,
-            "status": status, "Ts": Ts,
-            "channels": tuple((name, unit) for name, unit in json.loads(channels)),
-            "n_planned": n_planned, "n_stored": n_stored, "created_at": created_at,
-            "started_at": started_at, "finished_at": finished_at, "error": error,
-            "engine": engine}
+    (
+        id_,
+        plant,
+        mode,
+        experiment,
+        status,
+        Ts,
+        channels,
+        n_planned,
+        n_stored,
+        created_at,
+        started_at,
+        finished_at,
+        error,
+        engine,
+    ) = row
+    return {
+        "id": id_,
+        "plant": plant,
+        "mode": mode,
+        "experiment": experiment,
+        "status": status,
+        "Ts": Ts,
+        "channels": tuple((name, unit) for name, unit in json.loads(channels)),
+        "n_planned": n_planned,
+        "n_stored": n_stored,
+        "created_at": created_at,
+        "started_at": started_at,
+        "finished_at": finished_at,
+        "error": error,
+        "engine": engine,
+    }
 
 
 def _status(status: str) -> str:
@@ -297,5 +372,6 @@ def _json(field: str, value: dict[str, Any]) -> str:
     try:
         return json.dumps(value, allow_nan=False)
     except (TypeError, ValueError) as e:
-        raise InvalidInput(field, value, f"JSON-able values: finite numbers, strings, lists, "
-                           f"dicts ({e})") from None
+        raise InvalidInput(
+            field, value, f"JSON-able values: finite numbers, strings, lists, dicts ({e})"
+        ) from None

@@ -62,7 +62,8 @@ def spec(plant_id: str, duration: float = 2.0) -> RunSpec:
 
 
 def test_runs_of_every_plant_joining_one_after_another_are_exact(
-        sink_stepper: tuple[Sink, Stepper]) -> None:
+    sink_stepper: tuple[Sink, Stepper],
+) -> None:
     sink, stepper = sink_stepper
     ids = ["flexible_link", "double_pendulum", "belt_conveyor"]
     for pid in ids:
@@ -73,11 +74,12 @@ def test_runs_of_every_plant_joining_one_after_another_are_exact(
         assert sink.ended[pid].state == "finished"
         data = np.concatenate(sink.data[pid])
         alone = simulate(spec(pid))
-        np.testing.assert_array_equal(data[:, 2:2 + alone.y.shape[1]], alone.y)
+        np.testing.assert_array_equal(data[:, 2 : 2 + alone.y.shape[1]], alone.y)
 
 
 def test_a_failure_while_stepping_fails_the_live_runs_and_the_thread_goes_on(
-        sink_stepper: tuple[Sink, Stepper], caplog: pytest.LogCaptureFixture) -> None:
+    sink_stepper: tuple[Sink, Stepper], caplog: pytest.LogCaptureFixture
+) -> None:
     sink, stepper = sink_stepper
     real = stepper._batch.advance
     calls = {"n": 0}
@@ -140,14 +142,20 @@ def test_timing_reports_how_late_ticks_began_and_the_trend_as_clock_drift() -> N
 
 
 def test_a_diverging_run_fails_at_its_divergence_and_its_neighbours_go_on(
-        sink_stepper: tuple[Sink, Stepper]) -> None:
+    sink_stepper: tuple[Sink, Stepper],
+) -> None:
     """Two runs of one plant stepped in one block, one of them unstable: that one ends
     `failed` with the samples before it diverged (those of the offline simulation), the
     other finishes complete and exact."""
     sink, stepper = sink_stepper
     flex = get_plant("flexible_link")
-    bad = RunSpec(flex, StateFeedback((20, 20, 20, 20)), Square(math.radians(30), 4.0),
-                  duration=10.0, saturate=False)
+    bad = RunSpec(
+        flex,
+        StateFeedback((20, 20, 20, 20)),
+        Square(math.radians(30), 4.0),
+        duration=10.0,
+        saturate=False,
+    )
     good = spec("flexible_link", 10.0)
     stepper.add("bad", compile_run(bad), "fast")
     stepper.add("good", compile_run(good), "fast")
@@ -159,11 +167,12 @@ def test_a_diverging_run_fails_at_its_divergence_and_its_neighbours_go_on(
     np.testing.assert_array_equal(data[:, 1], offline.u)
     assert sink.ended["good"].state == "finished"
     data = np.concatenate(sink.data["good"])
-    np.testing.assert_array_equal(data[:, 2:2 + flex.ny], simulate(good).y)
+    np.testing.assert_array_equal(data[:, 2 : 2 + flex.ny], simulate(good).y)
 
 
 def test_of_simultaneous_commands_each_is_decided_once_in_order(
-        sink_stepper: tuple[Sink, Stepper]) -> None:
+    sink_stepper: tuple[Sink, Stepper],
+) -> None:
     """Five stops at once: exactly one stops the run, four get Conflict; a pause of a paused
     run, a resume of a running one and any command after the end get Conflict too."""
     sink, stepper = sink_stepper
@@ -177,17 +186,20 @@ def test_of_simultaneous_commands_each_is_decided_once_in_order(
     stops = [stepper.control("a", "stop") for _ in range(5)]
     outcomes = [f.exception(5) for f in stops]
     assert sum(e is None for e in outcomes) == 1
-    assert all(isinstance(e, Conflict) and "has ended" in str(e)
-               for e in outcomes if e is not None)
+    assert all(isinstance(e, Conflict) and "has ended" in str(e) for e in outcomes if e is not None)
     for action in ("pause", "resume", "stop"):
         with pytest.raises(Conflict, match="run a has ended"):
             stepper.control("a", action).result(5)
     assert [c.state for c in sink.changes if c.run_id == "a"] == [
-        RunState.PAUSED, RunState.RUNNING, RunState.STOPPED]
+        RunState.PAUSED,
+        RunState.RUNNING,
+        RunState.STOPPED,
+    ]
 
 
 def test_end_interrupts_the_given_live_runs_with_the_reason(
-        sink_stepper: tuple[Sink, Stepper]) -> None:
+    sink_stepper: tuple[Sink, Stepper],
+) -> None:
     sink, stepper = sink_stepper
     for run_id in ("a", "b", "c"):
         stepper.add(run_id, compile_run(spec("belt_conveyor", 600.0)), "realtime")

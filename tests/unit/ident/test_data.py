@@ -18,8 +18,15 @@ DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat
 
 def test_the_dryer_data_split_and_detrended_as_matlab() -> None:
     raw = np.loadtxt(DRYER)
-    z = iddata(raw[:, 1], raw[:, 0], 0.08, output_names=("temperature",),
-               input_names=("heater",), output_units=("V",), input_units=("V",))
+    z = iddata(
+        raw[:, 1],
+        raw[:, 0],
+        0.08,
+        output_names=("temperature",),
+        input_names=("heater",),
+        output_units=("V",),
+        input_units=("V",),
+    )
     assert (z.N, z.ny, z.nu) == (1000, 1, 1)
     ze, zr = z.split(500)
     assert (ze.N, zr.N, zr.k0) == (500, 500, 500)
@@ -37,15 +44,18 @@ def test_linear_detrend_removes_a_ramp_exactly() -> None:
     assert_allclose(fit, [0, 0], atol=1e-2)  # what is left has no trend
 
 
-@pytest.mark.parametrize("kwargs, field", [
-    ({"y": [1, 2, np.nan], "u": [1, 2, 3], "Ts": 0.1}, "y[2, 0]"),
-    ({"y": [1, 2, 3], "u": [1, np.inf, 3], "Ts": 0.1}, "u[1, 0]"),
-    ({"y": [1, 2, 3], "u": [1, 2], "Ts": 0.1}, "u"),
-    ({"y": [1], "u": [1], "Ts": 0.1}, "y"),
-    ({"y": [1, 2, 3], "u": [1, 2, 3], "Ts": 0.0}, "Ts"),
-    ({"y": [1, 2, 3], "u": [1, 2, 3], "Ts": float("nan")}, "Ts"),
-    ({"y": "abc", "u": [1, 2, 3], "Ts": 0.1}, "y"),
-])
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"y": [1, 2, np.nan], "u": [1, 2, 3], "Ts": 0.1}, "y[2, 0]"),
+        ({"y": [1, 2, 3], "u": [1, np.inf, 3], "Ts": 0.1}, "u[1, 0]"),
+        ({"y": [1, 2, 3], "u": [1, 2], "Ts": 0.1}, "u"),
+        ({"y": [1], "u": [1], "Ts": 0.1}, "y"),
+        ({"y": [1, 2, 3], "u": [1, 2, 3], "Ts": 0.0}, "Ts"),
+        ({"y": [1, 2, 3], "u": [1, 2, 3], "Ts": float("nan")}, "Ts"),
+        ({"y": "abc", "u": [1, 2, 3], "Ts": 0.1}, "y"),
+    ],
+)
 def test_bad_data_names_the_field(kwargs: dict[str, object], field: str) -> None:
     with pytest.raises(InvalidInput) as err:
         iddata(**kwargs)  # type: ignore[arg-type]

@@ -35,9 +35,14 @@ def test_elab_csv_gives_names_units_and_sample_time() -> None:
 
 
 def test_elab_json_download_and_a_plain_json_table() -> None:
-    doc = {"header": {"run": "r-1"}, "Ts": 0.08, "k0": 0,
-           "channels": [{"name": "u", "unit": "V"}, {"name": "y", "unit": "V"}],
-           "t": [0, 0.08, 0.16], "data": {"u": [1, 2, 3], "y": [4, 5, 6]}}
+    doc = {
+        "header": {"run": "r-1"},
+        "Ts": 0.08,
+        "k0": 0,
+        "channels": [{"name": "u", "unit": "V"}, {"name": "y", "unit": "V"}],
+        "t": [0, 0.08, 0.16],
+        "data": {"u": [1, 2, 3], "y": [4, 5, 6]},
+    }
     t = read_table(json.dumps(doc).encode(), "json")
     assert (t.names, t.units, t.Ts) == (("t", "u", "y"), ("s", "V", "V"), 0.08)
     plain = read_table(b'{"Ts": 0.5, "u": [1, 2, 3], "y": [1, 4, 9]}', "json")
@@ -62,20 +67,23 @@ def test_the_sample_time_comes_from_an_even_t_column() -> None:
     assert uneven.Ts is None
 
 
-@pytest.mark.parametrize("raw, fmt, field, message", [
-    (b"", "csv", "data", "no rows"),
-    (b"u,y\n1,2\n", "csv", "data", "1 rows"),
-    (b"u,y\n1,2\n3\n", "csv", "data row 2", "1 values"),
-    (b"u,y\n1,2\n3,abc\n", "csv", "data row 2", "3,abc"),
-    (b"u,u\n1,2\n3,4\n", "csv", "columns", "distinct"),
-    (b"\xff\xfe", "csv", "data", "UTF-8"),
-    (b"[1, 2]", "json", "data", "JSON object"),
-    (b"{nope", "json", "data", "invalid JSON"),
-    (b'{"u": [1, 2], "y": [1]}', "json", "data", "equal lengths"),
-    (b'{"u": [1, "a"], "y": [1, 2]}', "json", "data.u", "numbers"),
-    (b'{"Ts": -1, "u": [1, 2], "y": [1, 2]}', "json", "Ts", "> 0"),
-    (b"u,y\n1,2\n3,4\n", "xlsx", "format", "csv or json"),
-])
+@pytest.mark.parametrize(
+    "raw, fmt, field, message",
+    [
+        (b"", "csv", "data", "no rows"),
+        (b"u,y\n1,2\n", "csv", "data", "1 rows"),
+        (b"u,y\n1,2\n3\n", "csv", "data row 2", "1 values"),
+        (b"u,y\n1,2\n3,abc\n", "csv", "data row 2", "3,abc"),
+        (b"u,u\n1,2\n3,4\n", "csv", "columns", "distinct"),
+        (b"\xff\xfe", "csv", "data", "UTF-8"),
+        (b"[1, 2]", "json", "data", "JSON object"),
+        (b"{nope", "json", "data", "invalid JSON"),
+        (b'{"u": [1, 2], "y": [1]}', "json", "data", "equal lengths"),
+        (b'{"u": [1, "a"], "y": [1, 2]}', "json", "data.u", "numbers"),
+        (b'{"Ts": -1, "u": [1, 2], "y": [1, 2]}', "json", "Ts", "> 0"),
+        (b"u,y\n1,2\n3,4\n", "xlsx", "format", "csv or json"),
+    ],
+)
 def test_bad_files_name_what_is_wrong(raw: bytes, fmt: str, field: str, message: str) -> None:
     with pytest.raises(InvalidInput) as err:
         read_table(raw, fmt)

@@ -18,8 +18,10 @@ from elab.ident.subspace import decompose, n4sid
 
 DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat"
 OCTAVE = shutil.which("octave")
-pytestmark = pytest.mark.skipif(OCTAVE is None, reason="GNU Octave is not installed "
-                                "(make test installs octave and octave-control)")
+pytestmark = pytest.mark.skipif(
+    OCTAVE is None,
+    reason="GNU Octave is not installed (make test installs octave and octave-control)",
+)
 STRUCTURES = [(2, 2, 3), (4, 4, 3), (3, 2, 1), (1, 5, 2)]
 
 SCRIPT = """pkg load control
@@ -40,8 +42,12 @@ def octave_arx(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[np.ndarra
     script = tmp_path_factory.mktemp("octave") / "arx.m"
     cols = "; ".join(" ".join(str(v) for v in s) for s in STRUCTURES)
     script.write_text(SCRIPT.format(data=DRYER, structures=f"[{cols}]'"))
-    done = subprocess.run([str(OCTAVE), "--no-gui", "--quiet", "--no-window-system",
-                           str(script)], capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [str(OCTAVE), "--no-gui", "--quiet", "--no-window-system", str(script)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     lines = [ln for ln in done.stdout.splitlines() if ln.strip()]
     assert len(lines) == 2 * len(STRUCTURES), done.stdout + done.stderr
     vals = [np.array([float(v) for v in ln.split()]) for ln in lines]
@@ -77,8 +83,12 @@ end
 def octave_n4sid(tmp_path_factory: pytest.TempPathFactory) -> list[list[np.ndarray]]:
     script = tmp_path_factory.mktemp("octave") / "n4sid.m"
     script.write_text(N4SID_SCRIPT.format(data=DRYER))
-    done = subprocess.run([str(OCTAVE), "--no-gui", "--quiet", "--no-window-system",
-                           str(script)], capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [str(OCTAVE), "--no-gui", "--quiet", "--no-window-system", str(script)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     lines = [ln for ln in done.stdout.splitlines() if ln.strip()]
     assert len(lines) == 6, done.stdout + done.stderr
     vals = [np.array([float(v) for v in ln.split()]) for ln in lines]

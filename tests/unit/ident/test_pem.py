@@ -21,7 +21,6 @@ A, B, C = np.array([1, -1.5, 0.7]), np.array([0, 1, 0.5]), np.array([1, -0.5, 0.
 B_OE, F_OE = np.array([0, 0.5, 0.3]), np.array([1, -1.2, 0.5])
 
 
-
 def _armax_data(seed: int, c: np.ndarray = C, N: int = 5000, lam: float = 0.1) -> IdData:
     rng = np.random.default_rng(seed)
     u = rng.standard_normal(N)
@@ -47,8 +46,7 @@ def test_armax_recovers_a_known_system() -> None:
 
 
 def test_armax_recovers_c_without_bias_over_30_seeds() -> None:
-    est = np.array([armax(_armax_data(seed), 2, 2, 2, 1).parameters["C"][1:]
-                    for seed in range(30)])
+    est = np.array([armax(_armax_data(seed), 2, 2, 2, 1).parameters["C"][1:] for seed in range(30)])
     se = est.std(axis=0, ddof=1) / np.sqrt(est.shape[0])
     assert np.all(np.abs(est.mean(axis=0) - C[1:]) < 2 * se)
 
@@ -115,11 +113,16 @@ def test_bad_requests_say_what_is_wrong(dryer: tuple[IdData, IdData]) -> None:
         with pytest.raises(InvalidInput, match="more than") as err:
             fit(ze[:10])
         assert err.value.field == "data"
-    for call, field in ((lambda: armax(ze, -1, 2, 2), "na"), (lambda: armax(ze, 2, 0, 2), "nb"),
-                        (lambda: armax(ze, 2, 2, 0), "nc"), (lambda: armax(ze, 2, 2, 2, -1), "nk"),
-                        (lambda: oe(ze, 2, 0), "nf"), (lambda: oe(ze, 2.5, 2), "nb"),
-                        (lambda: armax(ze, 2, 2, 2, max_iter=-1), "max_iter"),
-                        (lambda: oe(ze, 2, 2, tol=0), "tol")):
+    for call, field in (
+        (lambda: armax(ze, -1, 2, 2), "na"),
+        (lambda: armax(ze, 2, 0, 2), "nb"),
+        (lambda: armax(ze, 2, 2, 0), "nc"),
+        (lambda: armax(ze, 2, 2, 2, -1), "nk"),
+        (lambda: oe(ze, 2, 0), "nf"),
+        (lambda: oe(ze, 2.5, 2), "nb"),
+        (lambda: armax(ze, 2, 2, 2, max_iter=-1), "max_iter"),
+        (lambda: oe(ze, 2, 2, tol=0), "tol"),
+    ):
         with pytest.raises(InvalidInput) as err:
             call()
         assert err.value.field == field

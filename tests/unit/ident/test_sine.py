@@ -13,8 +13,9 @@ from elab.ident.nonparametric import SineResponse, sine_response
 B, A, TS = np.array([0, 0.5, 0.3]), np.array([1, -1.2, 0.5]), 0.1
 
 
-def _experiment(f: float, N: int, noise: float = 0.0,
-                offset: float = 0.0) -> tuple[IdData, complex]:
+def _experiment(
+    f: float, N: int, noise: float = 0.0, offset: float = 0.0
+) -> tuple[IdData, complex]:
     u = offset + np.sin(2 * np.pi * f * TS * np.arange(N))
     y = scipy.signal.lfilter(B, A, u) + noise * np.random.default_rng(2).standard_normal(N)
     _, g = scipy.signal.freqz(B, A, worN=[2 * np.pi * f * TS])

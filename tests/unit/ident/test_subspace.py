@@ -43,8 +43,9 @@ def _closed_loops() -> list[tuple[str, ct.StateSpace]]:
     return out
 
 
-@pytest.mark.parametrize(("pid", "sys"), _closed_loops(), ids=lambda v: v if isinstance(v, str)
-                         else "")
+@pytest.mark.parametrize(
+    ("pid", "sys"), _closed_loops(), ids=lambda v: v if isinstance(v, str) else ""
+)
 def test_noise_free_subspace_recovers_every_plants_poles(pid: str, sys: ct.StateSpace) -> None:
     u = np.random.default_rng(2).standard_normal(3000)
     _, y = ct.forced_response(sys, U=u)

@@ -28,11 +28,17 @@ from elab.sim.result import Samples
 from elab.store import ParamChange
 
 CHANNELS = (("r", "rad"), ("u", "V"), ("theta", "rad"), ("x_theta_dot", "rad/s"))
-HEADER = {"plant": "flexible_link (Flexible link)", "controller": "StateFeedback(K=[1 2 3 4])",
-          "signal": "Square(amplitude=0.523599, period=4)", "run id": "r-3f2a9c1b",
-          "status": "finished"}
-CHANGES = (ParamChange(1300, {"controller": {"K": [1.5, 2.0, 3.0, 4.0]}}, 1.7e9),
-           ParamChange(1450, {"signal": {"amplitude": 0.25}}, 1.7e9 + 0.15))
+HEADER = {
+    "plant": "flexible_link (Flexible link)",
+    "controller": "StateFeedback(K=[1 2 3 4])",
+    "signal": "Square(amplitude=0.523599, period=4)",
+    "run id": "r-3f2a9c1b",
+    "status": "finished",
+}
+CHANGES = (
+    ParamChange(1300, {"controller": {"K": [1.5, 2.0, 3.0, 4.0]}}, 1.7e9),
+    ParamChange(1450, {"signal": {"amplitude": 0.25}}, 1.7e9 + 0.15),
+)
 
 
 def make_table(n: int = 500, k0: int = 1234) -> Table:
@@ -47,7 +53,7 @@ def parse_csv(text: str) -> tuple[list[str], list[str], np.ndarray]:
     lines = text.splitlines()
     comments = [line for line in lines if line.startswith("#")]
     names = lines[len(comments)].split(",")
-    body = "\n".join(lines[len(comments) + 1:])
+    body = "\n".join(lines[len(comments) + 1 :])
     data = np.loadtxt(io.StringIO(body), delimiter=",", ndmin=2).reshape(-1, len(names))
     return comments, names, data
 
@@ -108,17 +114,28 @@ def test_csv_of_samples_keeps_the_cli_header() -> None:
     plant = get_plant("flexible_link")
     rng = np.random.default_rng(6)
     n = 50
-    samples = Samples(plant, 1e-3, 0, rng.standard_normal(n), rng.standard_normal(n),
-                      rng.standard_normal((n, plant.ny)), rng.standard_normal((n, plant.nx)))
+    samples = Samples(
+        plant,
+        1e-3,
+        0,
+        rng.standard_normal(n),
+        rng.standard_normal(n),
+        rng.standard_normal((n, plant.ny)),
+        rng.standard_normal((n, plant.nx)),
+    )
     text = to_csv(samples, {"plant": "flexible_link", "generator": "elab simulate"})
     comments, names, got = parse_csv(text)
-    assert comments[:3] == ["# plant: flexible_link", "# generator: elab simulate",
-                            "# sample time: 0.001 s"]
+    assert comments[:3] == [
+        "# plant: flexible_link",
+        "# generator: elab simulate",
+        "# sample time: 0.001 s",
+    ]
     assert comments[3].startswith("# units: t [s], r [rad], u [V], theta [rad]")
     assert names[:3] == ["t", "r", "u"] and len(names) == 3 + plant.ny + plant.nx
     assert np.array_equal(got, np.column_stack([c for _, c in samples.channels()]))
-    assert text == to_csv(table_from_samples(samples, {"plant": "flexible_link",
-                                                       "generator": "elab simulate"}))
+    assert text == to_csv(
+        table_from_samples(samples, {"plant": "flexible_link", "generator": "elab simulate"})
+    )
 
 
 def test_a_table_carries_its_own_header() -> None:
@@ -137,7 +154,8 @@ def test_json_round_trip_is_exact() -> None:
     assert np.array_equal(np.column_stack([doc["data"][n] for n, _ in CHANNELS]), table.data)
     assert doc["param_changes"] == [
         {"k": 1300, "t": 1300 * 1e-3, "params": {"controller": {"K": [1.5, 2.0, 3.0, 4.0]}}},
-        {"k": 1450, "t": 1450 * 1e-3, "params": {"signal": {"amplitude": 0.25}}}]
+        {"k": 1450, "t": 1450 * 1e-3, "params": {"signal": {"amplitude": 0.25}}},
+    ]
 
 
 @pytest.mark.parametrize("bad", [float("nan"), float("inf")])
@@ -159,10 +177,15 @@ def test_mat_round_trip_is_exact() -> None:
         assert np.array_equal(mat[name][:, 0], table.data[:, j])
     assert (mat["Ts"].item(), mat["k0"].item()) == (1e-3, 1234)
     assert [str(u.item()) for u in mat["units"].ravel()] == [
-        "r [rad]", "u [V]", "theta [rad]", "x_theta_dot [rad/s]"]
+        "r [rad]",
+        "u [V]",
+        "theta [rad]",
+        "x_theta_dot [rad/s]",
+    ]
     assert [row.rstrip() for row in mat["header"]] == [f"{k}: {v}" for k, v in HEADER.items()]
     assert [row.rstrip() for row in mat["param_changes"]][1] == (
-        'k=1450, t=1.45 s: {"signal": {"amplitude": 0.25}}')
+        'k=1450, t=1.45 s: {"signal": {"amplitude": 0.25}}'
+    )
 
 
 def test_mat_names_are_matlab_identifiers() -> None:

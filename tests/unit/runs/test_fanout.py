@@ -14,7 +14,6 @@ from elab.runs.fanout import RunChannel, Watcher, publish_block
 CODEC = MsgpackCodec()
 
 
-
 def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
     async def scenario() -> tuple[list[dict], list[dict]]:
         data = np.arange(2000, dtype=np.float64).reshape(-1, 2) / 7  # 1000 samples, 2 channels
@@ -40,8 +39,8 @@ def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
         ch.watchers |= {fast, slow}
         tasks = [asyncio.create_task(ch.serve(w)) for w in (fast, slow)]
         for k0 in range(0, 1000, 20):  # 50 frames, published as the stepper would
-            recording.append(data[k0:k0 + 20])
-            ch.publish(data[k0:k0 + 20])
+            recording.append(data[k0 : k0 + 20])
+            ch.publish(data[k0 : k0 + 20])
             await asyncio.sleep(0)
         await asyncio.sleep(0.01)
         assert len([m for m in got_fast if m["type"] == "frame"]) == 50  # never waited
@@ -60,7 +59,7 @@ def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
     for m in got_slow:
         if m["type"] == "frame":
             cols = [np.frombuffer(m["columns"][c], "<f4") for c in ("a", "b")]
-            samples[m["k0"]:m["k0"] + m["n"]] = np.column_stack(cols)
+            samples[m["k0"] : m["k0"] + m["n"]] = np.column_stack(cols)
     want = (np.arange(2000, dtype=np.float64).reshape(-1, 2) / 7).astype("<f4")
     np.testing.assert_array_equal(samples, want)  # every sample, after the resume
     skipped = [m for m in got_slow if m["type"] == "skipped"]
@@ -76,12 +75,16 @@ def test_catching_up_while_the_edge_moves_ends_in_push_mode_with_every_sample_on
         data = np.arange(4000, dtype=np.float64).reshape(-1, 2) / 3  # 2000 samples
         published = [0]  # samples published so far
         reads = [0]
-        ch = RunChannel(("a", "b"), Ts=0.001, codec=CODEC,  # F = 20
-                        read=lambda k0, k1: read(k0, k1))
+        ch = RunChannel(
+            ("a", "b"),
+            Ts=0.001,
+            codec=CODEC,  # F = 20
+            read=lambda k0, k1: read(k0, k1),
+        )
 
         def publish_frame() -> None:
             k0 = published[0]
-            ch.publish(data[k0:k0 + 20])
+            ch.publish(data[k0 : k0 + 20])
             published[0] += 20
 
         async def read(k0: int, k1: int) -> np.ndarray:
@@ -129,8 +132,9 @@ def test_frames_encoded_together_decode_to_the_samples_and_equal_one_by_one() ->
         m = msgpack.unpackb(payload)
         assert (m["type"], m["seq"], m["k0"], m["n"]) == ("frame", k0[i] // 20, k0[i], 20)
         for j, name in enumerate(names):
-            np.testing.assert_array_equal(np.frombuffer(m["columns"][name], "<f4"),
-                                          block[i, :, j].astype("<f4"))
+            np.testing.assert_array_equal(
+                np.frombuffer(m["columns"][name], "<f4"), block[i, :, j].astype("<f4")
+            )
 
 
 def test_publish_block_gives_each_channel_what_publish_would() -> None:
@@ -158,14 +162,16 @@ def test_publish_block_gives_each_channel_what_publish_would() -> None:
                 for i, (ch, s) in enumerate(zip(chans, sizes, strict=True)):
                     if tick < len(s):
                         k0 = sum(s[:tick])
-                        new.append((ch, data[i][k0:k0 + s[tick]]))
+                        new.append((ch, data[i][k0 : k0 + s[tick]]))
                 if mode:  # as the stepper's blocks come: one per number of samples
                     by_n: dict[int, list[tuple[RunChannel, np.ndarray]]] = {}
                     for ch, d in new:
                         by_n.setdefault(d.shape[0], []).append((ch, d))
                     for group in by_n.values():  # + a run that ended meanwhile: skipped
-                        publish_block([ch for ch, _ in group] + [None],
-                                      np.stack([d for _, d in group] + [group[0][1]]))
+                        publish_block(
+                            [ch for ch, _ in group] + [None],
+                            np.stack([d for _, d in group] + [group[0][1]]),
+                        )
                 else:
                     for ch, d in new:
                         ch.publish(d)
@@ -199,10 +205,14 @@ def test_one_pass_sends_to_every_watcher_and_a_send_that_waits_delays_nobody() -
                 got[name].append((msgpack.unpackb(b)["k0"], asyncio.current_task()))
                 if waits and not gate.is_set():
                     await gate.wait()  # written, then the connection's buffer is full
+
             return send
 
-        watchers = [Watcher(sender("f1", False), CODEC), Watcher(sender("f2", False), CODEC),
-                    Watcher(sender("slow", True), CODEC, max_frames=1000)]
+        watchers = [
+            Watcher(sender("f1", False), CODEC),
+            Watcher(sender("f2", False), CODEC),
+            Watcher(sender("slow", True), CODEC, max_frames=1000),
+        ]
         ch.watchers |= set(watchers)
         tasks = [asyncio.create_task(ch.serve(w)) for w in watchers]
         fast_while_blocked = []

@@ -15,27 +15,46 @@ FLEX = get_plant("flexible_link")
 PEND = get_plant("double_pendulum")
 
 
-@pytest.mark.parametrize(("spec", "field", "allowed"), [
-    (RunSpec(FLEX, FLEX.predefined, Ts=0.0), "Ts", "> 0"),
-    (RunSpec(FLEX, FLEX.predefined, Ts=-1e-3), "Ts", "> 0"),
-    (RunSpec(FLEX, FLEX.predefined, Ts=float("nan")), "Ts", "finite"),
-    (RunSpec(FLEX, FLEX.predefined, Ts=0.01), "Ts", "fastest pole"),
-    (RunSpec(FLEX, StateFeedback((1.0, 2.0)), Ts=1e-3), "controller.K", "4 gains, one per state"),
-    (RunSpec(FLEX, StateFeedback((1.0, float("nan"), 0, 0))), "controller.K", "finite"),
-    (RunSpec(FLEX, FLEX.predefined, duration=0.0), "duration", "(0, 3600]"),
-    (RunSpec(FLEX, FLEX.predefined, duration=1e9), "duration", "(0, 3600]"),
-    (RunSpec(FLEX, FLEX.predefined, u_max=-1.0), "u_max", "> 0"),
-    (RunSpec(FLEX, PID(float("inf"))), "controller.Kp", "finite"),
-    (RunSpec(FLEX, LTIController(num=(1.0, 2.0, 3.0), den=(1.0, 1.0))), "controller.num",
-     "proper"),
-    (RunSpec(FLEX, LTIController(num=(1.0,), den=(1.0, 1.0), dt=0.002)), "controller.dt",
-     "0.001"),
-    (RunSpec(FLEX, FLEX.predefined, x0=(0.0, 0.0)), "x0", "shape 4"),
-    (RunSpec(PEND, PEND.predefined, x0=(0, math.radians(15), math.pi, 0, 0, 0)),
-     "x0[1] (beta1)", "validity range"),
-    (RunSpec(PEND, PEND.predefined, x0=(0, 0, math.radians(100), 0, 0, 0)),
-     "x0[2] (beta2)", "validity range"),
-])
+@pytest.mark.parametrize(
+    ("spec", "field", "allowed"),
+    [
+        (RunSpec(FLEX, FLEX.predefined, Ts=0.0), "Ts", "> 0"),
+        (RunSpec(FLEX, FLEX.predefined, Ts=-1e-3), "Ts", "> 0"),
+        (RunSpec(FLEX, FLEX.predefined, Ts=float("nan")), "Ts", "finite"),
+        (RunSpec(FLEX, FLEX.predefined, Ts=0.01), "Ts", "fastest pole"),
+        (
+            RunSpec(FLEX, StateFeedback((1.0, 2.0)), Ts=1e-3),
+            "controller.K",
+            "4 gains, one per state",
+        ),
+        (RunSpec(FLEX, StateFeedback((1.0, float("nan"), 0, 0))), "controller.K", "finite"),
+        (RunSpec(FLEX, FLEX.predefined, duration=0.0), "duration", "(0, 3600]"),
+        (RunSpec(FLEX, FLEX.predefined, duration=1e9), "duration", "(0, 3600]"),
+        (RunSpec(FLEX, FLEX.predefined, u_max=-1.0), "u_max", "> 0"),
+        (RunSpec(FLEX, PID(float("inf"))), "controller.Kp", "finite"),
+        (
+            RunSpec(FLEX, LTIController(num=(1.0, 2.0, 3.0), den=(1.0, 1.0))),
+            "controller.num",
+            "proper",
+        ),
+        (
+            RunSpec(FLEX, LTIController(num=(1.0,), den=(1.0, 1.0), dt=0.002)),
+            "controller.dt",
+            "0.001",
+        ),
+        (RunSpec(FLEX, FLEX.predefined, x0=(0.0, 0.0)), "x0", "shape 4"),
+        (
+            RunSpec(PEND, PEND.predefined, x0=(0, math.radians(15), math.pi, 0, 0, 0)),
+            "x0[1] (beta1)",
+            "validity range",
+        ),
+        (
+            RunSpec(PEND, PEND.predefined, x0=(0, 0, math.radians(100), 0, 0, 0)),
+            "x0[2] (beta2)",
+            "validity range",
+        ),
+    ],
+)
 def test_invalid_run_is_refused(spec: RunSpec, field: str, allowed: str) -> None:
     with pytest.raises(InvalidInput) as err:
         compile_run(spec)
@@ -49,8 +68,11 @@ def test_wrong_dimension_is_a_dimension_error() -> None:
 
 
 def test_safe_initial_state_is_accepted() -> None:
-    run = compile_run(RunSpec(PEND, PEND.predefined, Step(0.0),
-                              x0=(0, math.radians(5), math.radians(200), 0, 0, 0)))
+    run = compile_run(
+        RunSpec(
+            PEND, PEND.predefined, Step(0.0), x0=(0, math.radians(5), math.radians(200), 0, 0, 0)
+        )
+    )
     assert run.x0[2] == pytest.approx(math.radians(20))  # stored as deviation from 180°
 
 

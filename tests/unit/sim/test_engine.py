@@ -33,8 +33,11 @@ FLEX = get_plant("flexible_link")
 
 def _default_spec(plant_id: str, **kw: object) -> RunSpec:
     p = get_plant(plant_id)
-    ref = (Square(p.signal.amplitude, p.signal.period) if p.signal.kind == "square"
-           else Step(p.signal.amplitude))
+    ref = (
+        Square(p.signal.amplitude, p.signal.period)
+        if p.signal.kind == "square"
+        else Step(p.signal.amplitude)
+    )
     return RunSpec(p, p.predefined, ref, **{"duration": 3.0, **kw})  # type: ignore[arg-type]
 
 
@@ -59,7 +62,7 @@ def test_zoh_is_exact_for_constant_input() -> None:
     p = get_plant("belt_conveyor")
     res = simulate(RunSpec(p, OpenLoop(), Step(2.0), duration=1.0, saturate=False))
     M = np.zeros((p.nx + 1, p.nx + 1))
-    M[: p.nx, : p.nx], M[: p.nx, p.nx:] = p.A, p.B
+    M[: p.nx, : p.nx], M[: p.nx, p.nx :] = p.A, p.B
     for k in (1, 10, 437, 999):
         x_exact = (scipy.linalg.expm(M * k * res.Ts) @ np.r_[np.zeros(p.nx), 2.0])[: p.nx]
         assert_allclose(res.x[k], x_exact, rtol=1e-9, atol=1e-12)
@@ -72,8 +75,9 @@ def test_zoh_is_exact_for_constant_input() -> None:
     u_max=st.floats(0.5, 20.0),
 )
 def test_saturation_bounds_every_sample(K: list[float], amp: float, u_max: float) -> None:
-    res = simulate(RunSpec(FLEX, StateFeedback(tuple(K)), Square(amp, 1.0), duration=2.0,
-                           u_max=u_max))
+    res = simulate(
+        RunSpec(FLEX, StateFeedback(tuple(K)), Square(amp, 1.0), duration=2.0, u_max=u_max)
+    )
     assert np.all(np.abs(res.u) <= u_max)
 
 
@@ -119,8 +123,10 @@ def test_batch_of_mixed_plants_equals_runs_alone() -> None:
 def test_a_larger_plant_joining_a_running_batch_changes_nothing() -> None:
     # a live server: a flexible link steps alone, then a pendulum (more outputs and
     # states) and a belt join; the block widens and every run stays bit-exact
-    specs = [_default_spec(pid, noise_seed=2)
-             for pid in ("flexible_link", "double_pendulum", "belt_conveyor")]
+    specs = [
+        _default_spec(pid, noise_seed=2)
+        for pid in ("flexible_link", "double_pendulum", "belt_conveyor")
+    ]
     batch = Batch(capacity=4, block=500)  # room for all: only the width grows
     got: dict[int, list[Samples]] = {}
     for spec in specs:
@@ -198,8 +204,13 @@ def test_live_gain_change_takes_effect_at_the_next_sample() -> None:
 
 
 def test_diverging_loop_stops_with_its_index() -> None:
-    spec = RunSpec(FLEX, StateFeedback((20, 20, 20, 20)), Square(math.radians(30), 4.0),
-                   duration=10.0, saturate=False)
+    spec = RunSpec(
+        FLEX,
+        StateFeedback((20, 20, 20, 20)),
+        Square(math.radians(30), 4.0),
+        duration=10.0,
+        saturate=False,
+    )
     res = simulate(spec)
     assert 0 < res.n < 10_000
     assert np.all(np.isfinite(res.x))

@@ -43,11 +43,18 @@ def test_square_phase_does_not_drift_over_an_hour() -> None:
 
 
 def test_signals_depend_only_on_the_sample_index() -> None:
-    for sig in (Step(1.0, t0=0.5), Sine(1.0, 3.0, 0.2), Chirp(1.0, 0.1, 10.0, 2.0),
-                PRBS(1.0, 8, 0.5), UserSamples((1.0, 2.0, 3.0)), Square(1.0, 0.3)):
+    for sig in (
+        Step(1.0, t0=0.5),
+        Sine(1.0, 3.0, 0.2),
+        Chirp(1.0, 0.1, 10.0, 2.0),
+        PRBS(1.0, 8, 0.5),
+        UserSamples((1.0, 2.0, 3.0)),
+        Square(1.0, 0.3),
+    ):
         whole = sig.sample(0, 3000, 1e-3)
-        assert_array_equal(np.concatenate([sig.sample(0, 1234, 1e-3),
-                                           sig.sample(1234, 1766, 1e-3)]), whole)
+        assert_array_equal(
+            np.concatenate([sig.sample(0, 1234, 1e-3), sig.sample(1234, 1766, 1e-3)]), whole
+        )
 
 
 def test_user_samples_hold_their_last_value() -> None:
@@ -56,22 +63,26 @@ def test_user_samples_hold_their_last_value() -> None:
 
 def test_chirp_sweeps_its_band() -> None:
     v = Chirp(1.0, 1.0, 20.0, sweep=10.0).sample(0, 10_000, 1e-3)
-    zero_crossings_first, zero_crossings_last = (np.sum(np.diff(np.sign(v[a:a + 1000])) != 0)
-                                                 for a in (0, 9000))
+    zero_crossings_first, zero_crossings_last = (
+        np.sum(np.diff(np.sign(v[a : a + 1000])) != 0) for a in (0, 9000)
+    )
     assert zero_crossings_first < 6 < 30 < zero_crossings_last
 
 
-@pytest.mark.parametrize(("kind", "params", "field"), [
-    ("triangle", {}, "signal.kind"),
-    ("square", {"amplitude": 1.0, "period": 0.0}, "signal.period"),
-    ("square", {"amplitude": float("nan"), "period": 1.0}, "signal.amplitude"),
-    ("sine", {"amplitude": 1.0, "frequency": -2.0}, "signal.frequency"),
-    ("prbs", {"amplitude": 1.0, "order": 40}, "signal.order"),
-    ("prbs", {"amplitude": 1.0, "band": 1.5}, "signal.band"),
-    ("step", {"amplitude": 1.0, "colour": 3.0}, "signal.colour"),
-    ("square", {"amplitude": 1.0}, "signal.period"),
-    ("samples", {"values": (1.0, float("inf"))}, "signal.values"),
-])
+@pytest.mark.parametrize(
+    ("kind", "params", "field"),
+    [
+        ("triangle", {}, "signal.kind"),
+        ("square", {"amplitude": 1.0, "period": 0.0}, "signal.period"),
+        ("square", {"amplitude": float("nan"), "period": 1.0}, "signal.amplitude"),
+        ("sine", {"amplitude": 1.0, "frequency": -2.0}, "signal.frequency"),
+        ("prbs", {"amplitude": 1.0, "order": 40}, "signal.order"),
+        ("prbs", {"amplitude": 1.0, "band": 1.5}, "signal.band"),
+        ("step", {"amplitude": 1.0, "colour": 3.0}, "signal.colour"),
+        ("square", {"amplitude": 1.0}, "signal.period"),
+        ("samples", {"values": (1.0, float("inf"))}, "signal.values"),
+    ],
+)
 def test_bad_signal_names_the_field(kind: str, params: dict[str, float], field: str) -> None:
     with pytest.raises(InvalidInput) as err:
         make_signal(kind, **params)
@@ -82,7 +93,9 @@ def test_bad_signal_names_the_field(kind: str, params: dict[str, float], field: 
 def test_noise_is_chunk_invariant_across_block_edges() -> None:
     std = np.array([1.0, 0.5])
     whole = sensor_noise(5, 100, 3 * BLOCK, std)
-    parts = [sensor_noise(5, 100 + a, b - a, std) for a, b in
-             [(0, 1), (1, BLOCK - 50), (BLOCK - 50, BLOCK + 7), (BLOCK + 7, 3 * BLOCK)]]
+    parts = [
+        sensor_noise(5, 100 + a, b - a, std)
+        for a, b in [(0, 1), (1, BLOCK - 50), (BLOCK - 50, BLOCK + 7), (BLOCK + 7, 3 * BLOCK)]
+    ]
     assert_array_equal(np.concatenate(parts), whole)
     assert_allclose(whole.std(axis=0), std, rtol=0.05)

@@ -24,13 +24,31 @@ NCH = len(CHANNELS)
 ROOT = Path(__file__).resolve().parents[3]
 
 
-def record(run_id: str, *, plant: str = "flexible_link", status: str = "running",
-           created_at: float = 1.7e9, **kw: Any) -> RunRecord:
-    return RunRecord(id=run_id, plant=plant, mode="simulation", experiment="analysis",
-                     spec={"plant": plant, "signal": {"kind": "square", "amplitude": 0.5},
-                           "K": [1.5, -2.0, 0.25, 1e-3]},
-                     status=status, Ts=1e-3, channels=CHANNELS, n_planned=10_000,
-                     created_at=created_at, **{"engine": "sim-0", **kw})
+def record(
+    run_id: str,
+    *,
+    plant: str = "flexible_link",
+    status: str = "running",
+    created_at: float = 1.7e9,
+    **kw: Any,
+) -> RunRecord:
+    return RunRecord(
+        id=run_id,
+        plant=plant,
+        mode="simulation",
+        experiment="analysis",
+        spec={
+            "plant": plant,
+            "signal": {"kind": "square", "amplitude": 0.5},
+            "K": [1.5, -2.0, 0.25, 1e-3],
+        },
+        status=status,
+        Ts=1e-3,
+        channels=CHANNELS,
+        n_planned=10_000,
+        created_at=created_at,
+        **{"engine": "sim-0", **kw},
+    )
 
 
 def chunks(seed: int, sizes: tuple[int, int] = (20, 400)) -> Iterator[np.ndarray]:
@@ -67,14 +85,17 @@ def test_a_run_id_is_used_once(store: SQLiteStore) -> None:
         store.create_run(record("r-1", plant="belt_conveyor"))
 
 
-@pytest.mark.parametrize("call", [
-    lambda s: s.get_run("r-nope"),
-    lambda s: s.set_status("r-nope", "stopped"),
-    lambda s: s.append("r-nope", 0, np.zeros((3, NCH))),
-    lambda s: s.read("r-nope"),
-    lambda s: s.add_param_change("r-nope", ParamChange(0, {}, 0.0)),
-    lambda s: s.param_changes("r-nope"),
-])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda s: s.get_run("r-nope"),
+        lambda s: s.set_status("r-nope", "stopped"),
+        lambda s: s.append("r-nope", 0, np.zeros((3, NCH))),
+        lambda s: s.read("r-nope"),
+        lambda s: s.add_param_change("r-nope", ParamChange(0, {}, 0.0)),
+        lambda s: s.param_changes("r-nope"),
+    ],
+)
 def test_an_unknown_run_is_not_found(store: SQLiteStore, call: Any) -> None:
     store.create_run(record("r-1"))
     with pytest.raises(NotFound, match="unknown run 'r-nope'"):
@@ -94,7 +115,11 @@ def test_set_status_updates_only_the_given_fields(store: SQLiteStore) -> None:
     store.set_status("r-1", "failed", finished_at=12.5, error="diverged at t = 2.5 s")
     got = store.get_run("r-1")
     assert (got.status, got.started_at, got.finished_at, got.error) == (
-        "failed", 10.0, 12.5, "diverged at t = 2.5 s")
+        "failed",
+        10.0,
+        12.5,
+        "diverged at t = 2.5 s",
+    )
 
 
 def test_runs_are_listed_newest_first_in_pages(store: SQLiteStore) -> None:
@@ -104,7 +129,11 @@ def test_runs_are_listed_newest_first_in_pages(store: SQLiteStore) -> None:
         store.create_run(record(f"r-{t:g}", plant=plant, created_at=t))
     pages = [store.list_runs(limit=3, offset=o) for o in (0, 3, 6, 9)]
     assert [[r.id for r in page] for page, _ in pages] == [
-        ["r-7", "r-6", "r-5"], ["r-4", "r-3", "r-2"], ["r-1"], []]
+        ["r-7", "r-6", "r-5"],
+        ["r-4", "r-3", "r-2"],
+        ["r-1"],
+        [],
+    ]
     assert {total for _, total in pages} == {7}
     belts, total = store.list_runs(plant="belt_conveyor")
     assert ([r.id for r in belts], total) == (["r-7", "r-5", "r-4"], 3)
@@ -122,11 +151,11 @@ def test_mark_interrupted_ends_every_live_run_of_that_engine_only(store: SQLiteS
     for i, status in enumerate(["created", "running", "paused", "finished", "failed"]):
         store.create_run(record(f"r-{status}", status=status, created_at=float(i)))
     store.create_run(record("r-other", engine="sim-1", created_at=9.0))
-    assert store.mark_interrupted("sim-0", "it crashed") == ["r-created", "r-running",
-                                                             "r-paused"]
+    assert store.mark_interrupted("sim-0", "it crashed") == ["r-created", "r-running", "r-paused"]
     runs = {r.id: r for r in store.list_runs()[0]}
     assert [runs[f"r-{s}"].status for s in ("created", "running", "paused", "finished")] == [
-        "interrupted"] * 3 + ["finished"]
+        "interrupted"
+    ] * 3 + ["finished"]
     assert runs["r-running"].finished_at is not None and runs["r-finished"].finished_at is None
     assert runs["r-running"].error == "it crashed" and runs["r-finished"].error is None
     assert runs["r-other"].status == "running"  # another engine's run is its own business
@@ -136,9 +165,11 @@ def test_mark_interrupted_ends_every_live_run_of_that_engine_only(store: SQLiteS
 # -- parameter changes ---------------------------------------------------------
 def test_parameter_changes_come_back_ordered_by_k(store: SQLiteStore) -> None:
     store.create_run(record("r-1"))
-    changes = [ParamChange(4000, {"controller": {"K": [1.0, 2.5]}}, 3.0),
-               ParamChange(1200, {"signal": {"amplitude": 0.25}}, 1.0),
-               ParamChange(1200, {"signal": {"amplitude": 0.5}}, 2.0)]
+    changes = [
+        ParamChange(4000, {"controller": {"K": [1.0, 2.5]}}, 3.0),
+        ParamChange(1200, {"signal": {"amplitude": 0.25}}, 1.0),
+        ParamChange(1200, {"signal": {"amplitude": 0.5}}, 2.0),
+    ]
     for c in changes:
         store.add_param_change("r-1", c)
     assert store.param_changes("r-1") == [changes[1], changes[2], changes[0]]
@@ -164,13 +195,27 @@ def filled(store: SQLiteStore) -> tuple[SQLiteStore, np.ndarray]:
     return store, fill(store, "r-1", [rng.standard_normal((n, NCH)) for n in SIZES])
 
 
-@pytest.mark.parametrize(("k0", "k1"), [
-    (0, None), (0, N), (0, 0), (7, 7), (0, 1), (BOUNDS[0], BOUNDS[0] + 1),
-    (BOUNDS[2] - 1, BOUNDS[2] + 1), (BOUNDS[3], BOUNDS[9]), (BOUNDS[3] + 1, BOUNDS[9] - 1),
-    (N - 3, N + 100), (N, None), (N + 5, N + 10), (30, 20),
-])
-def test_any_range_reads_back_exactly(filled: tuple[SQLiteStore, np.ndarray], k0: int,
-                                      k1: int | None) -> None:
+@pytest.mark.parametrize(
+    ("k0", "k1"),
+    [
+        (0, None),
+        (0, N),
+        (0, 0),
+        (7, 7),
+        (0, 1),
+        (BOUNDS[0], BOUNDS[0] + 1),
+        (BOUNDS[2] - 1, BOUNDS[2] + 1),
+        (BOUNDS[3], BOUNDS[9]),
+        (BOUNDS[3] + 1, BOUNDS[9] - 1),
+        (N - 3, N + 100),
+        (N, None),
+        (N + 5, N + 10),
+        (30, 20),
+    ],
+)
+def test_any_range_reads_back_exactly(
+    filled: tuple[SQLiteStore, np.ndarray], k0: int, k1: int | None
+) -> None:
     store, source = filled
     got = store.read("r-1", k0, k1)
     assert got.dtype == np.float64 and got.shape[1] == NCH
@@ -215,8 +260,15 @@ def test_append_many_stores_chunks_of_several_runs_in_one_call(store: SQLiteStor
         store.create_run(record(rid))
     a = [rng.standard_normal((n, NCH)) for n in (30, 1, 250)]
     b = [rng.standard_normal((n, NCH)) for n in (40, 60)]
-    store.append_many([("r-a", 0, a[0]), ("r-b", 0, b[0]), ("r-a", 30, a[1]),
-                       ("r-b", 40, b[1]), ("r-a", 31, a[2])])
+    store.append_many(
+        [
+            ("r-a", 0, a[0]),
+            ("r-b", 0, b[0]),
+            ("r-a", 30, a[1]),
+            ("r-b", 40, b[1]),
+            ("r-a", 31, a[2]),
+        ]
+    )
     assert np.array_equal(store.read("r-a"), np.concatenate(a))
     assert np.array_equal(store.read("r-b"), np.concatenate(b))
     assert store.read("r-c").shape == (0, NCH)
@@ -280,8 +332,13 @@ for data in chunks(seed=31):
 def test_committed_chunks_survive_a_killed_process(tmp_path: Path) -> None:
     path = tmp_path / "runs.sqlite"
     committed = []
-    with subprocess.Popen([sys.executable, "-c", CHILD, str(path)], cwd=ROOT, text=True,
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE) as proc:
+    with subprocess.Popen(
+        [sys.executable, "-c", CHILD, str(path)],
+        cwd=ROOT,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    ) as proc:
         watchdog = threading.Timer(60.0, proc.kill)
         watchdog.start()
         try:

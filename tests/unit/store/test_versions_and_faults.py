@@ -35,17 +35,19 @@ def test_a_version_1_file_opens_upgraded_with_everything_in_it(tmp_path: Path) -
     path = v1_file(tmp_path)
     with SQLiteStore(path) as store:
         run = store.get_run("r-0000000000a1")
-        assert (run.status, run.n_stored, run.n_planned, run.engine) == ("finished", 50, 50,
-                                                                         None)
+        assert (run.status, run.n_stored, run.n_planned, run.engine) == ("finished", 50, 50, None)
         data = store.read("r-0000000000a1")
         assert data.shape == (50, 4)
         # the rows as version 1 wrote them: chunks of 30 and 20 from one generator
         rng = np.random.default_rng(1)
-        np.testing.assert_array_equal(data, np.concatenate(
-            [rng.standard_normal((30, 4)), rng.standard_normal((20, 4))]))
+        np.testing.assert_array_equal(
+            data, np.concatenate([rng.standard_normal((30, 4)), rng.standard_normal((20, 4))])
+        )
         assert store.param_changes("r-0000000000a1") == [
-            ParamChange(30, {"controller": {"kind": "state_feedback", "K": [1, 2, 3, 4]}},
-                        1.7e9 + 0.03)]
+            ParamChange(
+                30, {"controller": {"kind": "state_feedback", "K": [1, 2, 3, 4]}}, 1.7e9 + 0.03
+            )
+        ]
         # a run version 1 left live belongs to no engine: no engine's restart touches it
         assert store.mark_interrupted("sim-0", "restart") == []
         store.create_run(record("r-new"))  # and the upgraded file takes new runs
@@ -88,8 +90,12 @@ def store(tmp_path: Path) -> Iterator[SQLiteStore]:
 
 
 def test_a_lock_held_by_another_process_is_a_transient_fault(store: SQLiteStore) -> None:
-    with subprocess.Popen([sys.executable, "-c", LOCKER, str(store.path)], text=True,
-                          stdin=subprocess.PIPE, stdout=subprocess.PIPE) as locker:
+    with subprocess.Popen(
+        [sys.executable, "-c", LOCKER, str(store.path)],
+        text=True,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+    ) as locker:
         assert locker.stdout is not None and locker.stdin is not None
         assert locker.stdout.readline().strip() == "locked"
         with pytest.raises(StoreError, match="locked") as err:
@@ -102,7 +108,8 @@ def test_a_lock_held_by_another_process_is_a_transient_fault(store: SQLiteStore)
 
 
 def test_a_full_database_is_a_persistent_fault_and_keeps_what_was_committed(
-        store: SQLiteStore) -> None:
+    store: SQLiteStore,
+) -> None:
     pages = store._writer.execute("PRAGMA page_count").fetchone()[0]
     store._writer.execute(f"PRAGMA max_page_count = {pages}")  # no page to grow by
     with pytest.raises(StoreError, match="full") as err:
@@ -116,15 +123,18 @@ def test_a_full_database_is_a_persistent_fault_and_keeps_what_was_committed(
 
 def _chattr(flag: str, *paths: Path) -> bool:
     try:
-        return subprocess.run(["chattr", flag, *map(str, paths)], capture_output=True,
-                              check=False).returncode == 0
+        return (
+            subprocess.run(
+                ["chattr", flag, *map(str, paths)], capture_output=True, check=False
+            ).returncode
+            == 0
+        )
     except FileNotFoundError:
         return False
 
 
 def test_a_file_made_immutable_is_a_persistent_fault(store: SQLiteStore) -> None:
-    files = [p for p in (store.path, store.path.with_name(store.path.name + "-wal"))
-             if p.exists()]
+    files = [p for p in (store.path, store.path.with_name(store.path.name + "-wal")) if p.exists()]
     if not _chattr("+i", *files):
         pytest.skip("chattr +i is not possible here (needs CAP_LINUX_IMMUTABLE on ext4/xfs)")
     try:
