@@ -4,6 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 NODE_STAMP := frontend/node_modules/.installed
+LINT_STAMP := frontend/lint/node_modules/.installed
 APP    := backend/elab/api/static/index.html
 APP_SRC := $(shell find frontend/src frontend/index.html frontend/vite.config.ts \
                         frontend/tsconfig.json -type f 2>/dev/null)
@@ -23,6 +24,11 @@ $(NODE_STAMP): frontend/package.json frontend/package-lock.json
 	cd frontend && npm ci --no-audit --no-fund --loglevel=error
 	touch $(NODE_STAMP)
 
+# ESLint in a package of its own (frontend/lint/package.json says why).
+$(LINT_STAMP): frontend/lint/package.json frontend/lint/package-lock.json
+	cd frontend/lint && npm ci --no-audit --no-fund --loglevel=error
+	touch $(LINT_STAMP)
+
 # The browser app, built into the Python package (type-checked first).
 $(APP): $(NODE_STAMP) $(APP_SRC)
 	cd frontend && npm run build --silent
@@ -41,8 +47,14 @@ chromium: test-debs
 run: install
 	$(VENV)/bin/elab serve --host 127.0.0.1 --port 8000
 
-lint: install
+# The house rules, held by tools: ruff (lint and format), the import layers (pyproject's
+# [tool.importlinter]: nothing below api speaks HTTP, pydantic or msgpack; dependencies
+# point inward), ESLint on the app (no any, exhaustive switches, no floating promises).
+lint: install $(LINT_STAMP)
 	$(VENV)/bin/ruff check backend tests scripts
+	$(VENV)/bin/ruff format --check backend tests scripts
+	cd backend && ../$(VENV)/bin/lint-imports --config ../pyproject.toml
+	cd frontend && lint/node_modules/.bin/eslint -c lint/eslint.config.js src
 
 typecheck: install
 	$(VENV)/bin/mypy
@@ -72,4 +84,4 @@ protocol: install
 
 clean:
 	rm -rf $(VENV) build *.egg-info backend/*.egg-info .pytest_cache .mypy_cache .ruff_cache \
-	       frontend/node_modules backend/elab/api/static
+	       frontend/node_modules frontend/lint/node_modules backend/elab/api/static

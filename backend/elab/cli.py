@@ -435,8 +435,10 @@ def cmd_identify(args: argparse.Namespace) -> str:
         horizon=args.horizon,
     )
     result = wf.run(data, plan)
-    if args.json:
-        return json.dumps(result.as_dict())
+    if args.json:  # the API's answer, validated against the same wire model
+        from elab.api.convert import ident_json
+
+        return ident_json(result)
     return _identify_text(data, result)
 
 

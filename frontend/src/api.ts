@@ -5,6 +5,7 @@ import type {
   BodeList,
   DesignOut,
   ErrorDetail,
+  IdentLine,
   IdentOut,
   IdentRequest,
   LQRRequest,
@@ -19,6 +20,7 @@ import type {
   StepOut,
   StepRequest,
 } from "./protocol.gen";
+import { check } from "./wire";
 
 export const API = "/api/v1";
 
@@ -114,11 +116,12 @@ export async function identify(req: IdentRequest, onProgress: (stage: string, do
     if (value) buffer += value;
     let nl: number;
     while ((nl = buffer.indexOf("\n")) >= 0) {
-      const line = JSON.parse(buffer.slice(0, nl)) as { progress?: { stage: string; done: number }; result?: IdentOut; error?: ErrorDetail };
+      const line = check<IdentLine>("IdentLine", JSON.parse(buffer.slice(0, nl)));
       buffer = buffer.slice(nl + 1);
       if (line.progress) onProgress(line.progress.stage, line.progress.done);
       if (line.result) return line.result;
       if (line.error) throw new ApiError(422, line.error);
+      if (!line.progress) throw new ApiError(0, { code: "invalid", message: "an identification line without progress, result or error", field: null, errors: [] });
     }
     if (done) throw new ApiError(0, { code: "unavailable", message: "the identification stream ended without a result", field: null, errors: [] });
   }

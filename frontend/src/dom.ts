@@ -54,10 +54,10 @@ export function saveText(filename: string, text: string, type = "text/csv"): voi
   setTimeout(() => URL.revokeObjectURL(url), 1000);
 }
 
-/** Columns → CSV text with a header line. */
-export function csv(header: string[], columns: ArrayLike<number>[]): string {
+/** Columns → CSV text with a header line (null, a value that is not finite: an empty cell). */
+export function csv(header: string[], columns: ArrayLike<number | null>[]): string {
   const n = Math.max(0, ...columns.map((c) => c.length));
   const lines = [header.join(",")];
-  for (let i = 0; i < n; i++) lines.push(columns.map((c) => (i < c.length ? String(c[i]) : "")).join(","));
+  for (let i = 0; i < n; i++) lines.push(columns.map((c) => (i < c.length && c[i] !== null ? String(c[i]) : "")).join(","));
   return lines.join("\n") + "\n";
 }

@@ -51,23 +51,23 @@ export interface HandedModel {
   input: string;
   output: string[];
   units: string[];
-  fit: number[];
+  fit: (number | null)[];
   ss: { A: number[][]; B: number[][]; C: number[][]; D: number[][] };
   tf: { num: number[]; den: number[] }[][];
   poles: number[][];
 }
 
 export function handOver(plantId: string, out: IdentOut, index: number, source: string): HandedModel {
-  const m = out.models[index] as Record<string, any>;
-  const d = out.data as Record<string, any>;
+  const m = out.models[index];
+  const d = out.data;
   const model: HandedModel = {
-    name: String(m.name),
+    name: m.name,
     source,
-    Ts: Number(d.Ts),
-    input: String(d.input_names[0]),
-    output: d.output_names as string[],
-    units: d.output_units as string[],
-    fit: m.fit.validation_simulation as number[],
+    Ts: d.Ts,
+    input: d.input_names[0],
+    output: d.output_names,
+    units: d.output_units,
+    fit: m.fit.validation_simulation,
     ss: m.ss,
     tf: m.tf,
     poles: m.poles,

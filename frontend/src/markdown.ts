@@ -14,6 +14,6 @@ export function renderMarkdown(source: string): string {
   const text = source
     .replace(/\$\$([\s\S]+?)\$\$/g, (_, m: string) => keep(tex(m.trim(), true)))
     .replace(/\$([^$\n]+?)\$/g, (_, m: string) => keep(tex(m, false)));
-  const html = marked.parse(text, { async: false }) as string;
+  const html = marked.parse(text, { async: false });
   return html.replace(/@@MATH(\d+)@@/g, (_, i: string) => math[Number(i)]);
 }

@@ -221,7 +221,8 @@ class Bounds {
 
 export interface Series {
   x: ArrayLike<number>;
-  y: ArrayLike<number>;
+  /** null: no value there (a gap in the line) */
+  y: ArrayLike<number | null>;
   name: string;
   /** which y axis (1 upper, 2 lower when the chart has two) */
   axis?: 1 | 2;
@@ -263,7 +264,7 @@ export function chart(div: HTMLElement, series: Series[], opts: ChartOptions): v
     layout.yaxis2 = { title: { text: opts.yTitles[1] }, domain: [0, 0.45], anchor: "x" };
     layout.xaxis = { ...layout.xaxis, anchor: "y2" };
   }
-  void Plotly.react(div, data as Plotly.Data[], layout, CONFIG);
+  void Plotly.react(div, data, layout, CONFIG);
 }
 
 export function purge(div: HTMLElement): void {

@@ -7,6 +7,15 @@
  */
 export type ClientMessage = SetParams | Pause | Resume | Stop | ResumeFrom;
 /**
+ * Why the server closes a stream (the close frame's reason says more): 4400 the
+ * request was wrong (no ``elab.v1`` subprotocol, a bad ``from_seq``), 4404 no such run.
+ * A client should not reconnect after either.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "CloseCode".
+ */
+export type CloseCode = 4400 | 4404;
+/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "Controller-Input".
  */
@@ -21,11 +30,11 @@ export type Controller =
  * via the `definition` "Controller-Output".
  */
 export type ControllerOut =
-  | PredefinedControllerOut
+  | PredefinedController
   | StateFeedbackControllerOut
   | PIDControllerOut
   | LTIControllerModelOut
-  | OpenLoopControllerOut;
+  | OpenLoopController;
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ServerMessage".
@@ -42,17 +51,14 @@ export type Signal =
  * via the `definition` "Signal-Output".
  */
 export type SignalOut =
-  | StepSignalOut
-  | SquareSignalOut
-  | SineSignalOut
-  | ChirpSignalOut
-  | PRBSSignalOut
-  | SamplesSignalOut;
+  StepSignalOut | SquareSignalOut | SineSignalOut | ChirpSignalOut | PRBSSignalOut | SamplesSignal;
 
 export interface ElabProtocol {
+  AnalysesOut?: AnalysesOut;
   AnalysisInfo?: AnalysisInfo;
   ArmaxSpec?: ArmaxSpec;
   ArxSearch?: ArxSearch;
+  ArxSearchOut?: ArxSearchOut;
   ArxSpec?: ArxSpec;
   BodeInfo?: BodeInfo;
   BodeList?: BodeList;
@@ -60,26 +66,35 @@ export interface ElabProtocol {
   "ChirpSignal-Input"?: ChirpSignal;
   "ChirpSignal-Output"?: ChirpSignalOut;
   ClientMessage?: ClientMessage;
+  CloseCode?: CloseCode;
   Complex?: Complex;
+  ContinuousOut?: ContinuousOut;
   "Controller-Input"?: Controller;
   "Controller-Output"?: ControllerOut;
+  CorrelationOut?: CorrelationOut;
   DesignOut?: DesignOut;
   ErrorBody?: ErrorBody;
   ErrorDetail?: ErrorDetail;
   ErrorMessage?: ErrorMessage;
   FieldError?: FieldError;
   FileData?: FileData;
+  FitOut?: FitOut;
   Frame?: Frame;
   Hello?: Hello;
+  IdentDataOut?: IdentDataOut;
+  IdentLine?: IdentLine;
+  IdentModelOut?: IdentModelOut;
   IdentOut?: IdentOut;
+  IdentProgress?: IdentProgress;
   IdentRequest?: IdentRequest;
   LQRRequest?: LQRRequest;
   "LTIControllerModel-Input"?: LTIControllerModel;
   "LTIControllerModel-Output"?: LTIControllerModelOut;
+  N4sidOrdersOut?: N4SidOrdersOut;
   N4sidSpec?: N4SidSpec;
   OeSpec?: OeSpec;
-  "OpenLoopController-Input"?: OpenLoopController;
-  "OpenLoopController-Output"?: OpenLoopControllerOut;
+  OpenLoopController?: OpenLoopController;
+  OrderRow?: OrderRow;
   "PIDController-Input"?: PIDController;
   "PIDController-Output"?: PIDControllerOut;
   "PRBSSignal-Input"?: PRBSSignal;
@@ -93,9 +108,9 @@ export interface ElabProtocol {
   PlantChannel?: PlantChannel;
   PlantDetail?: PlantDetail;
   PlantSummary?: PlantSummary;
-  "PredefinedController-Input"?: PredefinedController;
-  "PredefinedController-Output"?: PredefinedControllerOut;
+  PredefinedController?: PredefinedController;
   RankInfo?: RankInfo;
+  ResidualsOut?: ResidualsOut;
   Resume?: Resume;
   ResumeFrom?: ResumeFrom;
   RunCreate?: RunCreate;
@@ -103,19 +118,21 @@ export interface ElabProtocol {
   RunInfo?: RunInfo;
   RunList?: RunList;
   RunSummaryInfo?: RunSummaryInfo;
-  "SamplesSignal-Input"?: SamplesSignal;
-  "SamplesSignal-Output"?: SamplesSignalOut;
+  SamplesSignal?: SamplesSignal;
   ServerMessage?: ServerMessage;
   SetParams?: SetParams;
   "Signal-Input"?: Signal;
   "Signal-Output"?: SignalOut;
+  SineOut?: SineOut;
   "SineSignal-Input"?: SineSignal;
   "SineSignal-Output"?: SineSignalOut;
   Skipped?: Skipped;
+  SpectralOut?: SpectralOut;
   "SquareSignal-Input"?: SquareSignal;
   "SquareSignal-Output"?: SquareSignalOut;
   "StateFeedbackController-Input"?: StateFeedbackController;
   "StateFeedbackController-Output"?: StateFeedbackControllerOut;
+  StateSpaceOut?: StateSpaceOut;
   Status?: Status;
   StepInfoOut?: StepInfoOut;
   StepOut?: StepOut;
@@ -123,7 +140,97 @@ export interface ElabProtocol {
   "StepSignal-Input"?: StepSignal;
   "StepSignal-Output"?: StepSignalOut;
   Stop?: Stop;
+  StreamClose?: StreamClose;
   TransferFunctionInfo?: TransferFunctionInfo;
+  TransferFunctionOut?: TransferFunctionOut;
+}
+/**
+ * Those asked for (and possible: the first four need one input and one output).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "AnalysesOut".
+ */
+export interface AnalysesOut {
+  correlation: CorrelationOut | null;
+  spectral: SpectralOut | null;
+  sine: SineOut | null;
+  arx_search: ArxSearchOut | null;
+  n4sid_orders: N4SidOrdersOut | null;
+}
+/**
+ * Impulse response by correlation analysis, with its ±3σ band and the delay.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "CorrelationOut".
+ */
+export interface CorrelationOut {
+  lags: number[];
+  impulse: (number | null)[];
+  band: (number | null)[];
+  /**
+   * samples; null: none is evident
+   */
+  delay: number | null;
+  Ts: number;
+}
+/**
+ * Frequency response by spectral analysis (Blackman–Tukey).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "SpectralOut".
+ */
+export interface SpectralOut {
+  /**
+   * rad/s
+   */
+  omega: number[];
+  magnitude: (number | null)[];
+  phase_deg: (number | null)[];
+  noise_spectrum: (number | null)[];
+  window: number;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "SineOut".
+ */
+export interface SineOut {
+  frequency_hz: number;
+  omega: number;
+  magnitude: number | null;
+  phase_deg: number | null;
+  periods_used: number;
+  samples_used: number;
+}
+/**
+ * One row per structure: ``[na, nb, nk, validation loss]``; the best by loss, AIC, MDL.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ArxSearchOut".
+ */
+export interface ArxSearchOut {
+  rows: (number | null)[][];
+  best: number[];
+  aic: number[];
+  mdl: number[];
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "N4sidOrdersOut".
+ */
+export interface N4SidOrdersOut {
+  horizon: number;
+  best: number;
+  orders: OrderRow[];
+  singular_values: (number | null)[];
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "OrderRow".
+ */
+export interface OrderRow {
+  order: number;
+  loss: number | null;
+  mdl: number | null;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -174,7 +281,7 @@ export interface TransferFunctionInfo {
  * via the `definition` "ArmaxSpec".
  */
 export interface ArmaxSpec {
-  kind?: "armax";
+  kind: "armax";
   na: number;
   nb: number;
   nc: number;
@@ -212,7 +319,7 @@ export interface ArxSearch {
  * via the `definition` "ArxSpec".
  */
 export interface ArxSpec {
-  kind?: "arx";
+  kind: "arx";
   na: number;
   nb: number;
   nk?: number;
@@ -253,7 +360,7 @@ export interface ChannelInfo {
  * via the `definition` "ChirpSignal-Input".
  */
 export interface ChirpSignal {
-  kind?: "chirp";
+  kind: "chirp";
   amplitude: number;
   f0: number;
   f1: number;
@@ -273,31 +380,29 @@ export interface ChirpSignalOut {
   offset: number;
 }
 /**
+ * As ``POST /runs/{id}/params``: new gains and/or reference (at least one).
+ *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "SetParams".
  */
 export interface SetParams {
-  type: "set_params";
   controller?:
-    | (
-        | PredefinedController
-        | StateFeedbackController
-        | PIDController
-        | LTIControllerModel
-        | OpenLoopController
-      )
-    | null;
-  signal?:
-    (StepSignal | SquareSignal | SineSignal | ChirpSignal | PRBSSignal | SamplesSignal) | null;
+    | PredefinedController
+    | StateFeedbackController
+    | PIDController
+    | LTIControllerModel
+    | OpenLoopController;
+  signal?: StepSignal | SquareSignal | SineSignal | ChirpSignal | PRBSSignal | SamplesSignal;
+  type: "set_params";
 }
 /**
  * The plant's predefined controller.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "PredefinedController-Input".
+ * via the `definition` "PredefinedController".
  */
 export interface PredefinedController {
-  kind?: "predefined";
+  kind: "predefined";
 }
 /**
  * u = K (x_ref − x̂): one gain per state.
@@ -306,7 +411,7 @@ export interface PredefinedController {
  * via the `definition` "StateFeedbackController-Input".
  */
 export interface StateFeedbackController {
-  kind?: "state_feedback";
+  kind: "state_feedback";
   /**
    * @minItems 1
    * @maxItems 64
@@ -321,7 +426,7 @@ export interface StateFeedbackController {
  * via the `definition` "PIDController-Input".
  */
 export interface PIDController {
-  kind?: "pid";
+  kind: "pid";
   Kp: number;
   Ki?: number;
   Kd?: number;
@@ -338,7 +443,7 @@ export interface PIDController {
  * via the `definition` "LTIControllerModel-Input".
  */
 export interface LTIControllerModel {
-  kind?: "lti";
+  kind: "lti";
   num?: number[] | null;
   den?: number[] | null;
   A?: number[][] | null;
@@ -351,17 +456,17 @@ export interface LTIControllerModel {
  * No feedback: the signal is the plant input (V).
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "OpenLoopController-Input".
+ * via the `definition` "OpenLoopController".
  */
 export interface OpenLoopController {
-  kind?: "open_loop";
+  kind: "open_loop";
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "StepSignal-Input".
  */
 export interface StepSignal {
-  kind?: "step";
+  kind: "step";
   amplitude: number;
   t0?: number;
   offset?: number;
@@ -371,7 +476,7 @@ export interface StepSignal {
  * via the `definition` "SquareSignal-Input".
  */
 export interface SquareSignal {
-  kind?: "square";
+  kind: "square";
   amplitude: number;
   period: number;
   offset?: number;
@@ -382,7 +487,7 @@ export interface SquareSignal {
  * via the `definition` "SineSignal-Input".
  */
 export interface SineSignal {
-  kind?: "sine";
+  kind: "sine";
   amplitude: number;
   /**
    * Hz
@@ -396,7 +501,7 @@ export interface SineSignal {
  * via the `definition` "PRBSSignal-Input".
  */
 export interface PRBSSignal {
-  kind?: "prbs";
+  kind: "prbs";
   amplitude: number;
   order?: number;
   band?: number;
@@ -404,10 +509,10 @@ export interface PRBSSignal {
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "SamplesSignal-Input".
+ * via the `definition` "SamplesSignal".
  */
 export interface SamplesSignal {
-  kind?: "samples";
+  kind: "samples";
   /**
    * @minItems 1
    * @maxItems 100000
@@ -446,13 +551,14 @@ export interface ResumeFrom {
   seq: number;
 }
 /**
- * The plant's predefined controller.
- *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "PredefinedController-Output".
+ * via the `definition` "ContinuousOut".
  */
-export interface PredefinedControllerOut {
-  kind: "predefined";
+export interface ContinuousOut {
+  A: number[][];
+  B: number[][];
+  C: number[][];
+  D: number[][];
 }
 /**
  * u = K (x_ref − x̂): one gain per state.
@@ -501,15 +607,6 @@ export interface LTIControllerModelOut {
   C: [] | [number[]] | null;
   D: [] | [number[]] | null;
   dt: number | null;
-}
-/**
- * No feedback: the signal is the plant input (V).
- *
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "OpenLoopController-Output".
- */
-export interface OpenLoopControllerOut {
-  kind: "open_loop";
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -565,7 +662,7 @@ export interface ErrorMessage {
  * via the `definition` "FileData".
  */
 export interface FileData {
-  source?: "file";
+  source: "file";
   format?: "csv" | "json";
   name?: string;
   /**
@@ -586,6 +683,20 @@ export interface FileData {
    * s; default: from the file
    */
   Ts?: number | null;
+}
+/**
+ * Fit % per output: on the validation set simulated from a zero initial state (the
+ * published figures' convention), from the best initial state, and one step ahead; on the
+ * estimation set simulated from the best initial state.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "FitOut".
+ */
+export interface FitOut {
+  validation_simulation: (number | null)[];
+  validation_simulation_x0: (number | null)[];
+  validation_one_step: (number | null)[];
+  estimation_simulation: (number | null)[];
 }
 /**
  * Samples k0 .. k0+n−1: float32 little-endian bytes per channel (t = k·Ts).
@@ -658,25 +769,139 @@ export interface ParamChangeInfo {
   };
 }
 /**
- * ``data``: the (detrended) samples, thinned to ≤ 5000 points for plotting;
- * ``analyses``: correlation, spectral, sine, arx_search, n4sid_orders (those asked for);
- * ``models``: each with fit %, polynomials or matrices, transfer functions, poles,
- * simulated and one-step outputs on the validation set and its residual analysis.
+ * The data as analysed (detrended), thinned to ≤ 5000 points per series: every
+ * ``step``-th sample; the first ``estimation`` samples estimate, the rest validate.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IdentDataOut".
+ */
+export interface IdentDataOut {
+  N: number;
+  Ts: number;
+  estimation: number;
+  step: number;
+  trend: string;
+  t: number[];
+  /**
+   * [input][sample]
+   */
+  u: number[][];
+  /**
+   * [output][sample]
+   */
+  y: number[][];
+  input_names: string[];
+  output_names: string[];
+  input_units: string[];
+  output_units: string[];
+}
+/**
+ * One line of the NDJSON answer: progress while it works, then the result or an error.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IdentLine".
+ */
+export interface IdentLine {
+  progress: IdentProgress | null;
+  result: IdentOut | null;
+  error: ErrorDetail | null;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IdentProgress".
+ */
+export interface IdentProgress {
+  stage: string;
+  done: number;
+}
+/**
+ * Every result of an identification (docs/identification.md).
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "IdentOut".
  */
 export interface IdentOut {
-  data: {
-    [k: string]: unknown;
-  };
-  analyses: {
-    [k: string]: unknown;
-  };
-  models: {
-    [k: string]: unknown;
-  }[];
+  data: IdentDataOut;
+  analyses: AnalysesOut;
+  models: IdentModelOut[];
   notes: string[];
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IdentModelOut".
+ */
+export interface IdentModelOut {
+  name: string;
+  kind: "arx" | "armax" | "oe" | "n4sid";
+  orders: {
+    [k: string]: number;
+  };
+  /**
+   * the model's own parameters (polynomials with their standard deviations, loss, FPE, AIC; singular values)
+   */
+  parameters: {
+    [k: string]: (number | null)[] | boolean | number | null;
+  };
+  fit: FitOut;
+  noise_variance: (number | null)[][];
+  /**
+   * [re, im] in the z plane
+   */
+  poles: number[][];
+  stable: boolean;
+  ss: StateSpaceOut;
+  /**
+   * [output][input]
+   */
+  tf: TransferFunctionOut[][];
+  /**
+   * by the inverse zero-order hold; null where no real one exists
+   */
+  continuous: ContinuousOut | null;
+  /**
+   * [output][sample] on the validation set
+   */
+  simulated: number[][];
+  one_step: number[][];
+  residuals: ResidualsOut | null;
+}
+/**
+ * The innovations form x⁺ = A x + B u + K e, y = C x + D u + e (discrete, Ts).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "StateSpaceOut".
+ */
+export interface StateSpaceOut {
+  A: number[][];
+  B: number[][];
+  C: number[][];
+  D: number[][];
+  K: number[][];
+  Ts: number;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "TransferFunctionOut".
+ */
+export interface TransferFunctionOut {
+  /**
+   * powers of z, highest first
+   */
+  num: number[];
+  den: number[];
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ResidualsOut".
+ */
+export interface ResidualsOut {
+  lags: number[];
+  autocorrelation: (number | null)[];
+  cross_lags: number[];
+  cross_correlation: (number | null)[];
+  bound: number | null;
+  white: boolean;
+  independent: boolean;
 }
 /**
  * Identification on a run's data or an uploaded table. ``split``: the estimation
@@ -712,7 +937,7 @@ export interface IdentRequest {
  * via the `definition` "RunData".
  */
 export interface RunData {
-  source?: "run";
+  source: "run";
   run: string;
   /**
    * @minItems 1
@@ -737,7 +962,7 @@ export interface RunData {
  * via the `definition` "OeSpec".
  */
 export interface OeSpec {
-  kind?: "oe";
+  kind: "oe";
   nb: number;
   nf: number;
   nk?: number;
@@ -747,7 +972,7 @@ export interface OeSpec {
  * via the `definition` "N4sidSpec".
  */
 export interface N4SidSpec {
-  kind?: "n4sid";
+  kind: "n4sid";
   /**
    * 0: chosen from the singular values
    */
@@ -765,8 +990,8 @@ export interface LQRRequest {
   /**
    * diagonal or full matrix
    */
-  Q: number[] | number[][];
-  R?: number | number[][];
+  Q: [number, ...number[]] | [[number, ...number[]], ...[number, ...number[]][]];
+  R?: number | [number[], ...number[][]];
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -803,23 +1028,20 @@ export interface ParamsNotice {
   };
 }
 /**
- * New controller gains and/or reference, applied from the next sample.
+ * New controller gains and/or reference, applied from the next sample (at least one;
+ * an omitted one stays as it is).
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ParamsUpdate".
  */
 export interface ParamsUpdate {
   controller?:
-    | (
-        | PredefinedController
-        | StateFeedbackController
-        | PIDController
-        | LTIControllerModel
-        | OpenLoopController
-      )
-    | null;
-  signal?:
-    (StepSignal | SquareSignal | SineSignal | ChirpSignal | PRBSSignal | SamplesSignal) | null;
+    | PredefinedController
+    | StateFeedbackController
+    | PIDController
+    | LTIControllerModel
+    | OpenLoopController;
+  signal?: StepSignal | SquareSignal | SineSignal | ChirpSignal | PRBSSignal | SamplesSignal;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -865,11 +1087,11 @@ export interface PlantDetail {
   operating_point: number[];
   initial_state_ranges: [unknown, unknown, unknown][];
   predefined:
-    | PredefinedControllerOut
+    | PredefinedController
     | StateFeedbackControllerOut
     | PIDControllerOut
     | LTIControllerModelOut
-    | OpenLoopControllerOut;
+    | OpenLoopController;
   predefined_design: string;
   default_signal:
     | StepSignalOut
@@ -877,7 +1099,7 @@ export interface PlantDetail {
     | SineSignalOut
     | ChirpSignalOut
     | PRBSSignalOut
-    | SamplesSignalOut;
+    | SamplesSignal;
   default_duration: number;
   sensors: {
     [k: string]: number[];
@@ -918,18 +1140,6 @@ export interface SineSignalOut {
   frequency: number;
   phase: number;
   offset: number;
-}
-/**
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "SamplesSignal-Output".
- */
-export interface SamplesSignalOut {
-  kind: "samples";
-  /**
-   * @minItems 1
-   * @maxItems 100000
-   */
-  values: [number, ...number[]];
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -1087,4 +1297,14 @@ export interface StepRequest {
   T?: number | null;
   amplitude?: number;
   n?: number;
+}
+/**
+ * How the server ends a stream it refuses: the websocket close frame's code and reason.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "StreamClose".
+ */
+export interface StreamClose {
+  code: CloseCode;
+  reason: string;
 }

@@ -4,9 +4,13 @@
 // to resume from the recording, and after a network blip it reconnects by itself from
 // the next missing frame.
 import { decode, encode } from "@msgpack/msgpack";
-import type { ClientMessage, ErrorMessage, Hello, ParamsNotice, RunInfo, ServerMessage, Status } from "./protocol.gen";
+import type { ClientMessage, CloseCode, ErrorMessage, Hello, ParamsNotice, RunInfo, Status } from "./protocol.gen";
+import { serverMessage, WireError } from "./wire";
 
 export const PROTOCOL = "elab.v1";
+/** The server's close codes (CloseCode in the schema): after these, no reconnecting. A code
+ * the schema adds fails the type check here until it is handled. */
+const REFUSED: Record<CloseCode, string> = { 4400: "the request was refused", 4404: "no such run" };
 const ENDED = new Set(["finished", "stopped", "failed", "interrupted"]);
 
 export interface StreamListener {
@@ -113,8 +117,8 @@ export class RunStream {
   private closed(ev: CloseEvent): void {
     this.ws = null;
     if (this.closedByUser || this.ended) return;
-    if (ev.code === 4404 || ev.code === 4400) {
-      this.listener.connection?.("closed", ev.reason || `closed (${ev.code})`);
+    if (ev.code in REFUSED) {
+      this.listener.connection?.("closed", ev.reason || REFUSED[ev.code as CloseCode]);
       return;
     }
     const delay = this.backoff[Math.min(this.attempts, this.backoff.length - 1)];
@@ -124,7 +128,14 @@ export class RunStream {
   }
 
   private receive(bytes: Uint8Array): void {
-    const msg = decode(bytes) as ServerMessage;
+    let msg;
+    try {
+      msg = serverMessage(decode(bytes));
+    } catch (e) {
+      const message = e instanceof WireError ? e.message : `not msgpack: ${String(e)}`;
+      this.listener.error?.({ type: "error", code: "invalid", message, field: null });
+      return;
+    }
     switch (msg.type) {
       case "hello":
         return this.hello(msg);
@@ -143,6 +154,10 @@ export class RunStream {
         return this.listener.params?.(msg);
       case "error":
         return this.listener.error?.(msg);
+      default: {
+        const unknown: never = msg; // every message type of the schema is handled above
+        return unknown;
+      }
     }
   }
 

@@ -30,13 +30,21 @@ def free_port() -> int:
 
 
 class Server:
-    """``elab serve`` as a subprocess: start, stop, kill -9, restart on the same data."""
+    """``elab serve`` as a subprocess: start, stop, kill -9, restart on the same data. Its
+    log (the web process's and the engine's) goes to ``log_path`` beside the data (a pipe
+    nobody read would fill up and stop the server)."""
 
     def __init__(self, data: Path, **env: str) -> None:
         self.data = data
         self.env = {**os.environ, "ELAB_DATA": str(data), **env}
         self.port = free_port()
         self.proc: subprocess.Popen[bytes] | None = None
+        self.log_path = data.parent / f"{data.name}-server.log"
+
+    @property
+    def log(self) -> str:
+        """Everything the server has logged so far."""
+        return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
 
     @property
     def url(self) -> str:
@@ -47,17 +55,18 @@ class Server:
         return f"ws://127.0.0.1:{self.port}"
 
     def start(self) -> Server:
-        self._close_pipe()
-        self.proc = subprocess.Popen(
-            [ELAB, "serve", "--port", str(self.port)],
-            env=self.env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-        )
+        self.log_path.parent.mkdir(parents=True, exist_ok=True)
+        with self.log_path.open("ab") as log:
+            self.proc = subprocess.Popen(
+                [ELAB, "serve", "--port", str(self.port)],
+                env=self.env,
+                stdout=subprocess.DEVNULL,
+                stderr=log,
+            )
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
-                raise RuntimeError(f"server exited: {self.proc.stderr.read().decode()}")  # type: ignore[union-attr]
+                raise RuntimeError(f"server exited: {self.log[-4000:]}")
             try:
                 httpx.get(self.url + "/api/v1/plants", timeout=1).raise_for_status()
                 return self
@@ -73,17 +82,11 @@ class Server:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
-        self._close_pipe()
-
-    def _close_pipe(self) -> None:
-        if self.proc is not None and self.proc.stderr is not None:
-            self.proc.stderr.close()
 
     def kill9(self) -> None:
         assert self.proc is not None
         self.proc.send_signal(signal.SIGKILL)
         self.proc.wait()
-        self._close_pipe()
 
     def client(self) -> httpx.Client:
         return httpx.Client(base_url=self.url + "/api/v1", timeout=30)

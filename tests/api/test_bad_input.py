@@ -120,7 +120,10 @@ def test_bad_query_parameters_are_422(server: Server) -> None:
             r = c.get(f"/runs/{rid}/data", params=params)
             assert r.status_code == 422 and r.json()["error"]["field"] == field, r.text
         assert c.get("/runs", params={"limit": 0}).json()["error"]["field"] == "limit"
-        assert c.get("/plants/flexible_link/bode", params={"output": "v"}).status_code == 422
+        r = c.get("/plants/flexible_link/bode", params={"output": "alpha2"})  # not this plant's
+        assert r.status_code == 404 and "theta, alpha" in r.json()["error"]["message"]
+        r = c.get("/runs", params={"limit": ["10", "20"]})  # repeated: refused, not cut to one
+        assert r.status_code == 422 and r.json()["error"]["field"] == "limit"
 
 
 def test_design_errors_are_422(server: Server) -> None:

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from elab.api import schemas as s
 from tests.api.server import Server
 
 DRYER = Path(__file__).resolve().parents[1] / "reference" / "ident" / "dryer.dat"
@@ -72,6 +73,8 @@ def test_progress_lines_then_the_result(server: Server) -> None:
         server, {"data": _file(), "arx_search": {"nk": [1, 10]}}, accept="application/x-ndjson"
     )
     assert r.status_code == 200 and r.headers["content-type"].startswith("application/x-ndjson")
+    for line in r.text.splitlines():  # every line is an IdentLine of the wire schema
+        s.IdentLine.model_validate_json(line)
     lines = [json.loads(x) for x in r.text.splitlines()]
     progress = [ln["progress"]["done"] for ln in lines[:-1]]
     assert len(progress) >= 10 and progress == sorted(progress) and progress[-1] == 1.0
@@ -114,7 +117,7 @@ def test_a_recorded_identification_run(server: Server) -> None:
     assert r.status_code == 200, r.text
     out = r.json()
     assert out["data"]["output_units"] == ["rad", "rad"] and out["data"]["Ts"] == 0.001
-    assert "correlation" not in out["analyses"] and out["notes"]  # two outputs
+    assert out["analyses"]["correlation"] is None and out["notes"]  # two outputs
     m = out["models"][0]
     assert min(m["fit"]["validation_one_step"]) > 90
     r = _ident(

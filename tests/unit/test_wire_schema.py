@@ -60,7 +60,8 @@ def test_every_reference_resolves(doc: dict[str, Any], prefix: str) -> None:
 def test_requests_keep_defaults_optional_and_responses_list_every_field() -> None:
     defs = wire_schema()["$defs"]
     assert defs["RunCreate"]["required"] == ["plant"]
-    assert "kind" not in defs["PIDController-Input"]["required"]
+    # a union's tag is required in requests too: the server cannot tell the kind without it
+    assert defs["PIDController-Input"]["required"] == ["kind", "Kp"]
     assert set(defs["PIDController-Output"]["required"]) == {"kind", "Kp", "Ki", "Kd", "N", "Tt"}
     assert "type" in defs["Frame"]["required"]
     assert defs["Frame"]["properties"]["columns"]["additionalProperties"]["format"] == "binary"

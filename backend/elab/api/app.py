@@ -20,7 +20,7 @@ from starlette.staticfiles import StaticFiles
 
 from elab.api import ident, plants, runs  # noqa: F401  (registers their endpoints)
 from elab.api.frames import MsgpackCodec
-from elab.api.http import ENDPOINTS, Uploads, error_response
+from elab.api.http import ENDPOINTS, Handler, Uploads, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
 from elab.api.stream import Stream
@@ -82,9 +82,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
     async def docs(request: Request) -> Response:
         return HTMLResponse(page)
 
-    routes: list[BaseRoute] = [
-        Route(API + e.path, e.handler, methods=[e.method]) for e in ENDPOINTS
-    ]
+    routes: list[BaseRoute] = _endpoint_routes()
     routes += [
         WebSocketRoute(API + "/runs/{run_id}/stream", Stream()),
         Route(API + "/openapi.json", openapi),
@@ -99,6 +97,22 @@ def create_app(settings: Settings | None = None) -> Starlette:
     )
     app.state.settings = settings
     return app
+
+
+def _endpoint_routes() -> list[BaseRoute]:
+    """One route per path, dispatching on the method: a path's 405 then lists in ``Allow``
+    every method it takes (a route per method matched only its own)."""
+    by_path: dict[str, dict[str, Handler]] = {}
+    for e in ENDPOINTS:
+        by_path.setdefault(e.path, {})[e.method] = e.handler
+
+    def route(path: str, handlers: dict[str, Handler]) -> Route:
+        async def dispatch(request: Request) -> Response:
+            return await handlers[request.method](request)
+
+        return Route(API + path, dispatch, methods=list(handlers), name=path)
+
+    return [route(path, handlers) for path, handlers in by_path.items()]
 
 
 def _app_routes(static: Path) -> list[BaseRoute]:
@@ -135,4 +149,5 @@ async def _http_error(request: Request, exc: Exception) -> Response:
             }
         },
         status_code=exc.status_code,
+        headers=exc.headers,  # Allow: on a 405, the methods the path takes (RFC 9110)
     )

@@ -8,6 +8,8 @@ from typing import Any
 
 from elab.api import schemas as s
 from elab.errors import InvalidInput
+from elab.ident import IdData
+from elab.ident import workflow as wf
 from elab.laws import PID, ControlLaw, LTIController, OpenLoop, StateFeedback
 from elab.plants.base import Plant
 from elab.sim import signals as sig
@@ -40,13 +42,15 @@ def law(model: Any, plant: Plant) -> ControlLaw:
 def law_model(law_: ControlLaw) -> Any:
     """The model of a core law (for a plant's predefined controller)."""
     if isinstance(law_, StateFeedback):
-        return s.StateFeedbackController(K=list(law_.K), estimate=law_.estimate)
+        return s.StateFeedbackController(
+            kind="state_feedback", K=list(law_.K), estimate=law_.estimate
+        )
     if isinstance(law_, PID):
-        return s.PIDController(Kp=law_.Kp, Ki=law_.Ki, Kd=law_.Kd, N=law_.N, Tt=law_.Tt)
+        return s.PIDController(kind="pid", Kp=law_.Kp, Ki=law_.Ki, Kd=law_.Kd, N=law_.N, Tt=law_.Tt)
     if isinstance(law_, OpenLoop):
-        return s.OpenLoopController()
+        return s.OpenLoopController(kind="open_loop")
     return s.LTIControllerModel.model_validate(
-        {"num": _list(law_.num), "den": _list(law_.den), "dt": law_.dt}
+        {"kind": "lti", "num": _list(law_.num), "den": _list(law_.den), "dt": law_.dt}
     )
 
 
@@ -60,10 +64,14 @@ def signal(model: Any) -> sig.Signal:
 def default_signal(plant: Plant) -> Any:
     d = plant.signal
     if d.kind == "square":
-        return s.SquareSignal.model_validate({"amplitude": d.amplitude, "period": d.period})
+        return s.SquareSignal.model_validate(
+            {"kind": "square", "amplitude": d.amplitude, "period": d.period}
+        )
     if d.kind == "sine":
-        return s.SineSignal.model_validate({"amplitude": d.amplitude, "frequency": 1 / d.period})
-    return s.StepSignal.model_validate({"amplitude": d.amplitude})
+        return s.SineSignal.model_validate(
+            {"kind": "sine", "amplitude": d.amplitude, "frequency": 1 / d.period}
+        )
+    return s.StepSignal.model_validate({"kind": "step", "amplitude": d.amplitude})
 
 
 def run_spec(req: s.RunCreate, plant: Plant) -> RunSpec:
@@ -85,6 +93,19 @@ def run_spec(req: s.RunCreate, plant: Plant) -> RunSpec:
         quantize=req.quantize,
         x0=tuple(req.x0) if req.x0 is not None else None,
     )
+
+
+def ident_json(result: wf.Result) -> str:
+    """An identification's results as the wire's :class:`~elab.api.schemas.IdentOut` JSON
+    (what the API answers and ``elab identify --json`` prints): validated against the model,
+    non-finite numbers as ``null``."""
+    return s.IdentOut.model_validate(result.as_dict()).model_dump_json()
+
+
+def identify(data: IdData, plan: wf.Plan, progress: wf.Progress | None = None) -> str:
+    """:func:`elab.ident.workflow.run` and :func:`ident_json` (one job of the server's
+    identification workers: the JSON is written there, not in the web process)."""
+    return ident_json(wf.run(data, plan, progress))
 
 
 def complex_list(values: Any) -> list[s.Complex]:

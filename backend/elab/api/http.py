@@ -58,6 +58,10 @@ class Endpoint:
     params: tuple[Param, ...] = ()
     errors: tuple[int, ...] = (404, 422)
     media: str = "application/json"
+    stream: type[BaseModel] | None = None  # answered as NDJSON lines of this model on request
+    # operations that take the id this one returns (OpenAPI links: clients and fuzzers follow
+    # them): (operationId, its path parameter)
+    links: tuple[tuple[str, str], ...] = ()
 
 
 ENDPOINTS: list[Endpoint] = []
@@ -180,8 +184,16 @@ def _msg(e: Any) -> str:
     return f"{e['msg']} (got {value})"
 
 
+def query(request: HTTPConnection, name: str) -> str | None:
+    """A query parameter given at most once (a repeated one is refused, not cut to one)."""
+    values = request.query_params.getlist(name)
+    if len(values) > 1:
+        raise InvalidInput(name, values, "one value (the parameter is repeated)")
+    return values[0] if values else None
+
+
 def query_float(request: Request, name: str) -> float | None:
-    raw = request.query_params.get(name)
+    raw = query(request, name)
     if raw is None or raw == "":
         return None
     try:
@@ -196,7 +208,7 @@ def query_float(request: Request, name: str) -> float | None:
 def query_int(request: HTTPConnection, name: str, default: int, lo: int, hi: int) -> int:
     """An integer query parameter in ``[lo, hi]`` written in ASCII digits (Python's ``int``
     would also take ``٣``, and ``"²".isdigit()`` is true)."""
-    raw = request.query_params.get(name)
+    raw = query(request, name)
     if raw is None:
         return default
     digits = raw[1:] if raw[:1] == "-" else raw

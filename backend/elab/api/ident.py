@@ -15,13 +15,13 @@ client goes away stops its job.
 from __future__ import annotations
 
 import asyncio
-import json
 from collections.abc import AsyncIterator, Coroutine
 from typing import Any, TypeVar
 
 from starlette.requests import Request
-from starlette.responses import JSONResponse, Response, StreamingResponse
+from starlette.responses import Response, StreamingResponse
 
+from elab.api import convert
 from elab.api import schemas as s
 from elab.api.http import endpoint, error_detail, read_model
 from elab.errors import ElabError, InvalidInput
@@ -42,6 +42,7 @@ T = TypeVar("T")
     body=s.IdentRequest,
     response=s.IdentOut,
     errors=(404, 413, 422, 429),
+    stream=s.IdentLine,
 )
 async def identify(request: Request) -> Response:
     """Correlation, spectral and sine analysis, ARX order search, subspace singular values
@@ -56,12 +57,12 @@ async def identify(request: Request) -> Response:
             return StreamingResponse(
                 _progress_lines(jobs(request), data, plan), media_type="application/x-ndjson"
             )
-        result = await _unless_gone(request, jobs(request).run(wf.run, data, plan))
+        result = await _unless_gone(request, jobs(request).run(convert.identify, data, plan))
         if result is None:
             raise ClientGone
     except ClientGone:
         return Response(status_code=499)  # nginx's "client closed request": nobody reads it
-    return JSONResponse(result.as_dict())
+    return Response(result, media_type="application/json")
 
 
 class ClientGone(Exception):
@@ -98,7 +99,12 @@ async def _progress_lines(pool: JobPool, data: IdData, plan: wf.Plan) -> AsyncIt
     away, the response is cancelled here, which stops the job."""
     queue: asyncio.Queue[tuple[str, float]] = asyncio.Queue()
     job = asyncio.ensure_future(
-        pool.run(wf.run, data, plan, progress=lambda stage, done: queue.put_nowait((stage, done)))
+        pool.run(
+            convert.identify,
+            data,
+            plan,
+            progress=lambda stage, done: queue.put_nowait((stage, done)),
+        )
     )
     try:
         while not job.done() or not queue.empty():
@@ -106,19 +112,20 @@ async def _progress_lines(pool: JobPool, data: IdData, plan: wf.Plan) -> AsyncIt
             await asyncio.wait({job, getter}, return_when=asyncio.FIRST_COMPLETED)
             if getter.done():
                 stage, done = getter.result()
-                yield _line({"progress": {"stage": stage, "done": round(done, 3)}})
+                progress = s.IdentProgress(stage=stage, done=round(min(max(done, 0.0), 1.0), 3))
+                yield _line(s.IdentLine(progress=progress))
             else:
                 getter.cancel()
-        try:
-            yield _line({"result": job.result().as_dict()})
+        try:  # the result is JSON already (written by the worker): not parsed again here
+            yield b'{"progress":null,"result":' + job.result().encode() + b',"error":null}\n'
         except ElabError as exc:
-            yield _line({"error": error_detail(exc)[1].model_dump(mode="json")})
+            yield _line(s.IdentLine(error=error_detail(exc)[1]))
     finally:
         job.cancel()
 
 
-def _line(obj: dict[str, Any]) -> bytes:
-    return json.dumps(obj, allow_nan=False).encode() + b"\n"
+def _line(line: s.IdentLine) -> bytes:
+    return line.model_dump_json().encode() + b"\n"
 
 
 async def _dataset(request: Request, src: s.RunData | s.FileData) -> tuple[IdData, float | None]:

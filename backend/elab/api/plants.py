@@ -13,12 +13,20 @@ from starlette.responses import Response
 from elab import design
 from elab.api import convert
 from elab.api import schemas as s
-from elab.api.http import Param, endpoint, ok, read_model
-from elab.errors import InvalidInput
+from elab.api.http import Param, endpoint, ok, query, read_model
+from elab.errors import InvalidInput, NotFound
 from elab.laws import OpenLoop
 from elab.plants import PLANTS, Channel, Plant, get_plant
 
-PLANT_ID = Param("plant_id", "path", "plant id: " + ", ".join(PLANTS), required=True)
+PLANT_ID = Param(
+    "plant_id",
+    "path",
+    "plant id: " + ", ".join(PLANTS),
+    {"type": "string", "enum": list(PLANTS)},
+    required=True,
+)
+#: every output name of any plant (which ones a plant has: GET /plants/{plant_id})
+OUTPUTS = sorted({o.name for p in PLANTS.values() for o in p.outputs})
 
 
 def _summary(p: Plant) -> s.PlantSummary:
@@ -127,14 +135,22 @@ async def analysis(request: Request) -> Response:
     "/plants/{plant_id}/bode",
     "Open-loop Bode diagram of each output (or one)",
     response=s.BodeList,
-    params=(PLANT_ID, Param("output", "query", "one output's name")),
+    params=(
+        PLANT_ID,
+        Param(
+            "output",
+            "query",
+            "one output's name (404: not one of the plant's)",
+            {"type": "string", "enum": OUTPUTS},
+        ),
+    ),
 )
 async def bode(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
-    name = request.query_params.get("output")
+    name = query(request, "output")
     names = [o.name for o in p.outputs]
     if name is not None and name not in names:
-        raise InvalidInput("output", name, "one of " + ", ".join(names))
+        raise NotFound(f"output of {p.id}", name, names)
     b = await asyncio.to_thread(design.bode, ct.ss(p.A, p.B, p.C, p.D))
     keep = [i for i, o in enumerate(names) if name in (None, o)]
     return ok(

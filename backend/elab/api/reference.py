@@ -81,6 +81,8 @@ def openapi_document() -> dict[str, Any]:
             roots.append((e.body, "validation"))
         if e.response not in (None, "file"):
             roots.append((e.response, "serialization"))
+        if e.stream is not None:
+            roots.append((e.stream, "serialization"))
     refs, defs = _schemas(roots, REF)
     ref = dict(zip(((id(tp), mode) for tp, mode in roots), refs, strict=True))
     paths: dict[str, Any] = {}
@@ -125,9 +127,16 @@ def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict
         }
     else:
         content = {"application/json": {"schema": ref[id(e.response), "serialization"]}}
+    if e.stream is not None:  # with Accept: application/x-ndjson, one such object per line
+        content["application/x-ndjson"] = {"schema": ref[id(e.stream), "serialization"]}
     op["responses"] = {
         str(e.status): {"description": STATUS_TEXT.get(e.status, "OK"), "content": content}
     }
+    if e.links:
+        op["responses"][str(e.status)]["links"] = {
+            target: {"operationId": target, "parameters": {param: "$response.body#/id"}}
+            for target, param in e.links
+        }
     for code in e.errors:
         op["responses"][str(code)] = {
             "description": STATUS_TEXT[code],
@@ -157,6 +166,8 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.ServerMessage, "serialization"),
     (s.IdentRequest, "validation"),
     (s.IdentOut, "serialization"),
+    (s.IdentLine, "serialization"),
+    (s.StreamClose, "serialization"),
     # the unions by name, as clients build them and as the server describes them
     (s.Controller, "validation"),
     (s.Controller, "serialization"),

@@ -11,10 +11,10 @@ from starlette.responses import Response, StreamingResponse
 
 from elab.api import convert
 from elab.api import schemas as s
-from elab.api.http import Param, endpoint, ok, query_float, query_int, read_model
+from elab.api.http import Param, endpoint, ok, query, query_float, query_int, read_model
 from elab.engines.base import Action, EngineStatus, StoreHealth
 from elab.errors import InvalidInput
-from elab.plants import get_plant
+from elab.plants import PLANTS, get_plant
 from elab.runs import export
 from elab.runs.fanout import frame_samples
 from elab.runs.manager import RunManager
@@ -78,6 +78,10 @@ async def run_info(request: HTTPConnection, record: RunRecord) -> s.RunInfo:
     response=s.RunInfo,
     status=201,
     errors=(404, 409, 413, 422, 429, 503),
+    links=tuple(
+        (op, "run_id")
+        for op in ("get_run", "pause_run", "resume_run", "stop_run", "set_params", "get_data")
+    ),
 )
 async def create_run(request: Request) -> Response:
     """Starts stepping at once (paced to real time unless ``pace`` is ``fast``). Follow it on
@@ -111,16 +115,28 @@ async def create_run(request: Request) -> Response:
     response=s.RunList,
     errors=(422,),
     params=(
-        Param("plant", "query", "only runs of this plant"),
-        Param("limit", "query", "page size, 1..500 (default 50)", {"type": "integer"}),
-        Param("offset", "query", "runs to skip (default 0)", {"type": "integer"}),
+        Param(
+            "plant", "query", "only runs of this plant", {"type": "string", "enum": list(PLANTS)}
+        ),
+        Param(
+            "limit",
+            "query",
+            "page size (default 50)",
+            {"type": "integer", "minimum": 1, "maximum": 500},
+        ),
+        Param(
+            "offset",
+            "query",
+            "runs to skip (default 0)",
+            {"type": "integer", "minimum": 0, "maximum": 10**9},
+        ),
     ),
 )
 async def list_runs(request: Request) -> Response:
     m = manager(request)
-    plant = request.query_params.get("plant")
-    if plant is not None:
-        get_plant(plant)
+    plant = query(request, "plant")
+    if plant is not None and plant not in PLANTS:
+        raise InvalidInput("plant", plant, "one of " + ", ".join(PLANTS))
     limit = query_int(request, "limit", 50, 1, 500)
     offset = query_int(request, "offset", 0, 0, 10**9)
     records, total = await m.page(plant=plant, limit=limit, offset=offset)
@@ -308,7 +324,12 @@ async def apply_params(m: RunManager, run_id: str, controller: Any, signal: Any)
     response="file",
     params=(
         RUN_ID,
-        Param("format", "query", "csv (default), json or mat"),
+        Param(
+            "format",
+            "query",
+            "csv (default), json or mat",
+            {"type": "string", "enum": list(FORMATS)},
+        ),
         Param("channels", "query", "comma-separated channel names (default: all)"),
         Param("t_from", "query", "first sample time (s)", {"type": "number"}),
         Param("t_to", "query", "last sample time (s)", {"type": "number"}),
@@ -320,7 +341,7 @@ async def get_data(request: Request) -> Response:
     is streamed as it is written, part by part (a download of any length holds one part of
     the recording in memory), and stops when the client goes away. A live run downloads
     as recorded so far."""
-    fmt = request.query_params.get("format", "csv")
+    fmt = query(request, "format") or "csv"
     if fmt not in FORMATS:
         raise InvalidInput("format", fmt, ", ".join(FORMATS))
     m = manager(request)
@@ -336,7 +357,7 @@ async def get_data(request: Request) -> Response:
         read,
         tuple(c for c in changes if c.k < record.n_stored),
     )
-    names = request.query_params.get("channels")
+    names = query(request, "channels")
     rec = export.select(
         rec,
         names.split(",") if names else None,

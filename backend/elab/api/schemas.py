@@ -7,20 +7,27 @@ from them (a test fails when the committed copies drift).
 
 from __future__ import annotations
 
+import math
 from enum import IntEnum
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator
+from pydantic.json_schema import SkipJsonSchema
 
 PROTOCOL = "elab.v1"
 Finite = float  # with allow_inf_nan=False below, NaN and ±inf are refused everywhere
 
 
 class Model(BaseModel):
+    """Strict: a value is taken only in the JSON type its schema names (``true`` is not a
+    number, ``"1"`` not an integer), so what the OpenAPI document accepts and what the
+    server accepts are the same set."""
+
     model_config = ConfigDict(
         extra="forbid",
         allow_inf_nan=False,
         frozen=True,
+        strict=True,
         json_schema_serialization_defaults_required=True,
     )
 
@@ -29,13 +36,13 @@ class Model(BaseModel):
 class PredefinedController(Model):
     """The plant's predefined controller."""
 
-    kind: Literal["predefined"] = "predefined"
+    kind: Literal["predefined"]
 
 
 class StateFeedbackController(Model):
     """u = K (x_ref − x̂): one gain per state."""
 
-    kind: Literal["state_feedback"] = "state_feedback"
+    kind: Literal["state_feedback"]
     K: list[Finite] = Field(min_length=1, max_length=64)
     estimate: Literal["true_state", "velocity_filters"] = "velocity_filters"
 
@@ -43,7 +50,7 @@ class StateFeedbackController(Model):
 class PIDController(Model):
     """C(s) = Kp + Ki/s + Kd s/(Tf s + 1), Tf = Kd/(N Kp), on e = r − y."""
 
-    kind: Literal["pid"] = "pid"
+    kind: Literal["pid"]
     Kp: Finite
     Ki: Finite = 0.0
     Kd: Finite = 0.0
@@ -54,7 +61,7 @@ class PIDController(Model):
 class LTIControllerModel(Model):
     """Any SISO LTI controller on e = r − y: num/den or A, B, C, D; dt = null: continuous."""
 
-    kind: Literal["lti"] = "lti"
+    kind: Literal["lti"]
     num: list[Finite] | None = Field(None, max_length=64)
     den: list[Finite] | None = Field(None, max_length=64)
     A: list[list[Finite]] | None = Field(None, max_length=64)
@@ -67,7 +74,7 @@ class LTIControllerModel(Model):
 class OpenLoopController(Model):
     """No feedback: the signal is the plant input (V)."""
 
-    kind: Literal["open_loop"] = "open_loop"
+    kind: Literal["open_loop"]
 
 
 Controller = Annotated[
@@ -82,14 +89,14 @@ Controller = Annotated[
 
 # -- signals ------------------------------------------------------------------------
 class StepSignal(Model):
-    kind: Literal["step"] = "step"
+    kind: Literal["step"]
     amplitude: Finite
     t0: Finite = Field(0.0, ge=0)
     offset: Finite = 0.0
 
 
 class SquareSignal(Model):
-    kind: Literal["square"] = "square"
+    kind: Literal["square"]
     amplitude: Finite
     period: Finite = Field(gt=0)
     offset: Finite = 0.0
@@ -97,7 +104,7 @@ class SquareSignal(Model):
 
 
 class SineSignal(Model):
-    kind: Literal["sine"] = "sine"
+    kind: Literal["sine"]
     amplitude: Finite
     frequency: Finite = Field(gt=0, description="Hz")
     phase: Finite = 0.0
@@ -105,7 +112,7 @@ class SineSignal(Model):
 
 
 class ChirpSignal(Model):
-    kind: Literal["chirp"] = "chirp"
+    kind: Literal["chirp"]
     amplitude: Finite
     f0: Finite = Field(ge=0)
     f1: Finite = Field(gt=0)
@@ -114,7 +121,7 @@ class ChirpSignal(Model):
 
 
 class PRBSSignal(Model):
-    kind: Literal["prbs"] = "prbs"
+    kind: Literal["prbs"]
     amplitude: Finite
     order: int = Field(10, ge=3, le=20)
     band: Finite = Field(1.0, gt=0, le=1)
@@ -122,7 +129,7 @@ class PRBSSignal(Model):
 
 
 class SamplesSignal(Model):
-    kind: Literal["samples"] = "samples"
+    kind: Literal["samples"]
     values: list[Finite] = Field(min_length=1, max_length=100_000)
 
 
@@ -139,7 +146,7 @@ class RunCreate(Model):
     plant: str = Field(min_length=1, max_length=64)
     mode: Literal["simulation", "rig"] = "simulation"
     experiment: Literal["analysis", "identification", "design"] = "analysis"
-    controller: Controller = PredefinedController()
+    controller: Controller = PredefinedController(kind="predefined")
     signal: Signal | None = None
     excitation: Signal | None = None
     excitation_at: Literal["reference", "input"] = "input"
@@ -267,11 +274,26 @@ class RunList(Model):
     offset: int
 
 
-class ParamsUpdate(Model):
-    """New controller gains and/or reference, applied from the next sample."""
+class _Change(Model):
+    """New controller gains and/or reference: at least one; an omitted one stays as it is
+    (``null`` is not a value here: the schema and the server both refuse it)."""
 
-    controller: Controller | None = None
-    signal: Signal | None = None
+    controller: Controller | SkipJsonSchema[None] = None
+    signal: Signal | SkipJsonSchema[None] = None
+
+    @field_validator("controller", "signal", mode="before")
+    @classmethod
+    def _given(cls, value: Any) -> Any:
+        if value is None:
+            raise ValueError("omit it to keep the current one")
+        return value
+
+
+class ParamsUpdate(_Change):
+    """New controller gains and/or reference, applied from the next sample (at least one;
+    an omitted one stays as it is)."""
+
+    model_config = ConfigDict(**Model.model_config, json_schema_extra={"minProperties": 1})
 
 
 class ParamsApplied(Model):
@@ -393,8 +415,14 @@ class StepOut(Model):
 
 
 class LQRRequest(Model):
-    Q: list[Finite] | list[list[Finite]] = Field(description="diagonal or full matrix")
-    R: Finite | list[list[Finite]] = 1.0
+    Q: (
+        Annotated[list[Finite], Field(min_length=1, max_length=64)]
+        | Annotated[
+            list[Annotated[list[Finite], Field(min_length=1, max_length=64)]],
+            Field(min_length=1, max_length=64),
+        ]
+    ) = Field(description="diagonal or full matrix")
+    R: Finite | Annotated[list[list[Finite]], Field(min_length=1, max_length=64)] = 1.0
 
 
 class PlaceRequest(Model):
@@ -407,6 +435,23 @@ class DesignOut(Model):
     K: list[float]
     closed_loop_poles: list[Complex]
     convention: str = "u = K (x_ref - x)"
+
+
+# -- errors --------------------------------------------------------------------------
+class FieldError(Model):
+    field: str
+    message: str
+
+
+class ErrorDetail(Model):
+    code: Literal["invalid", "not_found", "conflict", "too_many", "too_large", "unavailable"]
+    message: str
+    field: str | None = None
+    errors: list[FieldError] = []
+
+
+class ErrorBody(Model):
+    error: ErrorDetail
 
 
 # -- identification ------------------------------------------------------------------
@@ -422,7 +467,7 @@ Span = Annotated[
 class RunData(Model):
     """The recording of a run (columns by channel name, e.g. ``u`` and ``theta``)."""
 
-    source: Literal["run"] = "run"
+    source: Literal["run"]
     run: str = Field(min_length=1, max_length=64)
     input: Channels = ["u"]
     output: Channels | None = Field(None, description="default: the plant's reference output")
@@ -434,7 +479,7 @@ class FileData(Model):
     """An uploaded table: an E-Lab CSV/JSON download, or plain numeric columns
     (comma- or whitespace-separated; unnamed columns are c1, c2, …)."""
 
-    source: Literal["file"] = "file"
+    source: Literal["file"]
     format: Literal["csv", "json"] = "csv"
     name: str = Field("upload", max_length=200)
     text: str = Field(min_length=1, description="the file's content")
@@ -448,14 +493,14 @@ Lags = Annotated[int, Field(ge=0, le=50)]  # na (none allowed) and the delay nk
 
 
 class ArxSpec(Model):
-    kind: Literal["arx"] = "arx"
+    kind: Literal["arx"]
     na: Lags
     nb: Order
     nk: Lags = 1
 
 
 class ArmaxSpec(Model):
-    kind: Literal["armax"] = "armax"
+    kind: Literal["armax"]
     na: Lags
     nb: Order
     nc: Order
@@ -463,14 +508,14 @@ class ArmaxSpec(Model):
 
 
 class OeSpec(Model):
-    kind: Literal["oe"] = "oe"
+    kind: Literal["oe"]
     nb: Order
     nf: Order
     nk: Lags = 1
 
 
 class N4sidSpec(Model):
-    kind: Literal["n4sid"] = "n4sid"
+    kind: Literal["n4sid"]
     order: int = Field(0, ge=0, le=99, description="0: chosen from the singular values")
     horizon: int = Field(0, ge=0, le=100, description="block rows; 0: the default")
 
@@ -502,33 +547,180 @@ class IdentRequest(Model):
     models: list[ModelSpec] = Field([], max_length=10)
 
 
-class IdentOut(Model):
-    """``data``: the (detrended) samples, thinned to ≤ 5000 points for plotting;
-    ``analyses``: correlation, spectral, sine, arx_search, n4sid_orders (those asked for);
-    ``models``: each with fit %, polynomials or matrices, transfer functions, poles,
-    simulated and one-step outputs on the validation set and its residual analysis."""
+def _finite_or_none(value: Any) -> Any:
+    return None if isinstance(value, float) and not math.isfinite(value) else value
 
-    data: dict[str, Any]
-    analyses: dict[str, Any]
-    models: list[dict[str, Any]]
+
+#: A result number: ``null`` where it is not finite (a fit of −∞ on a constant output).
+Num = Annotated[float | None, BeforeValidator(_finite_or_none)]
+Matrix = list[list[float]]
+
+
+class IdentDataOut(Model):
+    """The data as analysed (detrended), thinned to ≤ 5000 points per series: every
+    ``step``-th sample; the first ``estimation`` samples estimate, the rest validate."""
+
+    N: int
+    Ts: float
+    estimation: int
+    step: int
+    trend: str
+    t: list[float]
+    u: list[list[float]] = Field(description="[input][sample]")
+    y: list[list[float]] = Field(description="[output][sample]")
+    input_names: list[str]
+    output_names: list[str]
+    input_units: list[str]
+    output_units: list[str]
+
+
+class CorrelationOut(Model):
+    """Impulse response by correlation analysis, with its ±3σ band and the delay."""
+
+    lags: list[int]
+    impulse: list[Num]
+    band: list[Num]
+    delay: int | None = Field(description="samples; null: none is evident")
+    Ts: float
+
+
+class SpectralOut(Model):
+    """Frequency response by spectral analysis (Blackman–Tukey)."""
+
+    omega: list[float] = Field(description="rad/s")
+    magnitude: list[Num]
+    phase_deg: list[Num]
+    noise_spectrum: list[Num]
+    window: int
+
+
+class SineOut(Model):
+    frequency_hz: float
+    omega: float
+    magnitude: Num
+    phase_deg: Num
+    periods_used: int
+    samples_used: int
+
+
+class ArxSearchOut(Model):
+    """One row per structure: ``[na, nb, nk, validation loss]``; the best by loss, AIC, MDL."""
+
+    rows: list[list[Num]]
+    best: list[int]
+    aic: list[int]
+    mdl: list[int]
+
+
+class OrderRow(Model):
+    order: int
+    loss: Num
+    mdl: Num
+
+
+class N4sidOrdersOut(Model):
+    horizon: int
+    best: int
+    orders: list[OrderRow]
+    singular_values: list[Num]
+
+
+class AnalysesOut(Model):
+    """Those asked for (and possible: the first four need one input and one output)."""
+
+    correlation: CorrelationOut | None = None
+    spectral: SpectralOut | None = None
+    sine: SineOut | None = None
+    arx_search: ArxSearchOut | None = None
+    n4sid_orders: N4sidOrdersOut | None = None
+
+
+class FitOut(Model):
+    """Fit % per output: on the validation set simulated from a zero initial state (the
+    published figures' convention), from the best initial state, and one step ahead; on the
+    estimation set simulated from the best initial state."""
+
+    validation_simulation: list[Num]
+    validation_simulation_x0: list[Num]
+    validation_one_step: list[Num]
+    estimation_simulation: list[Num]
+
+
+class StateSpaceOut(Model):
+    """The innovations form x⁺ = A x + B u + K e, y = C x + D u + e (discrete, Ts)."""
+
+    A: Matrix
+    B: Matrix
+    C: Matrix
+    D: Matrix
+    K: Matrix
+    Ts: float
+
+
+class TransferFunctionOut(Model):
+    num: list[float] = Field(description="powers of z, highest first")
+    den: list[float]
+
+
+class ContinuousOut(Model):
+    A: Matrix
+    B: Matrix
+    C: Matrix
+    D: Matrix
+
+
+class ResidualsOut(Model):
+    lags: list[int]
+    autocorrelation: list[Num]
+    cross_lags: list[int]
+    cross_correlation: list[Num]
+    bound: Num
+    white: bool
+    independent: bool
+
+
+class IdentModelOut(Model):
+    name: str
+    kind: Literal["arx", "armax", "oe", "n4sid"]
+    orders: dict[str, int]
+    parameters: dict[str, list[Num] | bool | int | Num] = Field(
+        description="the model's own parameters (polynomials with their standard deviations, "
+        "loss, FPE, AIC; singular values)"
+    )
+    fit: FitOut
+    noise_variance: list[list[Num]]
+    poles: list[list[float]] = Field(description="[re, im] in the z plane")
+    stable: bool
+    ss: StateSpaceOut
+    tf: list[list[TransferFunctionOut]] = Field(description="[output][input]")
+    continuous: ContinuousOut | None = Field(
+        description="by the inverse zero-order hold; null where no real one exists"
+    )
+    simulated: list[list[float]] = Field(description="[output][sample] on the validation set")
+    one_step: list[list[float]]
+    residuals: ResidualsOut | None = None
+
+
+class IdentOut(Model):
+    """Every result of an identification (docs/identification.md)."""
+
+    data: IdentDataOut
+    analyses: AnalysesOut
+    models: list[IdentModelOut]
     notes: list[str]
 
 
-# -- errors --------------------------------------------------------------------------
-class FieldError(Model):
-    field: str
-    message: str
+class IdentProgress(Model):
+    stage: str
+    done: float = Field(ge=0, le=1)
 
 
-class ErrorDetail(Model):
-    code: Literal["invalid", "not_found", "conflict", "too_many", "too_large", "unavailable"]
-    message: str
-    field: str | None = None
-    errors: list[FieldError] = []
+class IdentLine(Model):
+    """One line of the NDJSON answer: progress while it works, then the result or an error."""
 
-
-class ErrorBody(Model):
-    error: ErrorDetail
+    progress: IdentProgress | None = None
+    result: IdentOut | None = None
+    error: ErrorDetail | None = None
 
 
 # -- websocket messages ------------------------------------------------------------
@@ -539,6 +731,13 @@ class CloseCode(IntEnum):
 
     BAD_REQUEST = 4400
     NOT_FOUND = 4404
+
+
+class StreamClose(Model):
+    """How the server ends a stream it refuses: the websocket close frame's code and reason."""
+
+    code: CloseCode
+    reason: str = Field(max_length=123)
 
 
 class Hello(Model):
@@ -591,10 +790,11 @@ ServerMessage = Annotated[
 ]
 
 
-class SetParams(Model):
+class SetParams(_Change):
+    """As ``POST /runs/{id}/params``: new gains and/or reference (at least one)."""
+
+    model_config = ConfigDict(**Model.model_config, json_schema_extra={"minProperties": 2})
     type: Literal["set_params"]
-    controller: Controller | None = None
-    signal: Signal | None = None
 
 
 class Pause(Model):

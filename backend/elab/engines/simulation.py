@@ -174,7 +174,9 @@ class SimulationEngine:
                     "controller state size cannot change mid-run); start a new "
                     "run instead",
                 )
-            k = self.stepper.replace(run_id, run, controller=law is not None).result()
+            k = self.stepper.replace(
+                run_id, run, controller=law is not None, signals=reference is not None
+            ).result()
             self._runs[run_id] = run
         change = ParamChange(k=k, params=params, at=time.time())
         self.recorder.param(run_id, change)

@@ -121,9 +121,13 @@ class Stepper:
         ]
         return self._call(lambda: self._control(run_id, target))
 
-    def replace(self, run_id: str, run: CompiledRun, *, controller: bool) -> Future[int]:
-        """New spec from the next sample on; returns that sample's index."""
-        return self._call(lambda: self._replace(run_id, run, controller))
+    def replace(
+        self, run_id: str, run: CompiledRun, *, controller: bool, signals: bool
+    ) -> Future[int]:
+        """``run`` from the next sample on: its controller (``controller``: the law changed;
+        the controller state is kept) and its signals (``signals``: the reference changed);
+        returns that sample's index."""
+        return self._call(lambda: self._replace(run_id, run, controller, signals))
 
     def end(self, run_ids: list[str] | None, state: Final, reason: str) -> Future[list[str]]:
         """End the given live runs (``None``: all) in ``state`` with ``reason``; returns
@@ -172,11 +176,11 @@ class Stepper:
         self._on_tick([], [Changed(run_id, target, live.k)])
         return live.k
 
-    def _replace(self, run_id: str, run: CompiledRun, controller: bool) -> int:
+    def _replace(self, run_id: str, run: CompiledRun, controller: bool, signals: bool) -> int:
         live = self._live(run_id)
         if controller:
             self._batch.set_controller(live.slot, run)
-        else:
+        if signals or not controller:  # both may change at once: each must take effect
             self._batch.set_run(live.slot, run)
         live.run = run
         return live.k

@@ -242,7 +242,7 @@ class AnalysisView {
       }
       try {
         const s = await api.step(p.id, { controller });
-        closedDiv.nextElementSibling?.matches("button.download") && closedDiv.nextElementSibling.remove();
+        if (closedDiv.nextElementSibling?.matches("button.download")) closedDiv.nextElementSibling.remove();
         draw(closedDiv, s, "step-closed");
         const i = s.info;
         fill(info, `Closed-loop poles: ${s.verdict}. `, i ? `Rise time ${fmt(i.rise_time)} s, 2 % settling ${fmt(i.settling_time)} s, overshoot ${fmt(i.overshoot)} %.` : "");

@@ -83,6 +83,6 @@ export function showApiError(err: unknown, sets: FieldSet[], out: HTMLElement): 
 }
 
 /** A button that saves a plot's data as CSV. */
-export function downloadButton(filename: string, header: string[], columns: ArrayLike<number>[]): HTMLButtonElement {
+export function downloadButton(filename: string, header: string[], columns: ArrayLike<number | null>[]): HTMLButtonElement {
   return h("button.download.link", { type: "button", onclick: () => saveText(filename, csv(header, columns)) }, `Download data (${filename})`);
 }

@@ -7,7 +7,7 @@ import { FieldSet, NumberField } from "../forms";
 import { discreteStep, handedModel, type HandedModel } from "../ident";
 import { tex } from "../markdown";
 import { chart, purge } from "../plot";
-import type { DesignOut, PlaceRequest, PlantDetail, StepOut } from "../protocol.gen";
+import type { DesignOut, LQRRequest, PlaceRequest, PlantDetail, StepOut } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
 import { display, fmt } from "../units";
 import { downloadButton, experimentPage, failure, loading, showApiError } from "./common";
@@ -40,7 +40,7 @@ class DesignView {
   ) {
     const n = plant.states.length;
     this.method = h("select", { id: "method", onchange: () => this.toggle() }, h("option", { value: "lqr" }, "LQR (Q, R)"), h("option", { value: "place" }, "pole placement"));
-    const qDefault = plant.id === "flexible_link" ? [400, 1e4, 3, 2] : new Array(n).fill(1);
+    const qDefault: number[] = plant.id === "flexible_link" ? [400, 1e4, 3, 2] : new Array<number>(n).fill(1);
     plant.states.forEach((s, i) => {
       this.lqrBox.append(this.lqr.add(new NumberField({ field: `Q.${i}`, label: `Q${i + 1}${i + 1} · ${s.label}`, value: qDefault[i] ?? 1, min: 0, max: 1e12 })).root);
     });
@@ -128,7 +128,7 @@ class DesignView {
       if (this.method.value === "lqr") {
         const v = this.lqr.values();
         if (!v) return void fill(this.msg, "Please correct the marked fields; nothing was sent.");
-        this.design = await api.lqr(p.id, { Q: p.states.map((_, i) => v.get(`Q.${i}`)!), R: v.get("R")! });
+        this.design = await api.lqr(p.id, { Q: p.states.map((_, i) => v.get(`Q.${i}`)!) as LQRRequest["Q"], R: v.get("R")! });
       } else {
         const v = this.place.values();
         if (!v) return void fill(this.msg, "Please correct the marked fields; nothing was sent.");

@@ -7,14 +7,12 @@ import { fill, h } from "../dom";
 import { FieldSet, NumberField } from "../forms";
 import { handOver, parseModels } from "../ident";
 import { chart, purge, type Series } from "../plot";
-import type { FileData, IdentOut, IdentRequest, PlantDetail, RunData } from "../protocol.gen";
+import type { FileData, IdentModelOut, IdentOut, IdentRequest, PlantDetail, RunData } from "../protocol.gen";
 import { fmt } from "../units";
 import { downloadButton, showApiError } from "./common";
 
 /** Where the data come from: a run (channels by name) or a file chosen in the panel. */
 export type Source = { kind: "run"; runId: string } | { kind: "file" };
-
-type Any = Record<string, any>;
 
 export class IdentAnalysis {
   readonly root: HTMLElement;
@@ -160,8 +158,8 @@ export class IdentAnalysis {
 
   private show(out: IdentOut, req: IdentRequest): void {
     for (const c of this.charts.splice(0)) purge(c);
-    const d = out.data as Any;
-    const a = out.analyses as Any;
+    const d = out.data;
+    const a = out.analyses;
     const sections: HTMLElement[] = [];
     const yName = (i: number) => `${d.output_names[i]} (${d.output_units[i] || "–"})`;
     // data with the split
@@ -169,9 +167,9 @@ export class IdentAnalysis {
     const dataDiv = this.chartBox("ident-data");
     sections.push(h("section.panel.wide", h("h2", "Data"), h("p", `${d.N.toLocaleString("en")} samples at Ts = ${fmt(d.Ts * 1000)} ms; estimation: the first ${d.estimation.toLocaleString("en")} (to t = ${fmt(split)} s), validation: the rest; detrended: ${d.trend}.`), dataDiv));
     const dataSeries: Series[] = [];
-    d.y.forEach((y: number[], i: number) => dataSeries.push({ x: d.t, y, name: yName(i) }));
-    d.u.forEach((u: number[], i: number) => dataSeries.push({ x: d.t, y: u, name: `${d.input_names[i]} (${d.input_units[i] || "–"})`, axis: 2 }));
-    const ys = (d.y as number[][]).flat();
+    d.y.forEach((y, i) => dataSeries.push({ x: d.t, y, name: yName(i) }));
+    d.u.forEach((u, i) => dataSeries.push({ x: d.t, y: u, name: `${d.input_names[i]} (${d.input_units[i] || "–"})`, axis: 2 }));
+    const ys = d.y.flat();
     dataSeries.push({ x: [split, split], y: [Math.min(...ys), Math.max(...ys)], name: "estimation | validation", dash: "dot" });
     if (out.notes.length) sections.push(h("section.panel.wide", h("h2", "Notes"), ...out.notes.map((n) => h("p", n))));
     // non-parametric
@@ -179,35 +177,35 @@ export class IdentAnalysis {
       const c = a.correlation;
       const div = this.chartBox("ident-impulse");
       sections.push(h("section.panel", h("h2", "Impulse response (correlation analysis)"), h("p", c.delay === null ? "No lag outside the band: no clear response." : `First lag outside the ±3σ band: ${c.delay} — a delay of ${c.delay} samples (${fmt(c.delay * d.Ts * 1000)} ms).`), div, downloadButton("impulse.csv", ["lag", "impulse", "band"], [c.lags, c.impulse, c.band])));
-      queueMicrotask(() => chart(div, [{ x: c.lags, y: c.impulse, name: "impulse estimate", mode: "markers" }, { x: c.lags, y: c.band, name: "+3σ", dash: "dash" }, { x: c.lags, y: c.band.map((b: number) => -b), name: "−3σ", dash: "dash" }], { xTitle: "lag (samples)", yTitles: ["g(k)"], height: 300 }));
+      queueMicrotask(() => chart(div, [{ x: c.lags, y: c.impulse, name: "impulse estimate", mode: "markers" }, { x: c.lags, y: c.band, name: "+3σ", dash: "dash" }, { x: c.lags, y: c.band.map((b) => (b === null ? null : -b)), name: "−3σ", dash: "dash" }], { xTitle: "lag (samples)", yTitles: ["g(k)"], height: 300 }));
     }
     if (a.spectral) {
       const s = a.spectral;
       const div = this.chartBox("ident-spectral");
-      const dB = s.magnitude.map((m: number) => 20 * Math.log10(m));
+      const dB = s.magnitude.map((m) => (m === null ? null : 20 * Math.log10(m)));
       sections.push(h("section.panel", h("h2", "Frequency response (spectral analysis)"), h("p", `Hann lag window of ${s.window} lags.`), div, downloadButton("spectral.csv", ["omega_rad_s", "magnitude", "phase_deg"], [s.omega, s.magnitude, s.phase_deg])));
       queueMicrotask(() => chart(div, [{ x: s.omega, y: dB, name: "|G| (dB)" }, { x: s.omega, y: s.phase_deg, name: "∠G (°)", axis: 2 }], { xTitle: "frequency ω (rad/s)", yTitles: ["magnitude (dB)", "phase (°)"], logX: true }));
     }
     if (a.sine) {
       const s = a.sine;
-      sections.push(h("section.panel", h("h2", "Sine analysis"), h("p", `At ${fmt(s.frequency_hz)} Hz (ω = ${fmt(s.omega)} rad/s), over ${s.periods_used} whole periods after the transient: |G| = ${fmt(s.magnitude)} (${fmt(20 * Math.log10(s.magnitude))} dB), ∠G = ${fmt(s.phase_deg)}°.`)));
+      sections.push(h("section.panel", h("h2", "Sine analysis"), h("p", `At ${fmt(s.frequency_hz)} Hz (ω = ${fmt(s.omega)} rad/s), over ${s.periods_used} whole periods after the transient: |G| = ${fmt(s.magnitude)} (${fmt(s.magnitude === null ? null : 20 * Math.log10(s.magnitude))} dB), ∠G = ${fmt(s.phase_deg)}°.`)));
     }
     if (a.arx_search) {
       const s = a.arx_search;
       const best = new Map<number, number>();
-      for (const [na, nb, , V] of s.rows as number[][]) best.set(na + nb, Math.min(best.get(na + nb) ?? Infinity, V));
+      for (const [na, nb, , V] of s.rows) if (na !== null && nb !== null && V !== null) best.set(na + nb, Math.min(best.get(na + nb) ?? Infinity, V));
       const ds = [...best.keys()].sort((x, y) => x - y);
-      const minLoss = Math.min(...(s.rows as number[][]).map((r) => r[3]));
+      const minLoss = Math.min(...s.rows.map((r) => r[3] ?? Infinity));
       const div = this.chartBox("ident-arx-search");
-      sections.push(h("section.panel", h("h2", "ARX order search"), h("p", `${s.rows.length} structures; least validation loss ${fmt(minLoss)} at [na nb nk] = [${s.best.join(" ")}]; AIC picks [${s.aic.join(" ")}], MDL [${s.mdl.join(" ")}].`), div, downloadButton("arx-search.csv", ["na", "nb", "nk", "loss"], [0, 1, 2, 3].map((j) => (s.rows as number[][]).map((r) => r[j])))));
+      sections.push(h("section.panel", h("h2", "ARX order search"), h("p", `${s.rows.length} structures; least validation loss ${fmt(minLoss)} at [na nb nk] = [${s.best.join(" ")}]; AIC picks [${s.aic.join(" ")}], MDL [${s.mdl.join(" ")}].`), div, downloadButton("arx-search.csv", ["na", "nb", "nk", "loss"], [0, 1, 2, 3].map((j) => s.rows.map((r) => r[j])))));
       queueMicrotask(() => chart(div, [{ x: ds, y: ds.map((k) => best.get(k)!), name: "least loss per parameter count", mode: "markers" }], { xTitle: "parameters na + nb", yTitles: ["validation loss"], height: 300 }));
     }
     if (a.n4sid_orders) {
       const o = a.n4sid_orders;
-      const sv: number[] = o.singular_values.slice(0, 30);
+      const sv = o.singular_values.slice(0, 30);
       const div = this.chartBox("ident-singular-values");
       sections.push(h("section.panel", h("h2", "Subspace: singular values"), h("p", `Horizon ${o.horizon}. The order where they drop is the model's order; by MDL over ${o.orders[0].order}…${o.orders[o.orders.length - 1].order}: ${o.best}.`), div, downloadButton("singular-values.csv", ["index", "sigma"], [sv.map((_, i) => i + 1), sv])));
-      queueMicrotask(() => chart(div, [{ x: sv.map((_, i) => i + 1), y: sv.map((x) => Math.log10(x)), name: "log₁₀ σ", mode: "markers" }], { xTitle: "index (order)", yTitles: ["log₁₀ singular value"], height: 300 }));
+      queueMicrotask(() => chart(div, [{ x: sv.map((_, i) => i + 1), y: sv.map((x) => (x === null ? null : Math.log10(x))), name: "log₁₀ σ", mode: "markers" }], { xTitle: "index (order)", yTitles: ["log₁₀ singular value"], height: 300 }));
     }
     if (out.models.length) sections.push(this.modelsSection(out, req));
     fill(this.results, ...sections);
@@ -215,47 +213,46 @@ export class IdentAnalysis {
   }
 
   private modelsSection(out: IdentOut, req: IdentRequest): HTMLElement {
-    const d = out.data as Any;
-    const models = out.models as Any[];
+    const d = out.data;
+    const models = out.models;
     const source = this.source.kind === "run" ? `run ${this.source.runId}` : ((req.data as FileData).name ?? "upload");
     const rows = models.map((m, i) =>
       h(
         "tr",
         h("th", { scope: "row" }, m.name),
-        h("td", m.fit.validation_simulation.map((x: number) => `${fmt(x)} %`).join(", ")),
-        h("td", m.fit.validation_simulation_x0.map((x: number) => `${fmt(x)} %`).join(", ")),
-        h("td", m.fit.validation_one_step.map((x: number) => `${fmt(x)} %`).join(", ")),
+        h("td", m.fit.validation_simulation.map((x) => `${fmt(x)} %`).join(", ")),
+        h("td", m.fit.validation_simulation_x0.map((x) => `${fmt(x)} %`).join(", ")),
+        h("td", m.fit.validation_one_step.map((x) => `${fmt(x)} %`).join(", ")),
         h("td", m.stable ? "stable" : "unstable"),
         h("td", h("a.button", { href: `/plants/${this.plant.id}/design?model=identified`, "data-link": "", "data-testid": `use-model-${i}`, onclick: () => handOver(this.plant.id, out, i, source) }, "Use this model"), " ", h("button.link", { type: "button", onclick: () => this.saveModel(m) }, "JSON")),
       ),
     );
     const compareDiv = this.chartBox("ident-compare");
     const n0 = d.estimation;
-    const tv = (d.t as number[]).filter((_, k) => k * d.step >= n0);
+    const tv = d.t.filter((_, k) => k * d.step >= n0);
     const series: Series[] = [];
-    (d.y as number[][]).forEach((y, i) => series.push({ x: tv, y: y.slice(y.length - tv.length), name: `measured ${d.output_names[i]}` }));
-    for (const m of models) (m.simulated as number[][]).forEach((y, i) => series.push({ x: tv, y: y.slice(0, tv.length), name: `${m.name}${d.output_names.length > 1 ? " " + d.output_names[i] : ""}`, dash: "dash" }));
+    d.y.forEach((y, i) => series.push({ x: tv, y: y.slice(y.length - tv.length), name: `measured ${d.output_names[i]}` }));
+    for (const m of models) m.simulated.forEach((y, i) => series.push({ x: tv, y: y.slice(0, tv.length), name: `${m.name}${d.output_names.length > 1 ? " " + d.output_names[i] : ""}`, dash: "dash" }));
     const residDivs: HTMLElement[] = [];
-    const residBlocks = models
-      .filter((m) => m.residuals)
-      .map((m) => {
-        const div = this.chartBox(`ident-resid-${m.kind}`);
-        residDivs.push(div);
-        const r = m.residuals;
-        queueMicrotask(() =>
-          chart(
-            div,
-            [
-              { x: r.lags, y: r.autocorrelation, name: "autocorrelation of ε", mode: "markers" },
-              { x: r.lags, y: r.lags.map(() => r.bound), name: "99 % bound", dash: "dash" },
-              { x: r.cross_lags, y: r.cross_correlation, name: "cross-correlation ε–u", mode: "markers", axis: 2 },
-              { x: r.cross_lags, y: r.cross_lags.map(() => r.bound), name: "99 % bound ", dash: "dash", axis: 2 },
-            ],
-            { xTitle: "lag (samples)", yTitles: ["r_ε(τ)", "r_εu(τ)"], height: 380 },
-          ),
-        );
-        return h("div", h("h3", `${m.name}: residuals ${r.white ? "white" : "not white"}, ${r.independent ? "independent of the input" : "correlated with the input"}`), div);
-      });
+    const residBlocks = models.flatMap((m) => {
+      const r = m.residuals;
+      if (!r) return [];
+      const div = this.chartBox(`ident-resid-${m.kind}`);
+      residDivs.push(div);
+      queueMicrotask(() =>
+        chart(
+          div,
+          [
+            { x: r.lags, y: r.autocorrelation, name: "autocorrelation of ε", mode: "markers" },
+            { x: r.lags, y: r.lags.map(() => r.bound), name: "99 % bound", dash: "dash" },
+            { x: r.cross_lags, y: r.cross_correlation, name: "cross-correlation ε–u", mode: "markers", axis: 2 },
+            { x: r.cross_lags, y: r.cross_lags.map(() => r.bound), name: "99 % bound ", dash: "dash", axis: 2 },
+          ],
+          { xTitle: "lag (samples)", yTitles: ["r_ε(τ)", "r_εu(τ)"], height: 380 },
+        ),
+      );
+      return h("div", h("h3", `${m.name}: residuals ${r.white ? "white" : "not white"}, ${r.independent ? "independent of the input" : "correlated with the input"}`), div);
+    });
     queueMicrotask(() => chart(compareDiv, series, { xTitle: "time t (s)", yTitles: ["validation output"] }));
     return h(
       "section.panel.wide",
@@ -267,7 +264,7 @@ export class IdentAnalysis {
     );
   }
 
-  private saveModel(m: Any): void {
+  private saveModel(m: IdentModelOut): void {
     const blob = new Blob([JSON.stringify(m, null, 1)], { type: "application/json" });
     const a = h("a", { href: URL.createObjectURL(blob), download: `${m.name.replace(/\s+/g, "-")}.json` });
     a.click();
