@@ -7,7 +7,6 @@ import io
 import json
 import math
 import socket
-import time
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +18,7 @@ from websockets.sync.client import connect
 from elab.laws import StateFeedback
 from elab.plants import get_plant
 from elab.sim import RunSpec, Samples, Simulation, Square
-from tests.api.server import Server, Watcher
+from tests.api.server import Server, Watcher, until
 
 FLEX = get_plant("flexible_link")
 SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
@@ -71,10 +70,11 @@ def test_watchers_gain_change_downloads_and_restart(tmp_path: Path) -> None:
             ).json()
             rid = run["id"]
 
-            async def scenario() -> tuple[list[Watcher], dict[str, Any]]:
+            async def scenario() -> tuple[list[Watcher], dict[str, Any], int]:
                 ws = [await Watcher.open(srv.ws_url, rid, "?from_seq=0") for _ in range(3)]
                 tasks = [asyncio.create_task(w.until_status({"finished"})) for w in ws]
-                await asyncio.sleep(1.5)
+                while (seen := min(_received(w) for w in ws)) < 1000:  # a second in
+                    await asyncio.sleep(0.01)
                 r = await asyncio.to_thread(
                     c.post,
                     f"/runs/{rid}/params",
@@ -83,11 +83,11 @@ def test_watchers_gain_change_downloads_and_restart(tmp_path: Path) -> None:
                 await asyncio.gather(*tasks)
                 for w in ws:
                     await w.conn.close()
-                return ws, r.json()
+                return ws, r.json(), seen
 
-            watchers, applied = asyncio.run(scenario())
+            watchers, applied, seen = asyncio.run(scenario())
             k = applied["k"]
-            assert 1000 < k < 2500  # applied about 1.5 s in, at a recorded sample
+            assert seen <= k < 4000  # after the samples already delivered, at a recorded one
             info = c.get(f"/runs/{rid}").json()
             assert info["status"] == "finished" and info["n_samples"] == 4000
             assert [p["k"] for p in info["param_changes"]] == [k]
@@ -125,13 +125,13 @@ def test_kill_9_mid_run_leaves_an_interrupted_run_with_its_data(tmp_path: Path) 
             rid = c.post(
                 "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 60.0}
             ).json()["id"]
-            time.sleep(2.5)
-        srv.kill9()
+            seen = until(lambda: (n := c.get(f"/runs/{rid}").json()["n_samples"]) >= 1500 and n)
+        srv.kill9()  # the web process: its engine sees it go, interrupts the run, stores all
         srv.start()
         with srv.client() as c:
             info = c.get(f"/runs/{rid}").json()
-            assert info["status"] == "interrupted"
-            assert 1500 <= info["n_samples"] <= 3500  # up to the last stored chunk
+            assert info["status"] == "interrupted" and "web server" in info["error"]
+            assert seen <= info["n_samples"] < 60_000  # nothing published was lost
             got = downloads(c, rid)["csv"]
             assert got.shape[0] == info["n_samples"]
             np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
@@ -139,6 +139,11 @@ def test_kill_9_mid_run_leaves_an_interrupted_run_with_its_data(tmp_path: Path) 
             assert listed[rid] == "interrupted"
     finally:
         srv.stop()
+
+
+def _received(w: Watcher) -> int:
+    """The samples a watcher has received (frames from sample 0 on)."""
+    return sum(len(next(iter(c.values()))) for c in w.columns.values())
 
 
 def _small_buffer_socket(port: int) -> socket.socket:
@@ -158,15 +163,18 @@ def test_a_stalled_watcher_delays_nobody_and_gets_every_sample_back(tmp_path: Pa
                 json={"plant": "flexible_link", "signal": SQUARE, "duration": 14.0, "x0": None},
             ).json()["id"]
 
-            async def scenario() -> tuple[Watcher, Watcher, float, list[dict[str, Any]]]:
+            async def scenario() -> tuple[Watcher, list[int], list[dict[str, Any]]]:
                 fast = await Watcher.open(srv.ws_url, rid, "?from_seq=0")
                 slow = await Watcher.open(
                     srv.ws_url, rid, "?from_seq=0", max_queue=2, sock=_small_buffer_socket(srv.port)
                 )
                 done = asyncio.create_task(fast.until_status({"finished"}))
                 await slow.next()
-                t_stall = time.monotonic()
-                await asyncio.sleep(10.0)  # not reading: its socket and queue fill up
+                lags = []  # how far the fast watcher is behind the run, while the slow stalls
+                for _ in range(20):  # 10 s of not reading: its socket and queue fill up
+                    await asyncio.sleep(0.5)
+                    run_k = (await asyncio.to_thread(c.get, f"/runs/{rid}")).json()["n_samples"]
+                    lags.append(run_k - _received(fast))
                 notices: list[dict[str, Any]] = []
                 while True:
                     msg = await slow.next()
@@ -180,15 +188,15 @@ def test_a_stalled_watcher_delays_nobody_and_gets_every_sample_back(tmp_path: Pa
                 await done
                 await fast.conn.close()
                 await slow.conn.close()
-                return fast, slow, t_stall, notices
+                return slow, lags, notices
 
-            fast, slow, t_stall, notices = asyncio.run(scenario())
+            slow, lags, notices = asyncio.run(scenario())
             # whether frames were dropped depends on the kernel's loopback buffers; the
             # skip-notice-resume path itself is asserted in tests/unit/runs/test_fanout.py
             assert all(n["from_seq"] <= n["to_seq"] for n in notices)
-            during = np.array([t for t in fast.arrivals if t_stall < t < t_stall + 10])
-            assert during.size > 300  # ~50 frames/s kept coming to the other watcher
-            assert np.max(np.diff(during)) < 0.5
+            # the other watcher kept up with the run all along (a stall passed on to it would
+            # leave it up to 10 s = 10,000 samples behind): the run's progress is the clock
+            assert max(lags) < 3000, lags
             recorded = downloads(c, rid)["csv"]
             assert recorded.shape[0] == 14_000
             got = slow.assemble(14_000)
@@ -205,11 +213,11 @@ def test_the_server_status_shows_live_runs_watchers_and_the_stepper_keeping_time
         run = c.post("/runs", json={"plant": "flexible_link", "duration": 30}).json()
         with connect(server.ws_url + run["stream_url"], subprotocols=["elab.v1"]) as ws:
             ws.recv()  # hello
-            time.sleep(1.0)
-            st = c.get("/server").json()
+            st = until(lambda: (x := c.get("/server").json())["stepper"]["window_s"] > 0 and x)
         c.post(f"/runs/{run['id']}/stop")
     assert (st["live_runs"], st["watchers"]) == (1, 1)
     timing = st["stepper"]
     assert timing["ticks"] > 1 and timing["tick_s"] == 0.02 and timing["window_s"] > 0
     assert 0 <= timing["late_p50_ms"] <= timing["late_p99_ms"] <= timing["late_max_ms"]
     assert math.isfinite(timing["drift_ms_per_min"])
+    assert st["engine"]["up"] and st["engine"]["pid"] and st["store"]["ok"]

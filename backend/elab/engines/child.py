@@ -137,7 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     logging.basicConfig(
         stream=sys.stderr,
         level=logging.WARNING,
-        format="elab engine %(process)d: %(levelname)s %(message)s",
+        format="%(asctime)s elab engine %(process)d: %(levelname)s %(message)s",
     )
     options = json.loads(args.settings)
     _prioritise(int(options.pop("nice", 0)))

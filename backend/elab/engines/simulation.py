@@ -221,14 +221,15 @@ class SimulationEngine:
             self._events.changed(self.id, c)
 
     def _on_fault(self, health: StoreHealth) -> None:
-        """In the writer thread: a failed store fails the live runs."""
+        """In the writer thread: a failed store fails the live runs. The health report goes
+        out first, so whoever sees a run fail for it already sees the store failed."""
+        self._events.health(self.id, self.health())
         if not health.ok and not health.transient:
             self.stepper.end(
                 None,
                 RunState.FAILED,
                 f"storage failed: {health.error}; the recording keeps the samples stored before",
             )
-        self._events.health(self.id, self.health())
 
 
 def _warm() -> None:
