@@ -325,9 +325,11 @@ def cmd_serve(args: argparse.Namespace) -> str:
 
     from elab.api.app import create_app
     from elab.api.settings import Settings
+    from elab.runtime import return_memory
 
     if args.data:
         os.environ["ELAB_DATA"] = args.data
+    return_memory()  # before the app allocates: big requests give their memory back
     settings = Settings.from_env()
     print(f"E-Lab on http://{args.host}:{args.port}  (data: {settings.database})", flush=True)
     # no permessage-deflate: float32 samples hardly compress, and deflating every frame

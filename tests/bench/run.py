@@ -137,6 +137,12 @@ def server_section() -> str:
     return section()
 
 
+def load_section() -> str:
+    from tests.bench.load import load_section as section
+
+    return section()
+
+
 def live_plot_section() -> str:
     from tests.bench.liveplot import bench_live_plot
 
@@ -153,6 +159,7 @@ def ident_section() -> str:
 SECTIONS: dict[str, Callable[[], str]] = {
     "engine": engine_section,
     "server": server_section,
+    "load": load_section,
     "liveplot": live_plot_section,
     "ident": ident_section,
 }

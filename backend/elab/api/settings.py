@@ -24,10 +24,11 @@ class Settings:
     (``ELAB_MAX_UPLOAD``, 16 MiB), ``max_uploads`` large bodies read at once
     (``ELAB_MAX_UPLOADS``, 4), ``watcher_frames`` queued per watcher before it skips
     (``ELAB_WATCHER_FRAMES``, 100 ≈ 2 s). The engine: ``engine`` (tick, flush interval,
-    ``ELAB_STORE_RETRY`` s a busy store is retried), its priority ``engine_nice``
-    (``ELAB_ENGINE_NICE``, -5: ahead of the web process where allowed), its queue to the
-    web process ``engine_queue`` bytes (``ELAB_ENGINE_QUEUE``, 64 MiB), ``engine_timeout``
-    s to answer a command (``ELAB_ENGINE_TIMEOUT``, 10) and ``engine_stall`` s without a
+    ``ELAB_STORE_RETRY`` s a busy store is retried), its priority: real-time scheduling
+    ``engine_realtime`` (``ELAB_ENGINE_REALTIME``, 1: SCHED_FIFO where allowed, 0: off),
+    else ``engine_nice`` (``ELAB_ENGINE_NICE``, -5: ahead of the web process where
+    allowed), its queue to the web process ``engine_queue`` bytes (``ELAB_ENGINE_QUEUE``,
+    64 MiB), ``engine_timeout`` s to answer a command (``ELAB_ENGINE_TIMEOUT``, 10) and ``engine_stall`` s without a
     heartbeat before it is restarted (``ELAB_ENGINE_STALL``, 30). Identification:
     ``ident_workers`` processes (``ELAB_IDENT_WORKERS``, 1), ``ident_timeout`` s per job
     (``ELAB_IDENT_TIMEOUT``, 120), ``ident_wait`` s a request waits for a worker
@@ -40,6 +41,7 @@ class Settings:
     max_uploads: int = 4
     watcher_frames: int = 100
     engine: EngineSettings = field(default_factory=EngineSettings)
+    engine_realtime: bool = True
     engine_nice: int = -5
     engine_queue: int = 64 << 20
     engine_timeout: float = 10.0
@@ -78,6 +80,7 @@ class Settings:
             max_uploads=_int(env, "ELAB_MAX_UPLOADS", 4),
             watcher_frames=_int(env, "ELAB_WATCHER_FRAMES", 100),
             engine=engine,
+            engine_realtime=_int(env, "ELAB_ENGINE_REALTIME", 1, lo=0, hi=1) == 1,
             engine_nice=_int(env, "ELAB_ENGINE_NICE", -5, lo=-20, hi=19),
             engine_queue=_int(env, "ELAB_ENGINE_QUEUE", 64 << 20),
             engine_timeout=_float(env, "ELAB_ENGINE_TIMEOUT", 10.0),

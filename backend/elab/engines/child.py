@@ -32,12 +32,14 @@ from elab.engines import wire
 from elab.engines.base import Block, Changed, Health
 from elab.engines.simulation import EngineSettings, SimulationEngine
 from elab.errors import ElabError
+from elab.runtime import return_memory
 from elab.store.base import ParamChange, RunRecord
 from elab.store.sqlite import SQLiteStore
 
 log = logging.getLogger("elab.engine")
 
 HEARTBEAT = 0.5  # s
+REALTIME = 10  # SCHED_FIFO priority (1..99; the kernel's own threads run at 50)
 
 
 class Outbox:
@@ -139,8 +141,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         level=logging.WARNING,
         format="%(asctime)s elab engine %(process)d: %(levelname)s %(message)s",
     )
+    return_memory()
     options = json.loads(args.settings)
-    _prioritise(int(options.pop("nice", 0)))
+    _prioritise(bool(options.pop("realtime", False)), int(options.pop("nice", 0)))
     max_queue = int(options.pop("max_queue", 64 << 20))
     settings = EngineSettings(**options)
     sock = socket.socket(fileno=args.fd)
@@ -257,9 +260,20 @@ def _heartbeat(engine: SimulationEngine, outbox: Outbox) -> None:
             log.exception("heartbeat failed")
 
 
-def _prioritise(nice: int) -> None:
-    """Run ahead of the web process: a lower nice value when allowed (root or
-    CAP_SYS_NICE); otherwise as is, which the server status shows as late ticks."""
+def _prioritise(realtime: bool, nice: int) -> None:
+    """Run ahead of the web process and the identification workers. ``realtime``: the
+    whole process under SCHED_FIFO (priority ``REALTIME``; its threads inherit it), which
+    the kernel lets preempt any ordinary process; the engine needs a small share of a core
+    (0.17 at 100 runs; docs/benchmarks.md), and its fast runs yield after every block and
+    stop while the web process does not read. Needs CAP_SYS_NICE (root); otherwise, or
+    without ``realtime``, a lower nice value where allowed; else as it is, which the server
+    status shows as late ticks."""
+    if realtime:
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(REALTIME))
+            return
+        except (OSError, AttributeError) as exc:
+            log.warning("real-time scheduling refused (%s); trying nice %d", exc, nice)
     if nice:
         try:
             os.setpriority(os.PRIO_PROCESS, 0, nice)
@@ -272,7 +286,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--fd", type=int, required=True, help="the socket to the web process")
     p.add_argument("--engine", required=True, help="this engine's id (its runs in the store)")
     p.add_argument("--database", required=True, help="the SQLite store")
-    p.add_argument("--settings", default="{}", help="EngineSettings as JSON, plus nice, max_queue")
+    p.add_argument(
+        "--settings", default="{}", help="EngineSettings as JSON, plus realtime, nice, max_queue"
+    )
     return p
 
 
