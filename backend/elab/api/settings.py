@@ -18,21 +18,20 @@ from elab.runs.limits import Limits
 
 @dataclass(frozen=True)
 class Settings:
-    """``ELAB_DATA`` (default ``./data``): where the SQLite file lives. Limits:
-    ``limits`` (runs; see :class:`~elab.runs.limits.Limits`), ``max_body`` bytes of a
-    request (``ELAB_MAX_BODY``, 1 MiB), ``max_upload`` bytes of identification data
-    (``ELAB_MAX_UPLOAD``, 16 MiB), ``max_uploads`` large bodies read at once
-    (``ELAB_MAX_UPLOADS``, 4), ``watcher_frames`` queued per watcher before it skips
-    (``ELAB_WATCHER_FRAMES``, 100 ≈ 2 s). The engine: ``engine`` (tick, flush interval,
-    ``ELAB_STORE_RETRY`` s a busy store is retried), its priority: real-time scheduling
-    ``engine_realtime`` (``ELAB_ENGINE_REALTIME``, 1: SCHED_FIFO where allowed, 0: off),
-    else ``engine_nice`` (``ELAB_ENGINE_NICE``, -5: ahead of the web process where
-    allowed), its queue to the web process ``engine_queue`` bytes (``ELAB_ENGINE_QUEUE``,
-    64 MiB), ``engine_timeout`` s to answer a command (``ELAB_ENGINE_TIMEOUT``, 10) and ``engine_stall`` s without a
-    heartbeat before it is restarted (``ELAB_ENGINE_STALL``, 30). Identification:
-    ``ident_workers`` processes (``ELAB_IDENT_WORKERS``, 1), ``ident_timeout`` s per job
-    (``ELAB_IDENT_TIMEOUT``, 120), ``ident_wait`` s a request waits for a worker
-    (``ELAB_IDENT_WAIT``, 30)."""
+    """``ELAB_DATA`` (default ``./data``): where the SQLite file lives. Limits: ``limits`` (runs;
+    see :class:`~elab.runs.limits.Limits`), ``max_body`` bytes of a request (``ELAB_MAX_BODY``,
+    1 MiB), ``max_upload`` bytes of identification data (``ELAB_MAX_UPLOAD``, 16 MiB),
+    ``max_uploads`` large bodies read at once (``ELAB_MAX_UPLOADS``, 4), ``watcher_frames``
+    queued per watcher before it skips (``ELAB_WATCHER_FRAMES``, 100 ≈ 2 s). The engine:
+    ``engine`` (tick, flush interval, ``ELAB_STORE_RETRY`` s a busy store is retried), its
+    priority: real-time scheduling ``engine_realtime`` (``ELAB_ENGINE_REALTIME``, 1: SCHED_FIFO
+    where allowed, 0: off), else ``engine_nice`` (``ELAB_ENGINE_NICE``, -5: ahead of the web
+    process where allowed), its queue to the web process ``engine_queue`` bytes
+    (``ELAB_ENGINE_QUEUE``, 64 MiB), ``engine_timeout`` s to answer a command
+    (``ELAB_ENGINE_TIMEOUT``, 10) and ``engine_stall`` s without a heartbeat before it is
+    restarted (``ELAB_ENGINE_STALL``, 30). Identification: ``ident_workers`` processes
+    (``ELAB_IDENT_WORKERS``, 1), ``ident_timeout`` s per job (``ELAB_IDENT_TIMEOUT``, 120),
+    ``ident_wait`` s a request waits for a worker (``ELAB_IDENT_WAIT``, 30)."""
 
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
