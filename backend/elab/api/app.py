@@ -47,7 +47,6 @@ def create_app(settings: Settings | None = None) -> Starlette:
             "sim-0",
             settings.database,
             settings.engine,
-            realtime=settings.engine_realtime,
             nice=settings.engine_nice,
             max_queue=settings.engine_queue,
             command_timeout=settings.engine_timeout,

@@ -15,6 +15,9 @@ from elab.engines.simulation import EngineSettings
 from elab.errors import InvalidInput
 from elab.runs.limits import Limits
 
+#: the stepping thread's SCHED_FIFO priority by default (1..99; the kernel's threads: 50)
+REALTIME = 10
+
 
 @dataclass(frozen=True)
 class Settings:
@@ -24,9 +27,9 @@ class Settings:
     ``max_uploads`` large bodies read at once (``ELAB_MAX_UPLOADS``, 4), ``watcher_frames``
     queued per watcher before it skips (``ELAB_WATCHER_FRAMES``, 100 ≈ 2 s). The engine:
     ``engine`` (tick, flush interval, ``ELAB_STORE_RETRY`` s a busy store is retried), its
-    priority: real-time scheduling ``engine_realtime`` (``ELAB_ENGINE_REALTIME``, 1: SCHED_FIFO
-    where allowed, 0: off), else ``engine_nice`` (``ELAB_ENGINE_NICE``, -5: ahead of the web
-    process where allowed), its queue to the web process ``engine_queue`` bytes
+    stepping thread's real-time priority (``ELAB_ENGINE_REALTIME``, 10: SCHED_FIFO where
+    allowed, else an ordinary thread; 0: ordinary), its process's ``engine_nice``
+    (``ELAB_ENGINE_NICE``, 0), its queue to the web process ``engine_queue`` bytes
     (``ELAB_ENGINE_QUEUE``, 64 MiB), ``engine_timeout`` s to answer a command
     (``ELAB_ENGINE_TIMEOUT``, 10) and ``engine_stall`` s without a heartbeat before it is
     restarted (``ELAB_ENGINE_STALL``, 30). Identification: ``ident_workers`` processes
@@ -40,8 +43,7 @@ class Settings:
     max_uploads: int = 4
     watcher_frames: int = 100
     engine: EngineSettings = field(default_factory=EngineSettings)
-    engine_realtime: bool = True
-    engine_nice: int = -5
+    engine_nice: int = 0
     engine_queue: int = 64 << 20
     engine_timeout: float = 10.0
     engine_stall: float = 30.0
@@ -66,6 +68,7 @@ class Settings:
         )
         e = EngineSettings()
         engine = EngineSettings(
+            realtime=_int(env, "ELAB_ENGINE_REALTIME", REALTIME, lo=0, hi=99),
             tick=e.tick,
             flush_interval=e.flush_interval,
             retry_for=_float(env, "ELAB_STORE_RETRY", e.retry_for),
@@ -79,8 +82,7 @@ class Settings:
             max_uploads=_int(env, "ELAB_MAX_UPLOADS", 4),
             watcher_frames=_int(env, "ELAB_WATCHER_FRAMES", 100),
             engine=engine,
-            engine_realtime=_int(env, "ELAB_ENGINE_REALTIME", 1, lo=0, hi=1) == 1,
-            engine_nice=_int(env, "ELAB_ENGINE_NICE", -5, lo=-20, hi=19),
+            engine_nice=_int(env, "ELAB_ENGINE_NICE", 0, lo=-20, hi=19),
             engine_queue=_int(env, "ELAB_ENGINE_QUEUE", 64 << 20),
             engine_timeout=_float(env, "ELAB_ENGINE_TIMEOUT", 10.0),
             engine_stall=_float(env, "ELAB_ENGINE_STALL", 30.0),

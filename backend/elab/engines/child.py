@@ -39,7 +39,6 @@ from elab.store.sqlite import SQLiteStore
 log = logging.getLogger("elab.engine")
 
 HEARTBEAT = 0.5  # s
-REALTIME = 10  # SCHED_FIFO priority (1..99; the kernel's own threads run at 50)
 
 
 class Outbox:
@@ -49,7 +48,7 @@ class Outbox:
         self._sock = sock
         self.max_bytes = max_bytes
         self.backlog_bytes = backlog_bytes
-        self._items: deque[bytes] = deque()
+        self._items: deque[tuple[bytes | Callable[[], bytes], int]] = deque()
         self._bytes = 0
         self._cond = threading.Condition()
         self._closing = False
@@ -57,13 +56,18 @@ class Outbox:
         self._thread = threading.Thread(target=self._send, name="elab-engine-out", daemon=True)
         self._thread.start()
 
-    def put(self, message: bytes, droppable: bool = False) -> None:
+    def put(
+        self, message: bytes | Callable[[], bytes], size: int = 0, droppable: bool = False
+    ) -> None:
+        """Queue ``message``, or a function that makes it (called in the sending thread, so
+        the stepping thread does not encode; ``size``: about how long it will be)."""
+        size = len(message) if isinstance(message, bytes) else size
         with self._cond:
-            if droppable and self._bytes + len(message) > self.max_bytes:
+            if droppable and self._bytes + size > self.max_bytes:
                 self.dropped += 1
                 return
-            self._items.append(message)
-            self._bytes += len(message)
+            self._items.append((message, size))
+            self._bytes += size
             self._cond.notify()
 
     def backlogged(self) -> bool:
@@ -84,13 +88,13 @@ class Outbox:
                     self._cond.wait()
                 if not self._items:
                     return
-                message = self._items.popleft()
+                message, size = self._items.popleft()
             try:
-                self._sock.sendall(message)
+                self._sock.sendall(message if isinstance(message, bytes) else message())
             except OSError:  # the web process is gone: nobody to tell
                 return
             with self._cond:
-                self._bytes -= len(message)
+                self._bytes -= size
 
 
 class WireEvents:
@@ -103,7 +107,8 @@ class WireEvents:
         self._out.put(wire.frame({"ev": "started", "record": wire.record_out(record)}))
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
-        self._out.put(wire.blocks_out(blocks), droppable=True)
+        size = sum(b.data.nbytes for b in blocks)
+        self._out.put(lambda: wire.blocks_out(blocks), size, droppable=True)
 
     def changed(self, engine: str, change: Changed) -> None:
         self._out.put(wire.frame(wire.changed_out(change)))
@@ -143,9 +148,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     return_memory()
     options = json.loads(args.settings)
-    _prioritise(bool(options.pop("realtime", False)), int(options.pop("nice", 0)))
     max_queue = int(options.pop("max_queue", 64 << 20))
+    nice = int(options.pop("nice", 0))
     settings = EngineSettings(**options)
+    _prioritise(settings.realtime, nice)  # before any thread starts: they inherit it
+    # a thread running Python (compiling a new run, sorting samples for the store) gives
+    # the GIL to the stepping thread within 1 ms of its asking, not the default 5 ms
+    sys.setswitchinterval(0.001)
     sock = socket.socket(fileno=args.fd)
     outbox = Outbox(sock, max_queue, backlog_bytes=min(4 << 20, max_queue // 4))
     store = SQLiteStore(Path(args.database), migrate=False)
@@ -260,20 +269,21 @@ def _heartbeat(engine: SimulationEngine, outbox: Outbox) -> None:
             log.exception("heartbeat failed")
 
 
-def _prioritise(realtime: bool, nice: int) -> None:
-    """Run ahead of the web process and the identification workers. ``realtime``: the
-    whole process under SCHED_FIFO (priority ``REALTIME``; its threads inherit it), which
-    the kernel lets preempt any ordinary process; the engine needs a small share of a core
-    (0.17 at 100 runs; docs/benchmarks.md), and its fast runs yield after every block and
-    stop while the web process does not read. Needs CAP_SYS_NICE (root); otherwise, or
-    without ``realtime``, a lower nice value where allowed; else as it is, which the server
-    status shows as late ticks."""
-    if realtime:
+def _prioritise(realtime: int, nice: int) -> None:
+    """Run ahead of the web process and the identification workers. ``realtime`` > 0: the
+    whole process under SCHED_FIFO one step below ``realtime`` (the stepping thread
+    raises itself to ``realtime``): a thread of the engine that holds its GIL is never
+    kept waiting by an ordinary process while the stepping thread waits for the GIL (with
+    only the stepping thread real-time, ticks under load came up to 44 ms late, against
+    5 ms; docs/benchmarks.md). The engine needs a third of a core at 300 runs and sleeps
+    between ticks. Needs CAP_SYS_NICE; otherwise, or with ``realtime`` 0, the nice value
+    ``nice`` where allowed; else as it is, which the server status shows as late ticks."""
+    if realtime > 1:
         try:
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(REALTIME))
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(realtime - 1))
             return
         except (OSError, AttributeError) as exc:
-            log.warning("real-time scheduling refused (%s); trying nice %d", exc, nice)
+            log.warning("real-time scheduling of the engine refused: %s", exc)
     if nice:
         try:
             os.setpriority(os.PRIO_PROCESS, 0, nice)
@@ -286,9 +296,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--fd", type=int, required=True, help="the socket to the web process")
     p.add_argument("--engine", required=True, help="this engine's id (its runs in the store)")
     p.add_argument("--database", required=True, help="the SQLite store")
-    p.add_argument(
-        "--settings", default="{}", help="EngineSettings as JSON, plus realtime, nice, max_queue"
-    )
+    p.add_argument("--settings", default="{}", help="EngineSettings as JSON, plus nice, max_queue")
     return p
 
 

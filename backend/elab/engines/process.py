@@ -52,7 +52,6 @@ class ProcessEngine:
         database: Path,
         settings: EngineSettings,
         *,
-        realtime: bool = False,
         nice: int = 0,
         max_queue: int = 64 << 20,
         command_timeout: float = 10.0,
@@ -61,7 +60,6 @@ class ProcessEngine:
         self.id = engine_id
         self.database = database
         self.settings = settings
-        self.realtime = realtime
         self.nice = nice
         self.max_queue = max_queue
         self.command_timeout = command_timeout
@@ -188,12 +186,7 @@ class ProcessEngine:
     # -- the process -----------------------------------------------------------------
     async def _spawn(self) -> None:
         parent, child = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
-        options = {
-            **asdict(self.settings),
-            "realtime": self.realtime,
-            "nice": self.nice,
-            "max_queue": self.max_queue,
-        }
+        options = {**asdict(self.settings), "nice": self.nice, "max_queue": self.max_queue}
         cmd = [
             sys.executable,
             "-m",

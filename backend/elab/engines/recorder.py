@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.engines.base import StoreHealth
+from elab.engines.base import Block, StoreHealth
 from elab.errors import ElabError
 from elab.lifecycle import RunState
 from elab.store.base import ParamChange, RunStore, StoreError
@@ -87,6 +87,7 @@ class Recorder:
         self._on_fault = on_fault
         self._lock = threading.Lock()
         self._tails: dict[str, _Tail] = {}
+        self._blocks: list[Block] = []  # appended, not yet sorted into the tails
         self._ops: deque[_Status | _Param] = deque()
         self._flushing = threading.Lock()
         self._stop = threading.Event()
@@ -120,17 +121,13 @@ class Recorder:
         with self._lock:
             self._tails[run_id] = _Tail(nch)
 
-    def append_many(self, run_ids: list[str], k0: list[int], data: Array) -> None:
-        """Rows ``k0[i] ..`` of run ``run_ids[i]``: ``data[i]`` (runs × n × channels).
-        Dropped while the store has failed (those runs are being failed)."""
+    def append(self, block: Block) -> None:
+        """A block of new samples (rows ``k0[i] ..`` of run ``run_ids[i]`` in ``data[i]``).
+        Kept whole, at no cost per run to the stepping thread; the writer sorts the rows
+        by run. Dropped while the store has failed (those runs are being failed)."""
         with self._lock:
-            if self.failed:
-                return
-            tails = self._tails
-            for run_id, k, rows in zip(run_ids, k0, data, strict=True):
-                tail = tails.get(run_id)
-                if tail is not None:
-                    tail.chunks.append((k, rows))
+            if not self.failed:
+                self._blocks.append(block)
 
     def status(self, run_id: str, state: RunState, error: str | None = None) -> None:
         """Record a change of state; ``state`` final: the run's last write (its samples
@@ -138,6 +135,7 @@ class Recorder:
         with self._lock:
             self._ops.append(_Status(run_id, state, error, final=not state.live))
             if self.failed and not state.live:
+                self._sort_blocks()
                 tail = self._tails.get(run_id)
                 if tail is not None:
                     tail.chunks = []
@@ -148,7 +146,19 @@ class Recorder:
 
     def pending_bytes(self) -> int:
         with self._lock:
-            return sum(t.pending_bytes for t in self._tails.values())
+            return sum(t.pending_bytes for t in self._tails.values()) + sum(
+                b.data.nbytes for b in self._blocks
+            )
+
+    def _sort_blocks(self) -> None:
+        """Move the appended blocks' rows to their runs' tails (the lock held)."""
+        tails = self._tails
+        for b in self._blocks:
+            for run_id, k, rows in zip(b.run_ids, b.k0, b.data, strict=True):
+                tail = tails.get(run_id)
+                if tail is not None:
+                    tail.chunks.append((k, rows))
+        self._blocks = []
 
     # -- the writer ---------------------------------------------------------------
     def flush(self) -> None:
@@ -160,6 +170,7 @@ class Recorder:
 
     def _flush_samples(self) -> None:
         with self._lock:  # one row per run per flush: its pending chunks joined
+            self._sort_blocks()
             batch = [
                 (rid, t.chunks[0][0], _joined([d for _, d in t.chunks]))
                 for rid, t in self._tails.items()
@@ -238,6 +249,7 @@ class Recorder:
         give_up = not exc.transient or now - since >= self.retry_for or pending > self.max_pending
         if give_up:
             with self._lock:  # the runs fail; what was not committed cannot be
+                self._blocks = []
                 for tail in self._tails.values():
                     tail.chunks = []
                 pending = 0

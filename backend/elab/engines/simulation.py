@@ -45,12 +45,14 @@ class EngineSettings:
     """``tick``: the stepper's period (one 20 ms frame per run per tick);
     ``flush_interval``: how often samples are committed (what a crash may lose);
     ``retry_for``: how long a busy store is retried before its runs fail;
-    ``max_pending``: bytes of samples that may wait for a busy store."""
+    ``max_pending``: bytes of samples that may wait for a busy store; ``realtime``: the
+    stepping thread's real-time priority (SCHED_FIFO; 0: none)."""
 
     tick: float = 0.02
     flush_interval: float = 0.25
     retry_for: float = 30.0
     max_pending: int = 256 << 20
+    realtime: int = 0  # SCHED_FIFO priority of the stepping thread (0: an ordinary thread)
 
 
 def channels_of(run: CompiledRun) -> tuple[tuple[str, str], ...]:
@@ -87,7 +89,9 @@ class SimulationEngine:
             on_stored=lambda run_id: events.stored(self.id, run_id),
             on_fault=self._on_fault,
         )
-        self.stepper = Stepper(self._on_tick, tick=settings.tick, backlog=backlog)
+        self.stepper = Stepper(
+            self._on_tick, tick=settings.tick, backlog=backlog, realtime=settings.realtime
+        )
         self._runs: dict[str, CompiledRun] = {}  # live runs as last changed
         self._changing = threading.Lock()
 
@@ -211,7 +215,7 @@ class SimulationEngine:
     def _on_tick(self, blocks: list[Block], changes: list[Changed]) -> None:
         """In the stepping thread: record, then report."""
         for b in blocks:
-            self.recorder.append_many(b.run_ids, b.k0, b.data)
+            self.recorder.append(b)
         if blocks:
             self._events.blocks(self.id, blocks)
         for c in changes:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import queue
 import threading
 import time
@@ -32,6 +33,7 @@ import scipy.stats
 from numpy.typing import NDArray
 
 from elab.engines.base import Block, Changed, Pace
+from elab.engines.timetable import Timetable
 from elab.errors import Conflict
 from elab.lifecycle import RunState, transition
 from elab.sim.batch import Batch
@@ -46,15 +48,14 @@ T = TypeVar("T")
 
 @dataclass
 class _Live:
+    """A live run's state and spec; its counters are in the timetable, at its slot."""
+
     id: str
     run: CompiledRun
     pace: Pace
     slot: int
-    t_origin: float
-    k: int = 0
     state: RunState = RunState.RUNNING
     paused_at: float | None = None
-    cols: tuple[int, ...] = ()  # its columns [r, u, y…, x…] in the batch's block
 
 
 Command = Callable[[], None]
@@ -76,15 +77,20 @@ class Stepper:
         fast_block: int = 1024,
         clock: Callable[[], float] = time.monotonic,
         backlog: Callable[[], bool] = lambda: False,
+        realtime: int = 0,
     ) -> None:
         self._on_tick = on_tick
         self.tick = tick
         self._fast_block = fast_block
         self._clock = clock
         self._backlog = backlog
+        self.realtime = realtime  # SCHED_FIFO priority of the thread (0: ordinary)
         self._grid = clock()  # ticks fall on _grid + i · tick
         self._batch = Batch(capacity=16, block=max(fast_block, 1024))
         self._runs: dict[str, _Live] = {}
+        self._table = Timetable()
+        self._layouts: dict[tuple[int, ...], int] = {}  # column layout → its number
+        self._columns: dict[int, NDArray[np.intp]] = {}  # and back, as an index array
         self._commands: queue.SimpleQueue[Command] = queue.SimpleQueue()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name="elab-stepper", daemon=True)
@@ -150,8 +156,14 @@ class Stepper:
     def _add(self, run_id: str, run: CompiledRun, pace: Pace, t_origin: float | None) -> None:
         slot = self._batch.add(run)
         origin = self._clock() if t_origin is None else t_origin
-        self._runs[run_id] = _Live(run_id, run, pace, slot, origin)
+        self._runs[run_id] = _Live(run_id, run, pace, slot)
+        self._table.put(
+            slot, run_id, origin=origin, Ts=run.Ts, end=run.n_samples, fast=pace == "fast", layout=0
+        )
         self._refresh_columns()
+
+    def _k(self, live: _Live) -> int:
+        return int(self._table.k[live.slot])
 
     def _live(self, run_id: str) -> _Live:
         live = self._runs.get(run_id)
@@ -163,18 +175,20 @@ class Stepper:
         live = self._live(run_id)
         transition(live.state, target)  # Conflict if not allowed
         if target is RunState.STOPPED:
-            self._on_tick([], [self._end(live, RunState.STOPPED)])
-            return live.k
+            ended = self._end(live, RunState.STOPPED)
+            self._on_tick([], [ended])
+            return ended.k
         if target is RunState.PAUSED:
             live.paused_at = self._clock()
         else:  # the clock stops for whole ticks: frames stay aligned
             assert live.paused_at is not None
             paused = self._clock() - live.paused_at
-            live.t_origin += math.ceil(paused / self.tick - 1e-9) * self.tick
+            self._table.origin[live.slot] += math.ceil(paused / self.tick - 1e-9) * self.tick
             live.paused_at = None
+        self._table.paused[live.slot] = target is RunState.PAUSED
         live.state = target
-        self._on_tick([], [Changed(run_id, target, live.k)])
-        return live.k
+        self._on_tick([], [Changed(run_id, target, self._k(live))])
+        return self._k(live)
 
     def _replace(self, run_id: str, run: CompiledRun, controller: bool, signals: bool) -> int:
         live = self._live(run_id)
@@ -183,7 +197,7 @@ class Stepper:
         if signals or not controller:  # both may change at once: each must take effect
             self._batch.set_run(live.slot, run)
         live.run = run
-        return live.k
+        return self._k(live)
 
     def _end_many(self, run_ids: list[str] | None, state: Final, reason: str) -> list[str]:
         lives = (
@@ -196,11 +210,18 @@ class Stepper:
         return [live.id for live in lives]
 
     def _refresh_columns(self) -> None:
+        """Each run's columns [r, u, y…, x…] in the batch's block (they move when a run
+        with more outputs or states joins), numbered by layout."""
         for live in self._runs.values():
             ys, xs = self._batch.columns(live.slot)
-            live.cols = (0, 1, *range(ys.start, ys.stop), *range(xs.start, xs.stop))
+            cols = (0, 1, *range(ys.start, ys.stop), *range(xs.start, xs.stop))
+            layout = self._layouts.setdefault(cols, len(self._layouts))
+            self._columns[layout] = np.array(cols, dtype=np.intp)
+            self._table.layout[live.slot] = layout
 
     def _loop(self) -> None:
+        if self.realtime:
+            self.realtime = _realtime(self.realtime)
         deadline = self.align(self._clock())
         while not self._stop.is_set():
             while True:
@@ -273,71 +294,68 @@ class Stepper:
         return self.align(t) + Ts
 
     def _fast_due(self) -> bool:
-        return any(r.pace == "fast" and r.paused_at is None for r in self._runs.values())
+        return self._table.fast_due()
 
     def _step(self, now: float) -> tuple[list[Block], list[Changed]]:
-        groups: dict[int, list[_Live]] = {}
-        for live in self._runs.values():
-            n = self._due(live, now)
-            if n > 0:
-                groups.setdefault(n, []).append(live)
+        table = self._table
+        fast = 0 if table.fast.any() and self._backlog() else self._fast_block
+        due = table.due(now, fast, self._batch.block)
         blocks: list[Block] = []
         ended: list[Changed] = []
-        for n, lives in groups.items():
-            block = self._batch.advance(n, [live.slot for live in lives])
+        stepped = np.flatnonzero(due)
+        for n in np.unique(due[stepped]).tolist():
+            slots = stepped[due[stepped] == n]
+            block = self._batch.advance(n, slots.tolist())
             # runs with the same columns (the same plant) are cut out of the block with
             # one copy and checked for divergence at once
-            same: dict[tuple[int, ...], list[_Live]] = {}
-            for live in lives:
-                same.setdefault(live.cols, []).append(live)
-            for group in same.values():
-                slots = np.array([live.slot for live in group])
-                data = block[np.ix_(slots, np.arange(n), np.array(group[0].cols))]
+            for layout in np.unique(table.layout[slots]).tolist():
+                group = slots[table.layout[slots] == layout]
+                data = block[np.ix_(group, np.arange(n), self._columns[layout])]
                 with np.errstate(invalid="ignore"):
                     fine = (np.abs(data[:, :, 1:]) <= DIVERGENCE_LIMIT).all(axis=(1, 2))
                 if not fine.all():
-                    for i in np.flatnonzero(~fine):
-                        blocks.append(self._record(group[i], data[i], ended))
-                    group = [live for live, ok in zip(group, fine, strict=True) if ok]
-                    data = data[fine]
-                if group:
-                    blocks.append(
-                        Block([live.id for live in group], [live.k for live in group], data)
-                    )
-                    for live in group:
-                        live.k += n
-        for live in [r for r in self._runs.values() if r.k >= r.run.n_samples]:
-            ended.append(self._end(live, RunState.FINISHED))
+                    for i in np.flatnonzero(~fine).tolist():
+                        blocks.append(self._record(self._runs[table.ids[group[i]]], data[i], ended))
+                    group, data = group[fine], data[fine]
+                if group.size:
+                    blocks.append(Block(table.ids[group].tolist(), table.k[group].tolist(), data))
+                    table.k[group] += n
+        for slot in table.finished().tolist():
+            ended.append(self._end(self._runs[table.ids[slot]], RunState.FINISHED))
         return blocks, ended
-
-    def _due(self, live: _Live, now: float) -> int:
-        if live.paused_at is not None:
-            return 0
-        left = live.run.n_samples - live.k
-        if live.pace == "fast":
-            return 0 if self._backlog() else min(self._fast_block, left)
-        # + 1e-6: a sample due at the tick, up to rounding of the float times
-        due = math.floor((now - live.t_origin) / live.run.Ts + 1e-6) + 1 - live.k
-        return max(0, min(due, left, self._batch.block))
 
     def _record(self, live: _Live, data: Array, ended: list[Changed]) -> Block:
         """The samples of a run whose block failed the divergence check: those before it
         diverged (and the run fails), or all (a false alarm)."""
         i = first_divergence(data[:, 1:])  # u, y, x
-        block = Block([live.id], [live.k], (data if i is None else data[:i])[np.newaxis])
+        k0 = self._k(live)
+        block = Block([live.id], [k0], (data if i is None else data[:i])[np.newaxis])
+        self._table.k[live.slot] += data.shape[0] if i is None else i
         if i is not None:
-            live.k += i
-            msg = f"diverged at t = {live.k * live.run.Ts:.4g} s: the closed loop is unstable"
+            msg = f"diverged at t = {(k0 + i) * live.run.Ts:.4g} s: the closed loop is unstable"
             ended.append(self._end(live, RunState.FAILED, msg))
-        else:
-            live.k += data.shape[0]
         return block
 
     def _end(self, live: _Live, state: Final, error: str | None = None) -> Changed:
         transition(live.state, state)
+        k = self._k(live)
         del self._runs[live.id]
         self._batch.remove(live.slot)
-        return Changed(live.id, state, live.k, error)
+        self._table.clear(live.slot)
+        return Changed(live.id, state, k, error)
+
+
+def _realtime(priority: int) -> int:
+    """Put the calling thread under SCHED_FIFO at ``priority``: it then runs whenever it is
+    ready, ahead of every ordinary thread of any process (the web process, the
+    identification workers, this process's writer). It sleeps between ticks and needs a few
+    percent of a core. Needs CAP_SYS_NICE; returns the priority it got (0: refused)."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))  # 0: this thread
+    except (OSError, AttributeError) as exc:
+        log.warning("real-time scheduling of the stepping thread refused: %s", exc)
+        return 0
+    return priority
 
 
 def _trend(t: Array, y: Array, parts: int = 12) -> float:
