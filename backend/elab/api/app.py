@@ -23,7 +23,7 @@ from elab.api.frames import MsgpackCodec
 from elab.api.http import ENDPOINTS, Handler, Uploads, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
-from elab.api.stream import Stream
+from elab.api.stream import RawSend, Stream
 from elab.engines.process import ProcessEngine
 from elab.errors import ElabError
 from elab.jobs import JobPool
@@ -92,7 +92,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
     app = Starlette(
         routes=routes,
         lifespan=lifespan,
-        middleware=[Middleware(GZipMiddleware, minimum_size=4096)],
+        middleware=[Middleware(RawSend), Middleware(GZipMiddleware, minimum_size=4096)],
         exception_handlers={ElabError: _error, ValidationError: _error, HTTPException: _http_error},
     )
     app.state.settings = settings

@@ -11,14 +11,17 @@ Query ``from_seq=N`` starts the watcher at frame N from the recording
 from __future__ import annotations
 
 import contextlib
+import struct
 from collections.abc import Awaitable, Callable, Mapping
 from typing import Any
 
 import anyio
 import msgpack
 from pydantic import TypeAdapter, ValidationError
-from starlette.types import Receive, Scope, Send
+from starlette.types import ASGIApp, Receive, Scope, Send
 from starlette.websockets import WebSocket, WebSocketDisconnect
+from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
+from websockets.protocol import State
 
 from elab.api import schemas as s
 from elab.api.frames import pack
@@ -30,20 +33,106 @@ from elab.runs.fanout import Watcher
 CLIENT = TypeAdapter(s.ClientMessage)
 
 
+RAW_SEND = "elab.send"  # the scope key of the server's own send (set by RawSend)
+
+
+class RawSend:
+    """Middleware (outermost): keeps the ASGI server's own ``send`` of a websocket in
+    the scope, before starlette's layers wrap it, for :func:`direct_writer`."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "websocket":
+            scope[RAW_SEND] = send
+        await self.app(scope, receive, send)
+
+
 class Stream:
     """The route's ASGI app. Frames go to the server's ``send`` as they are, past
     starlette's per-message state checks (6 µs of the 45 µs a message cost in the
-    send path; docs/benchmarks.md); the handshake and the rest use starlette's
+    send path; docs/benchmarks.md), and straight to the connection where the server
+    allows (:func:`direct_writer`); the handshake and the rest use starlette's
     :class:`WebSocket`."""
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         async def send_bytes(payload: bytes) -> None:
             await send({"type": "websocket.send", "bytes": payload})
 
-        await stream(WebSocket(scope, receive, send), send_bytes)
+        write = direct_writer(scope.get(RAW_SEND))
+        await stream(WebSocket(scope, receive, send), send_bytes, write)
 
 
-async def stream(ws: WebSocket, send_bytes: Callable[[bytes], Awaitable[None]]) -> None:
+def direct_writer(send: Any) -> Callable[[bytes], bool] | None:
+    """A function writing a binary message straight to the connection of uvicorn's
+    sans-I/O websocket protocol (its default), as ``websockets.broadcast()`` writes to its
+    own connections, with no coroutine and no ASGI message; the websocket frame of a
+    message is built once for all the watchers it goes to (:func:`binary_frame`). It
+    writes only what uvicorn's ``send`` would write at once (the connection open with no
+    extension, the transport not paused) and otherwise returns ``False``, so the caller
+    falls back to ``send``, which waits for room; order is kept because both write
+    synchronously. ``None`` for any other server (then every message goes through
+    ``send``). At 300 watchers the ASGI path cost a quarter of the web process's CPU
+    (docs/benchmarks.md); tests/unit/runs/test_fanout.py checks uvicorn still fits."""
+    proto = getattr(send, "__self__", None)
+    if not isinstance(proto, WebSocketsSansIOProtocol):
+        return None
+    conn, writable = proto.conn, proto.writable
+
+    def write(payload: bytes) -> bool:
+        if (
+            not writable.is_set()
+            or proto.close_sent
+            or proto.disconnected
+            or conn.state is not State.OPEN
+            or conn.extensions
+            or conn.expect_continuation_frame
+        ):
+            return False
+        transport = proto.transport
+        if transport.is_closing():
+            return False
+        transport.write(_framed(payload))
+        return True
+
+    return write
+
+
+def binary_frame(payload: bytes) -> bytes:
+    """A server's binary websocket message as one frame (RFC 6455 §5.2: final, unmasked)."""
+    n = len(payload)
+    if n < 126:
+        head = bytes((0x82, n))
+    elif n < 1 << 16:
+        head = struct.pack("!BBH", 0x82, 126, n)
+    else:
+        head = struct.pack("!BBQ", 0x82, 127, n)
+    return head + payload
+
+
+class _LastFrame:
+    """The frame of the last message written: a pass writes one message to every watcher
+    of a run in a row, so it is framed once."""
+
+    def __init__(self) -> None:
+        self.payload: bytes | None = None
+        self.frame = b""
+
+    def __call__(self, payload: bytes) -> bytes:
+        if payload is not self.payload:
+            self.payload, self.frame = payload, binary_frame(payload)
+        return self.frame
+
+
+_framed = _LastFrame()
+
+
+async def stream(
+    ws: WebSocket,
+    send_bytes: Callable[[bytes], Awaitable[None]],
+    write: Callable[[bytes], bool] | None = None,
+) -> None:
     if s.PROTOCOL not in ws.scope.get("subprotocols", []):
         await ws.accept()
         await ws.close(s.CloseCode.BAD_REQUEST, f"use the websocket subprotocol {s.PROTOCOL}")
@@ -59,7 +148,9 @@ async def stream(ws: WebSocket, send_bytes: Callable[[bytes], Awaitable[None]]) 
         return
     await ws.accept(subprotocol=s.PROTOCOL)
     channel = m.channel(record)
-    watcher = Watcher(send_bytes, m.codec, max_frames=ws.app.state.settings.watcher_frames)
+    watcher = Watcher(
+        send_bytes, m.codec, max_frames=ws.app.state.settings.watcher_frames, write=write
+    )
     try:
         info = await run_info(ws, record)
         await ws.send_bytes(pack(s.Hello(run=info, live_seq=channel.edge // channel.F)))

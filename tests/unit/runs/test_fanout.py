@@ -235,3 +235,98 @@ def test_one_pass_sends_to_every_watcher_and_a_send_that_waits_delays_nobody() -
     # slow watcher's first wait split a pass)
     together = [t1 is t2 for (_, t1), (_, t2) in zip(got["f1"], got["f2"], strict=True)]
     assert sum(together) >= 29, together
+
+
+def test_direct_writes_and_waiting_sends_mix_in_order() -> None:
+    """A watcher with a direct ``write`` gets its frames written without a coroutine while
+    its connection has room; when it has none, the frame goes through ``send`` (which
+    waits), and the next ones follow it: each frame once, in order, whichever path."""
+
+    async def scenario() -> tuple[list[tuple[str, int]], int]:
+        async def read(k0: int, k1: int) -> np.ndarray:
+            raise AssertionError("not reading")
+
+        ch = RunChannel(("a",), Ts=0.001, codec=CODEC, read=read)  # F = 20
+        got: list[tuple[str, int]] = []
+        room = [True]
+
+        def write(b: bytes) -> bool:
+            if not room[0]:
+                return False
+            got.append(("write", msgpack.unpackb(b)["k0"]))
+            return True
+
+        async def send(b: bytes) -> None:
+            got.append(("send", msgpack.unpackb(b)["k0"]))
+            room[0] = True  # the buffer drained while it waited
+            await asyncio.sleep(0)
+
+        w = Watcher(send, CODEC, write=write)
+        ch.watchers.add(w)
+        task = asyncio.create_task(ch.serve(w))
+        for i, k0 in enumerate(range(0, 400, 20)):
+            room[0] = i % 5 != 3  # now and then the connection is full
+            ch.publish(np.full((20, 1), k0 / 20))
+            await asyncio.sleep(0.001)
+        w.close()
+        task.cancel()
+        return got, sum(how == "write" for how, _ in got)
+
+    got, written = asyncio.run(scenario())
+    assert [k0 for _, k0 in got] == list(range(0, 400, 20))
+    assert {how for how, _ in got} == {"write", "send"}
+    assert written >= 15
+
+
+def test_the_stream_writes_directly_to_uvicorns_default_websocket_protocol() -> None:
+    """The direct path relies on uvicorn's sans-I/O protocol (what its "auto" picks) and its
+    attributes; an upgrade that changes either fails here, not silently in the speed."""
+    from uvicorn.config import Config
+    from uvicorn.protocols.websockets.auto import AutoWebSocketsProtocol
+    from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
+    from uvicorn.server import ServerState
+
+    from elab.api.stream import direct_writer
+
+    assert AutoWebSocketsProtocol is WebSocketsSansIOProtocol
+    config = Config(app=lambda scope, receive, send: None)
+    config.load()
+    loop = asyncio.new_event_loop()
+    try:
+        proto = WebSocketsSansIOProtocol(
+            config=config, server_state=ServerState(), app_state={}, _loop=loop
+        )
+    finally:
+        loop.close()
+    write = direct_writer(proto.send)
+    assert write is not None
+    assert direct_writer(lambda message: None) is None
+
+    written: list[bytes] = []
+
+    class Transport:
+        def is_closing(self) -> bool:
+            return False
+
+        def write(self, data: bytes) -> None:
+            written.append(data)
+
+    proto.transport = Transport()  # type: ignore[assignment]
+    assert not write(b"x")  # the handshake has not happened: left to uvicorn's send
+    from websockets.protocol import State
+
+    proto.conn.state = State.OPEN
+    assert write(b"\x01\x02")
+    assert written == [b"\x82\x02\x01\x02"]  # one unmasked binary frame
+    proto.writable.clear()  # the transport is paused: wait in uvicorn's send
+    assert not write(b"x")
+
+
+def test_the_direct_frames_are_the_frames_websockets_writes() -> None:
+    from websockets.frames import Frame, Opcode
+
+    from elab.api.stream import binary_frame
+
+    for n in (0, 1, 125, 126, 127, 65535, 65536, 70000):
+        data = bytes(range(256)) * (n // 256) + bytes(n % 256)
+        assert binary_frame(data) == Frame(Opcode.BINARY, data).serialize(mask=False), n
