@@ -21,20 +21,22 @@ REALTIME = 10
 
 @dataclass(frozen=True)
 class Settings:
-    """``ELAB_DATA`` (default ``./data``): where the SQLite file lives. Limits: ``limits`` (runs;
-    see :class:`~elab.runs.limits.Limits`), ``max_body`` bytes of a request (``ELAB_MAX_BODY``,
-    1 MiB), ``max_upload`` bytes of identification data (``ELAB_MAX_UPLOAD``, 16 MiB),
-    ``max_uploads`` large bodies read at once (``ELAB_MAX_UPLOADS``, 4), ``watcher_frames``
-    queued per watcher before it skips (``ELAB_WATCHER_FRAMES``, 100 ≈ 2 s). The engine:
-    ``engine`` (tick, flush interval, ``ELAB_STORE_RETRY`` s a busy store is retried), its
-    stepping thread's real-time priority (``ELAB_ENGINE_REALTIME``, 10: SCHED_FIFO where
-    allowed, else an ordinary thread; 0: ordinary), its process's ``engine_nice``
-    (``ELAB_ENGINE_NICE``, 0), its queue to the web process ``engine_queue`` bytes
-    (``ELAB_ENGINE_QUEUE``, 64 MiB), ``engine_timeout`` s to answer a command
-    (``ELAB_ENGINE_TIMEOUT``, 10) and ``engine_stall`` s without a heartbeat before it is
-    restarted (``ELAB_ENGINE_STALL``, 30). Identification: ``ident_workers`` processes
-    (``ELAB_IDENT_WORKERS``, 1), ``ident_timeout`` s per job (``ELAB_IDENT_TIMEOUT``, 120),
-    ``ident_wait`` s a request waits for a worker (``ELAB_IDENT_WAIT``, 30)."""
+    """``ELAB_DATA`` (default ``./data``): where the SQLite file lives. Limits: ``limits``
+    (runs; see :class:`~elab.runs.limits.Limits`), ``max_body`` bytes of a request
+    (``ELAB_MAX_BODY``, 1 MiB), ``max_upload`` bytes of identification data
+    (``ELAB_MAX_UPLOAD``, 16 MiB), ``max_uploads`` large bodies read at once
+    (``ELAB_MAX_UPLOADS``, 4), ``watcher_frames`` queued per watcher before it skips
+    (``ELAB_WATCHER_FRAMES``, 100 ≈ 2 s). The engine: ``engine`` (tick, flush interval,
+    ``ELAB_STORE_RETRY`` s a busy store is retried, ``ELAB_STORE_PENDING`` bytes that may
+    wait for it), its real-time priority (``ELAB_ENGINE_REALTIME``, 10: the stepping thread
+    SCHED_FIFO at 10 and the rest of the engine process at 9, where allowed, else ordinary;
+    0: ordinary), its process's ``engine_nice`` when not real-time (``ELAB_ENGINE_NICE``,
+    0), its queue to the web process ``engine_queue`` bytes (``ELAB_ENGINE_QUEUE``, 64 MiB),
+    ``engine_timeout`` s to answer a command (``ELAB_ENGINE_TIMEOUT``, 10) and
+    ``engine_stall`` s without a heartbeat before it is restarted (``ELAB_ENGINE_STALL``,
+    30). Identification: ``ident_workers`` processes (``ELAB_IDENT_WORKERS``, 1),
+    ``ident_timeout`` s per job (``ELAB_IDENT_TIMEOUT``, 120), ``ident_wait`` s a request
+    waits for a worker (``ELAB_IDENT_WAIT``, 30)."""
 
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
