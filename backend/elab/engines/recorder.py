@@ -151,10 +151,14 @@ class Recorder:
             )
 
     def _sort_blocks(self) -> None:
-        """Move the appended blocks' rows to their runs' tails (the lock held)."""
+        """Move the appended blocks' rows to their runs' tails (the lock held). The blocks
+        of the same runs that follow on from each other (each tick's block of a plant, while
+        no run joins or leaves) are joined first, with one copy for all their runs, so a
+        run gets one chunk per flush, not one per tick (at 300 runs the rows one by one took
+        a third of the writer's time)."""
         tails = self._tails
-        for b in self._blocks:
-            for run_id, k, rows in zip(b.run_ids, b.k0, b.data, strict=True):
+        for run_ids, k0, data in _segments(self._blocks):
+            for run_id, k, rows in zip(run_ids, k0, data, strict=True):
                 tail = tails.get(run_id)
                 if tail is not None:
                     tail.chunks.append((k, rows))
@@ -266,6 +270,32 @@ class Recorder:
         if changed:
             log.warning("store: %s", "ok" if health.ok else health.error)
             self._on_fault(health)
+
+
+def _segments(blocks: list[Block]) -> list[tuple[list[str], list[int], Array]]:
+    """``blocks`` as few as can be: each with the blocks of the same runs that follow on
+    from it joined along time."""
+    parts: list[list[Block]] = []
+    open_: dict[tuple[str, ...], int] = {}  # runs → their segment that may go on
+    for b in blocks:
+        key = tuple(b.run_ids)
+        i = open_.get(key)
+        if i is not None:
+            last = parts[i][-1]
+            n = last.data.shape[1]
+            if all(k == k0 + n for k, k0 in zip(b.k0, last.k0, strict=True)):
+                parts[i].append(b)
+                continue
+        open_[key] = len(parts)
+        parts.append([b])
+    return [
+        (
+            p[0].run_ids,
+            p[0].k0,
+            p[0].data if len(p) == 1 else np.concatenate([b.data for b in p], 1),
+        )
+        for p in parts
+    ]
 
 
 def _joined(parts: list[Array]) -> Array:

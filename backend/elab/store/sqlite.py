@@ -203,10 +203,11 @@ class SQLiteStore:
         self.append_many([(run_id, k0, data)])
 
     def append_many(self, items: list[tuple[str, int, Array]]) -> None:
-        sizes: dict[str, tuple[int, int]] = {}
         with self._transaction() as conn:
+            sizes = self._sizes(conn, [run_id for run_id, _, _ in items])
+            rows = []
             for run_id, k0, data in items:
-                n_stored, nch = sizes.get(run_id) or self._size(conn, run_id)
+                n_stored, nch = sizes[run_id]
                 if k0 != n_stored:
                     raise InvalidInput(
                         "k0",
@@ -220,28 +221,33 @@ class SQLiteStore:
                     )
                 n = data.shape[0]
                 sizes[run_id] = (k0 + n, nch)
-                if n == 0:
-                    continue
-                conn.execute(
-                    "INSERT INTO chunks (run_id, k0, n, data) VALUES (?, ?, ?, ?)",
-                    (run_id, k0, n, np.ascontiguousarray(data, dtype="<f8").data),
-                )
+                if n:
+                    rows.append((run_id, k0, n, np.ascontiguousarray(data, dtype="<f8").data))
+            conn.executemany("INSERT INTO chunks (run_id, k0, n, data) VALUES (?, ?, ?, ?)", rows)
             conn.executemany(
                 "UPDATE runs SET n_stored = ? WHERE id = ?",
                 [(n, run_id) for run_id, (n, _) in sizes.items()],
             )
 
-    def _size(self, conn: sqlite3.Connection, run_id: str) -> tuple[int, int]:
-        """``(n_stored, channels)``; a run's channels never change, so they are read once."""
-        nch = self._channel_counts.get(run_id)
-        if nch is None:
-            n_stored, nch = _size(conn, run_id)
-            self._channel_counts[run_id] = nch
-            return n_stored, nch
-        row = conn.execute("SELECT n_stored FROM runs WHERE id = ?", (run_id,)).fetchone()
-        if row is None:
-            raise NotFound("run", run_id)
-        return int(row[0]), nch
+    def _sizes(self, conn: sqlite3.Connection, run_ids: list[str]) -> dict[str, tuple[int, int]]:
+        """``run id → (n_stored, channels)``, in one query per 500 runs; a run's channels
+        never change, so they are parsed once."""
+        out: dict[str, tuple[int, int]] = {}
+        wanted = list(dict.fromkeys(run_ids))
+        for i in range(0, len(wanted), 500):
+            part = wanted[i : i + 500]
+            marks = ",".join("?" * len(part))
+            for run_id, n_stored, channels in conn.execute(
+                f"SELECT id, n_stored, channels FROM runs WHERE id IN ({marks})", part
+            ):
+                nch = self._channel_counts.get(run_id)
+                if nch is None:
+                    nch = self._channel_counts[run_id] = len(json.loads(channels))
+                out[run_id] = (int(n_stored), nch)
+        for run_id in wanted:
+            if run_id not in out:
+                raise NotFound("run", run_id)
+        return out
 
     def read(self, run_id: str, k0: int = 0, k1: int | None = None) -> Array:
         if k0 < 0:
