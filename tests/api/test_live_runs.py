@@ -15,6 +15,7 @@ import numpy as np
 import scipy.io
 from websockets.sync.client import connect
 
+from elab.api.schemas import RecordingOut
 from elab.laws import StateFeedback
 from elab.plants import get_plant
 from elab.sim import RunSpec, Samples, Simulation, Square
@@ -50,6 +51,7 @@ def read_csv(text: str) -> tuple[list[str], np.ndarray]:
 def downloads(c: httpx.Client, run_id: str) -> dict[str, Any]:
     csv = c.get(f"/runs/{run_id}/data", params={"format": "csv"})
     js = c.get(f"/runs/{run_id}/data", params={"format": "json"}).json()
+    RecordingOut.model_validate(js, strict=True)  # what the OpenAPI document says it is
     mat = scipy.io.loadmat(
         io.BytesIO(c.get(f"/runs/{run_id}/data", params={"format": "mat"}).content)
     )

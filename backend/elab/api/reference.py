@@ -75,6 +75,7 @@ def openapi_document() -> dict[str, Any]:
         (s.ErrorBody, "serialization"),
         (s.ServerMessage, "serialization"),
         (s.ClientMessage, "validation"),
+        (s.RecordingOut, "serialization"),  # a download as JSON
     ]
     for e in ENDPOINTS:
         if e.body is not None:
@@ -123,8 +124,9 @@ def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict
     if e.response == "file":
         content = {
             m: {"schema": {"type": "string", "format": "binary"}}
-            for m in ("text/csv", "application/json", "application/x-matlab-data")
+            for m in ("text/csv", "application/x-matlab-data")
         }
+        content["application/json"] = {"schema": ref[id(s.RecordingOut), "serialization"]}
     else:
         content = {"application/json": {"schema": ref[id(e.response), "serialization"]}}
     if e.stream is not None:  # with Accept: application/x-ndjson, one such object per line

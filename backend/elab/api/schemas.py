@@ -164,6 +164,26 @@ class ChannelInfo(Model):
     unit: str
 
 
+class RecordingParamChange(Model):
+    k: int = Field(description="the first sample with the new parameters")
+    t: float = Field(description="its time (s)")
+    params: dict[str, Any]
+
+
+class RecordingOut(Model):
+    """A recording downloaded as JSON (``GET /runs/{id}/data?format=json``): the CSV's
+    header lines as ``header``, the time column ``t`` (s) and one column per channel in
+    ``data``, in SI units as ``channels`` says."""
+
+    header: dict[str, str]
+    Ts: float
+    k0: int = Field(description="the index of the first sample")
+    channels: list[ChannelInfo]
+    t: list[float]
+    data: dict[str, list[float]]
+    param_changes: list[RecordingParamChange]
+
+
 class ParamChangeInfo(Model):
     k: int
     t: float
