@@ -32,7 +32,15 @@ import httpx
 import numpy as np
 
 from tests.api.server import Server, until
-from tests.bench.server import FLEX, Clients, check_recordings, cpu_seconds, http, start_runs
+from tests.bench.server import (
+    FLEX,
+    Clients,
+    check_recordings,
+    cpu_seconds,
+    http,
+    lab_server,
+    start_runs,
+)
 
 RUNS = 100
 WINDOW = 62.0  # s: a little over the minute /server reports, so it lies inside one phase
@@ -153,11 +161,7 @@ def one_round(
 def bench_load() -> dict[str, Any]:
     upload, ident = upload_16mib(), ident_100k()
     with tempfile.TemporaryDirectory() as tmp:
-        server = Server(
-            Path(tmp) / "data",
-            ELAB_MAX_LIVE_RUNS=str(RUNS + 10),
-            ELAB_MAX_LIVE_PER_CLIENT=str(RUNS + 10),
-        ).start()
+        server = lab_server(Path(tmp) / "data", RUNS)
         assert server.proc is not None
         web = server.proc.pid
         try:

@@ -252,15 +252,18 @@ def summarise(window: Window, frames: dict[str, np.ndarray]) -> dict[str, float]
     }
 
 
+def lab_server(data: Path, runs: int) -> Server:
+    """A started ``elab serve`` that takes ``runs`` live runs from one client."""
+    return Server(
+        data, ELAB_MAX_LIVE_RUNS=str(runs + 10), ELAB_MAX_LIVE_PER_CLIENT=str(runs + 10)
+    ).start()
+
+
 def bench_elab(runs: int, watchers: int, seconds: float) -> dict[str, float]:
     """``runs`` real-time runs, each followed by ``watchers`` watchers from sample 0; a
     ``seconds`` window, then every run is stopped and its recording checked."""
     with tempfile.TemporaryDirectory() as tmp:
-        server = Server(
-            Path(tmp) / "data",
-            ELAB_MAX_LIVE_RUNS=str(runs + 10),
-            ELAB_MAX_LIVE_PER_CLIENT=str(runs + 10),
-        ).start()
+        server = lab_server(Path(tmp) / "data", runs)
         assert server.proc is not None
         try:
             started = start_runs(server, runs)
