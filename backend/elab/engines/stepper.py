@@ -250,7 +250,7 @@ class Stepper:
                 )
             if blocks or ended:
                 self._on_tick(blocks, ended)
-            fast = self._fast_due()
+            fast = self._table.fast_due()
             deadline = self.align(max(deadline + self.tick, self._clock()))  # stay on the grid
             time.sleep(0.0005 if fast else max(0.0, deadline - self._clock()))
 
@@ -292,9 +292,6 @@ class Stepper:
         ``tick / Ts``; a run whose frames last one tick (20 samples at 1 kHz) gets exactly
         one frame per tick, sent at the tick its last sample is due."""
         return self.align(t) + Ts
-
-    def _fast_due(self) -> bool:
-        return self._table.fast_due()
 
     def _step(self, now: float) -> tuple[list[Block], list[Changed]]:
         table = self._table

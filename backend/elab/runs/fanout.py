@@ -114,14 +114,22 @@ class Watcher:
     def has_next(self) -> bool:
         return bool(self.skipped or self.items)
 
-    async def send_next(self) -> None:
-        """Send a notice of skipped frames if any, else the oldest queued message."""
+    def _next(self) -> bytes:
+        """The next message: a notice of skipped frames if any, else the oldest queued."""
+        return self.codec.skipped(*self.skipped) if self.skipped else self.items[0][1]
+
+    def _sent(self) -> None:
+        """The message :meth:`_next` gave is on its way: take it off."""
         if self.skipped is not None:
-            (first, last), self.skipped = self.skipped, None
-            payload = self.codec.skipped(first, last)
+            self.skipped = None
         else:
-            k0, payload = self.items.popleft()
+            k0, _ = self.items.popleft()
             self.frames_queued -= k0 is not None
+
+    async def send_next(self) -> None:
+        """Send the next message (waiting for room if the connection has none)."""
+        payload = self._next()
+        self._sent()
         self.sending = True
         try:
             await self.send(payload)
@@ -131,18 +139,9 @@ class Watcher:
     def write_next(self) -> bool:
         """Like :meth:`send_next`, without waiting: ``False`` (and nothing sent) when the
         connection has no room now or the watcher has no ``write``."""
-        if self.write is None:
+        if self.write is None or not self.write(self._next()):
             return False
-        if self.skipped is not None:
-            if not self.write(self.codec.skipped(*self.skipped)):
-                return False
-            self.skipped = None
-            return True
-        k0, payload = self.items[0]
-        if not self.write(payload):
-            return False
-        self.items.popleft()
-        self.frames_queued -= k0 is not None
+        self._sent()
         return True
 
     def wake(self) -> None:

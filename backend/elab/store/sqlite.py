@@ -72,7 +72,7 @@ class SQLiteStore:
             self._checkpointer = _db.Checkpointer(path)
         self._write_lock = threading.Lock()
         self._read_lock = threading.Lock()
-        self._channel_counts: dict[str, int] = {}  # run id → channels (used by the writer)
+        self._channel_counts: dict[str, int] = {}  # live run id → channels (the writer's)
 
     def close(self) -> None:
         with self._write_lock, self._read_lock:
@@ -136,6 +136,8 @@ class SQLiteStore:
             cur = conn.execute(f"UPDATE runs SET {sets} WHERE id = :id", values | {"id": run_id})
             if cur.rowcount == 0:
                 raise NotFound("run", run_id)
+        if finished_at is not None:  # its last write: the writer needs its size no more
+            self._channel_counts.pop(run_id, None)
 
     def get_run(self, run_id: str) -> RunRecord:
         with self._snapshot() as conn:
