@@ -215,8 +215,10 @@ class Stepper:
         for live in self._runs.values():
             ys, xs = self._batch.columns(live.slot)
             cols = (0, 1, *range(ys.start, ys.stop), *range(xs.start, xs.stop))
-            layout = self._layouts.setdefault(cols, len(self._layouts))
-            self._columns[layout] = np.array(cols, dtype=np.intp)
+            layout = self._layouts.get(cols)
+            if layout is None:  # a new layout (its index array made once)
+                layout = self._layouts[cols] = len(self._layouts)
+                self._columns[layout] = np.array(cols, dtype=np.intp)
             self._table.layout[live.slot] = layout
 
     def _loop(self) -> None:
