@@ -10,6 +10,7 @@ import json
 import math
 import sys
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -315,7 +316,34 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--port", type=int, default=8000)
     p.add_argument("--data", help="data directory (default: $ELAB_DATA or ./data)")
     p.set_defaults(func=cmd_serve)
+    p = sub.add_parser(
+        "instructor",
+        help="print an ELAB_INSTRUCTORS line for an instructor account (asks the password)",
+    )
+    p.add_argument("name", help="the account name (letters, digits, . _ -)")
+    p.add_argument(
+        "--password-stdin", action="store_true", help="read the password from standard input"
+    )
+    p.set_defaults(func=cmd_instructor)
     return parser
+
+
+def cmd_instructor(args: argparse.Namespace) -> str:
+    import getpass
+
+    from elab.api.auth import hash_password, valid_name
+
+    if not valid_name(args.name):
+        raise InvalidInput("name", args.name, "1-40 letters, digits, '.', '_' or '-'")
+    if args.password_stdin:
+        password = sys.stdin.readline().rstrip("\n")
+    else:
+        password = getpass.getpass(f"password for {args.name}: ")
+        if getpass.getpass("again: ") != password:
+            raise InvalidInput("password", "…", "the same password twice")
+    if len(password) < 8:
+        raise InvalidInput("password", "…", "at least 8 characters")
+    return f"{args.name}:{hash_password(password)}"
 
 
 def cmd_serve(args: argparse.Namespace) -> str:
@@ -331,6 +359,8 @@ def cmd_serve(args: argparse.Namespace) -> str:
         os.environ["ELAB_DATA"] = args.data
     return_memory()  # before the app allocates: big requests give their memory back
     settings = Settings.from_env()
+    if args.host not in ("0.0.0.0", "::", "") and args.host not in settings.hosts:
+        settings = replace(settings, hosts=(*settings.hosts, args.host))
     print(f"E-Lab on http://{args.host}:{args.port}  (data: {settings.database})", flush=True)
     # no permessage-deflate: float32 samples hardly compress, and deflating every frame
     # for every watcher cost a third of the server's CPU (docs/benchmarks.md). uvicorn's

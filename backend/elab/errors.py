@@ -87,3 +87,12 @@ class Unavailable(ElabError, RuntimeError):
     def __init__(self, message: str, retry_after: float | None = None) -> None:
         self.retry_after = retry_after
         super().__init__(message)
+
+
+class Forbidden(ElabError, PermissionError):
+    """The caller may not do this to this object (someone else's run): HTTP 403."""
+
+
+class Unauthorized(ElabError, PermissionError):
+    """The credentials given are not valid (an unknown or revoked token, a wrong
+    password): HTTP 401."""

@@ -40,6 +40,8 @@ class Server:
         self.port = free_port()
         self.proc: subprocess.Popen[bytes] | None = None
         self.log_path = data.parent / f"{data.name}-server.log"
+        # the identity of client(): one browser's, given by the server on first contact
+        self.cookies = httpx.Cookies()
 
     @property
     def log(self) -> str:
@@ -68,7 +70,9 @@ class Server:
             if self.proc.poll() is not None:
                 raise RuntimeError(f"server exited: {self.log[-4000:]}")
             try:
-                httpx.get(self.url + "/api/v1/plants", timeout=1).raise_for_status()
+                r = httpx.get(self.url + "/api/v1/me", timeout=1, cookies=self.cookies)
+                r.raise_for_status()
+                self.cookies.update(r.cookies)
                 return self
             except httpx.HTTPError:
                 time.sleep(0.1)
@@ -89,6 +93,12 @@ class Server:
         self.proc.wait()
 
     def client(self) -> httpx.Client:
+        """A client with this test's identity (the same browser for every call; a bare
+        ``httpx.get`` is a new anonymous visitor each time)."""
+        return httpx.Client(base_url=self.url + "/api/v1", timeout=30, cookies=self.cookies)
+
+    def stranger(self) -> httpx.Client:
+        """A client with an identity of its own (another browser)."""
         return httpx.Client(base_url=self.url + "/api/v1", timeout=30)
 
     def status(self) -> dict[str, Any]:
@@ -100,6 +110,15 @@ class Server:
         pid = self.status()["engine"]["pid"]
         assert isinstance(pid, int), "the engine is not up"
         return pid
+
+
+def identity_of(client: httpx.Client) -> dict[str, str]:
+    """The headers that carry ``client``'s identity to a websocket: its cookies (as a
+    browser sends them) or its bearer token."""
+    if "authorization" in client.headers:
+        return {"authorization": client.headers["authorization"]}
+    jar = "; ".join(f"{k}={v}" for k, v in client.cookies.items())
+    return {"cookie": jar} if jar else {}
 
 
 def until(cond: Callable[[], T | None], timeout: float = 60.0, every: float = 0.05) -> T:
@@ -127,7 +146,21 @@ class Watcher:
     last_seq: int = -1
 
     @classmethod
-    async def open(cls, ws_url: str, run_id: str, query: str = "", **kw: Any) -> Watcher:
+    async def open(
+        cls,
+        ws_url: str,
+        run_id: str,
+        query: str = "",
+        *,
+        as_: httpx.Client | Server | None = None,
+        **kw: Any,
+    ) -> Watcher:
+        """Watch a run; ``as_``: with that client's identity (its cookies), so it may
+        control the runs that client started."""
+        if isinstance(as_, Server):
+            as_ = as_.client()
+        if as_ is not None:
+            kw["additional_headers"] = {**kw.get("additional_headers", {}), **identity_of(as_)}
         conn = await connect(
             f"{ws_url}/api/v1/runs/{run_id}/stream{query}",
             subprotocols=["elab.v1"],

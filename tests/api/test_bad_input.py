@@ -156,7 +156,7 @@ def test_websocket_errors_keep_the_connection(server: Server) -> None:
         rid = c.post("/runs", json={"plant": "flexible_link", "duration": 3}).json()["id"]
 
     async def scenario() -> list[dict[str, Any]]:
-        w = await Watcher.open(server.ws_url, rid)
+        w = await Watcher.open(server.ws_url, rid, as_=c)  # its owner
         for bad in (
             b"\xc1",
             msgpack.packb({"type": "fly"}),

@@ -126,7 +126,13 @@ CASES: list[tuple[str, str, str | None, str]] = [
 def test_each_former_crash_is_a_4xx_naming_the_field(
     server: Server, method: str, path: str, body: str | None, field: str
 ) -> None:
-    r = httpx.request(method, server.url + "/api/v1" + path, content=body, timeout=60)
+    r = httpx.request(
+        method,
+        server.url + "/api/v1" + path,
+        content=body,
+        headers={"content-type": "application/json"},
+        timeout=60,
+    )
     assert 400 <= r.status_code < 500, r.text[:300]
     error = r.json()["error"]
     assert error["field"] == field or (r.status_code == 404 and field == "body"), error
@@ -141,7 +147,7 @@ def test_websocket_bodies_that_crashed_keep_the_connection(server: Server) -> No
         rid = c.post("/runs", json={"plant": "flexible_link", "duration": 30}).json()["id"]
 
     async def scenario() -> list[dict[str, Any]]:
-        w = await Watcher.open(server.ws_url, rid)
+        w = await Watcher.open(server.ws_url, rid, as_=server)
         for bad in (
             DEEP,
             f'{{"type": "resume_from", "seq": {HUGE}}}',

@@ -23,7 +23,7 @@ def test_the_api_matches_its_openapi_document_under_fuzzing(tmp_path: Path) -> N
         tmp_path / "data",
         ELAB_MAX_DURATION="3",
         ELAB_MAX_LIVE_RUNS="60",
-        ELAB_MAX_LIVE_PER_CLIENT="60",
+        ELAB_MAX_LIVE_PER_IDENTITY="60",
     ).start()
     try:
         r = subprocess.run(

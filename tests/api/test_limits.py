@@ -43,7 +43,7 @@ def ident_body(text: str, models: list[dict[str, object]]) -> dict[str, object]:
 def limited(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     srv = Server(
         tmp_path_factory.mktemp("data"),
-        ELAB_MAX_LIVE_PER_CLIENT="2",
+        ELAB_MAX_LIVE_PER_IDENTITY="2",
         ELAB_MAX_RUN_SAMPLES="100000",
         ELAB_MAX_RECORDING="4000000",
         ELAB_MAX_UPLOADS="1",
@@ -83,7 +83,7 @@ def test_live_runs_per_client_are_limited_with_retry_after(limited: Server) -> N
             for _ in range(2)
         ]
         r = c.post("/runs", json={"plant": "belt_conveyor"})
-        assert r.status_code == 429 and "ELAB_MAX_LIVE_PER_CLIENT" in r.json()["error"]["message"]
+        assert r.status_code == 429 and "ELAB_MAX_LIVE_PER_IDENTITY" in r.json()["error"]["message"]
         assert int(r.headers["retry-after"]) > 0
         c.post(f"/runs/{ids[0]}/stop")  # room again
         assert c.post("/runs", json={"plant": "belt_conveyor", "duration": 1}).status_code == 201
@@ -104,7 +104,12 @@ def test_a_second_upload_while_one_is_received_is_429(limited: Server) -> None:
     first: dict[str, httpx.Response] = {}
     sender = threading.Thread(
         target=lambda: first.update(
-            r=httpx.post(limited.url + "/api/v1/ident", content=slow_body(), timeout=60)
+            r=httpx.post(
+                limited.url + "/api/v1/ident",
+                content=slow_body(),
+                headers={"content-type": "application/json"},
+                timeout=60,
+            )
         )
     )
     sender.start()

@@ -174,7 +174,9 @@ def test_of_five_simultaneous_stops_one_succeeds_and_four_get_409(
 ) -> None:
     url = f"{server.url}/api/v1/runs/{long_run}/stop"
     with ThreadPoolExecutor(5) as ex:
-        replies = list(ex.map(lambda _: httpx.post(url, timeout=30), range(5)))
+        replies = list(
+            ex.map(lambda _: httpx.post(url, timeout=30, cookies=server.cookies), range(5))
+        )
     assert sorted(r.status_code for r in replies) == [200, 409, 409, 409, 409]
     for r in replies:
         if r.status_code == 409:
@@ -191,8 +193,10 @@ def test_commands_racing_over_rest_and_the_websocket_keep_the_connection(
     server: Server, long_run: str
 ) -> None:
     async def scenario() -> list[dict[str, Any]]:
-        w = await Watcher.open(server.ws_url, long_run)
-        async with httpx.AsyncClient(base_url=server.url + "/api/v1") as c:
+        w = await Watcher.open(server.ws_url, long_run, as_=server)
+        async with httpx.AsyncClient(
+            base_url=server.url + "/api/v1", cookies=server.cookies
+        ) as c:
             sends = [
                 w.conn.send(json.dumps({"type": t}))
                 for t in ("pause", "stop", "resume", "stop", "pause")

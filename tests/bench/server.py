@@ -255,7 +255,7 @@ def summarise(window: Window, frames: dict[str, np.ndarray]) -> dict[str, float]
 def lab_server(data: Path, runs: int) -> Server:
     """A started ``elab serve`` that takes ``runs`` live runs from one client."""
     return Server(
-        data, ELAB_MAX_LIVE_RUNS=str(runs + 10), ELAB_MAX_LIVE_PER_CLIENT=str(runs + 10)
+        data, ELAB_MAX_LIVE_RUNS=str(runs + 10), ELAB_MAX_LIVE_PER_IDENTITY=str(runs + 10)
     ).start()
 
 

@@ -33,7 +33,16 @@ def test_documented_defaults_are_the_code_defaults() -> None:
         return float(rows[name].split()[0].replace(",", ""))
 
     assert num("ELAB_MAX_LIVE_RUNS") == d.max_live
-    assert num("ELAB_MAX_LIVE_PER_CLIENT") == d.max_live_per_client
+    assert num("ELAB_MAX_LIVE_PER_IDENTITY") == d.max_live_per_identity
+    assert num("ELAB_MAX_RUNS_PER_IDENTITY") == d.max_runs_per_identity
+    assert num("ELAB_MAX_STORAGE_PER_IDENTITY") * (1 << 20) == d.max_storage_per_identity
+    assert num("ELAB_RETENTION") == d.retention
+    assert num("ELAB_OWNER_GRACE") == d.owner_grace
+    assert num("ELAB_OWNER_GONE") == d.owner_gone
+    assert num("ELAB_MAX_IDENT_PER_IDENTITY") == s.max_ident_per_identity
+    assert num("ELAB_MAX_UPLOADS_PER_IDENTITY") == s.max_uploads_per_identity
+    assert num("ELAB_SECURE_COOKIES") == int(s.secure_cookies)
+    assert num("ELAB_SESSION_HOURS") == s.session_hours
     assert num("ELAB_MAX_DURATION") == d.max_duration
     assert num("ELAB_MAX_RUN_SAMPLES") == d.max_samples
     assert num("ELAB_MAX_RECORDING") * (1 << 20) == d.max_recording

@@ -18,8 +18,10 @@ from starlette.responses import FileResponse, HTMLResponse, JSONResponse, Redire
 from starlette.routing import BaseRoute, Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 
-from elab.api import ident, plants, runs  # noqa: F401  (registers their endpoints)
+from elab.api import access, ident, plants, runs  # noqa: F401  (registers their endpoints)
+from elab.api.auth import Authority, Identify, load_secret, read_instructors
 from elab.api.frames import MsgpackCodec
+from elab.api.guard import Guard
 from elab.api.http import ENDPOINTS, Handler, Uploads, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
@@ -34,7 +36,7 @@ API = "/api/v1"
 #: The built browser app (``make install`` runs the frontend build into it).
 STATIC = Path(__file__).parent / "static"
 #: The app's own pages: each is answered with index.html and routed in the browser.
-APP_PAGES = ("/", "/plants/{rest:path}", "/runs", "/runs/{rest:path}")
+APP_PAGES = ("/", "/plants/{rest:path}", "/runs", "/runs/{rest:path}", "/account")
 
 
 def create_app(settings: Settings | None = None) -> Starlette:
@@ -54,11 +56,19 @@ def create_app(settings: Settings | None = None) -> Starlette:
         )
         manager = RunManager(store, engine, MsgpackCodec(), limits=settings.limits)
         app.state.manager = manager
+        app.state.authority = Authority(
+            load_secret(settings.secret, settings.data_dir),
+            store,
+            read_instructors(settings.instructors),
+            session_s=settings.session_hours * 3600.0,
+            secure=settings.secure_cookies,
+        )
         jobs = JobPool(
             workers=settings.ident_workers, timeout=settings.ident_timeout, wait=settings.ident_wait
         )
         app.state.jobs = jobs
-        app.state.uploads = Uploads(settings.max_uploads)
+        app.state.ident_slots = ident.IdentSlots(settings.max_ident_per_identity)
+        app.state.uploads = Uploads(settings.max_uploads, settings.max_uploads_per_identity)
         # Everything imported so far (numpy, scipy, control, numba: ~160,000 objects) lives
         # as long as the process. Frozen, the collector stops scanning it: a full collection
         # held the GIL for ~110 ms on a slow host, stalling every stream at once.
@@ -92,7 +102,12 @@ def create_app(settings: Settings | None = None) -> Starlette:
     app = Starlette(
         routes=routes,
         lifespan=lifespan,
-        middleware=[Middleware(RawSend), Middleware(GZipMiddleware, minimum_size=4096)],
+        middleware=[
+            Middleware(RawSend),
+            Middleware(Guard, hosts=settings.hosts, origins=settings.origins),
+            Middleware(Identify),
+            Middleware(GZipMiddleware, minimum_size=4096),
+        ],
         exception_handlers={ElabError: _error, ValidationError: _error, HTTPException: _http_error},
     )
     app.state.settings = settings

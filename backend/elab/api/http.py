@@ -2,9 +2,11 @@
 bodies with a size limit, responses from models, and errors as JSON.
 
 Status codes: 422 invalid input (every field error listed), 404 unknown id,
-409 conflict with the current state, 413 body too large, 429 a limit on
-concurrent work (with ``Retry-After``), 503 a part of the server is down or
-failing (the engine, the store; with ``Retry-After`` when it is worth retrying).
+401 an unknown API token or a wrong password, 403 not yours to change (or a
+request from another site), 409 conflict with the current state, 413 body too
+large, 415 a body that is not JSON, 429 a limit on concurrent work or storage
+(with ``Retry-After``), 503 a part of the server is down or failing (the
+engine, the store; with ``Retry-After`` when it is worth retrying).
 Every error body is ``{"error": {"code", "message", "field", "errors"}}``.
 """
 
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections import Counter
 from collections.abc import Awaitable, Callable, Iterator
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
@@ -22,7 +25,16 @@ from starlette.requests import HTTPConnection, Request
 from starlette.responses import JSONResponse, Response
 
 from elab.api.schemas import ErrorBody, ErrorDetail, FieldError
-from elab.errors import Conflict, ElabError, InvalidInput, NotFound, TooMany, Unavailable
+from elab.errors import (
+    Conflict,
+    ElabError,
+    Forbidden,
+    InvalidInput,
+    NotFound,
+    TooMany,
+    Unauthorized,
+    Unavailable,
+)
 
 Handler = Callable[[Request], Awaitable[Response]]
 M = TypeVar("M", bound=BaseModel)
@@ -86,14 +98,24 @@ async def read_model(request: Request, model: type[M], upload: bool = False) -> 
 
 
 class Uploads:
-    """How many large bodies are being read at once (``ELAB_MAX_UPLOADS``)."""
+    """How many large bodies are being read at once, in all (``ELAB_MAX_UPLOADS``) and
+    per identity (``ELAB_MAX_UPLOADS_PER_IDENTITY``)."""
 
-    def __init__(self, limit: int) -> None:
+    def __init__(self, limit: int, per_identity: int | None = None) -> None:
         self.limit = limit
+        self.per_identity = per_identity or limit
         self.reading = 0
+        self.by: Counter[str] = Counter()
 
     @contextmanager
-    def slot(self) -> Iterator[None]:
+    def slot(self, who: str = "") -> Iterator[None]:
+        if self.by[who] >= self.per_identity and who:
+            raise TooMany(
+                f"you are sending {self.by[who]} uploads at once, the limit per identity "
+                f"(ELAB_MAX_UPLOADS_PER_IDENTITY = {self.per_identity}); retry when one is "
+                "done",
+                retry_after=2.0,
+            )
         if self.reading >= self.limit:
             raise TooMany(
                 f"{self.reading} uploads are being received, the limit of this "
@@ -101,10 +123,14 @@ class Uploads:
                 retry_after=2.0,
             )
         self.reading += 1
+        self.by[who] += 1
         try:
             yield
         finally:
             self.reading -= 1
+            self.by[who] -= 1
+            if not self.by[who]:
+                del self.by[who]
 
 
 async def read_body(request: Request, upload: bool = False) -> bytes:
@@ -116,7 +142,9 @@ async def read_body(request: Request, upload: bool = False) -> bytes:
     length = request.headers.get("content-length")
     if length is not None and length.isascii() and length.isdigit() and int(length) > limit:
         raise TooLarge(limit, setting)
-    with request.app.state.uploads.slot() if upload else nullcontext():
+    who = request.scope.get("elab.identity")
+    uploads = request.app.state.uploads
+    with uploads.slot(who.id if who is not None else "") if upload else nullcontext():
         body = bytearray()
         async for part in request.stream():
             body += part
@@ -162,6 +190,10 @@ def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
         return 404, ErrorDetail(code="not_found", message=str(exc))
     if isinstance(exc, Conflict):
         return 409, ErrorDetail(code="conflict", message=str(exc))
+    if isinstance(exc, Forbidden):
+        return 403, ErrorDetail(code="forbidden", message=str(exc))
+    if isinstance(exc, Unauthorized):
+        return 401, ErrorDetail(code="unauthorized", message=str(exc))
     if isinstance(exc, TooMany):
         return 429, ErrorDetail(code="too_many", message=str(exc))
     if isinstance(exc, TooLarge):

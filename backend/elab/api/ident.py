@@ -15,16 +15,19 @@ client goes away stops its job.
 from __future__ import annotations
 
 import asyncio
-from collections.abc import AsyncIterator, Coroutine
+from collections import Counter
+from collections.abc import AsyncIterator, Callable, Coroutine
 from typing import Any, TypeVar
 
+from starlette.background import BackgroundTask
 from starlette.requests import Request
 from starlette.responses import Response, StreamingResponse
 
 from elab.api import convert
 from elab.api import schemas as s
+from elab.api.auth import identity
 from elab.api.http import endpoint, error_detail, read_model
-from elab.errors import ElabError, InvalidInput
+from elab.errors import ElabError, InvalidInput, TooMany
 from elab.ident import IdData
 from elab.ident import workflow as wf
 from elab.ident.files import read_table
@@ -50,19 +53,61 @@ async def identify(request: Request) -> Response:
     residual analysis (see docs/identification.md). The body may be as large as
     ``ELAB_MAX_UPLOAD`` (16 MiB)."""
     req = await read_model(request, s.IdentRequest, upload=True)
+    slot = _slots(request).take(identity(request).id)
+    mine: Callable[[], None] | None = slot
     try:
         data, sine = await _dataset(request, req.data)
         plan = _plan(req, sine)
         if "application/x-ndjson" in request.headers.get("accept", ""):
+            mine = None  # given back when the stream ends, however it ends
+            lines = _progress_lines(jobs(request), data, plan, slot)
             return StreamingResponse(
-                _progress_lines(jobs(request), data, plan), media_type="application/x-ndjson"
+                lines, media_type="application/x-ndjson", background=BackgroundTask(slot)
             )
         result = await _unless_gone(request, jobs(request).run(convert.identify, data, plan))
         if result is None:
             raise ClientGone
     except ClientGone:
         return Response(status_code=499)  # nginx's "client closed request": nobody reads it
+    finally:
+        if mine is not None:
+            mine()
     return Response(result, media_type="application/json")
+
+
+class IdentSlots:
+    """Identifications under way per identity (``ELAB_MAX_IDENT_PER_IDENTITY``): one
+    browser cannot occupy every worker."""
+
+    def __init__(self, per_identity: int) -> None:
+        self.per_identity = per_identity
+        self.by: Counter[str] = Counter()
+
+    def take(self, who: str) -> Callable[[], None]:
+        """A slot for ``who`` (:class:`TooMany` if they have all theirs); call the result
+        to give it back."""
+        if who and self.by[who] >= self.per_identity:
+            raise TooMany(
+                f"you have {self.by[who]} identifications under way, the limit per identity "
+                f"(ELAB_MAX_IDENT_PER_IDENTITY = {self.per_identity}); retry when one is done",
+                retry_after=5.0,
+            )
+        self.by[who] += 1
+        done = False
+
+        def give_back() -> None:
+            nonlocal done
+            if not done:
+                done = True
+                self.by[who] -= 1
+                if self.by[who] <= 0:
+                    del self.by[who]
+
+        return give_back
+
+
+def _slots(request: Request) -> IdentSlots:
+    return request.app.state.ident_slots  # type: ignore[no-any-return]
 
 
 class ClientGone(Exception):
@@ -94,7 +139,9 @@ async def _disconnected(request: Request) -> None:
         pass
 
 
-async def _progress_lines(pool: JobPool, data: IdData, plan: wf.Plan) -> AsyncIterator[bytes]:
+async def _progress_lines(
+    pool: JobPool, data: IdData, plan: wf.Plan, release: Callable[[], None]
+) -> AsyncIterator[bytes]:
     """Progress, then the result: the job's reports as they come. When the client goes
     away, the response is cancelled here, which stops the job."""
     queue: asyncio.Queue[tuple[str, float]] = asyncio.Queue()
@@ -122,6 +169,7 @@ async def _progress_lines(pool: JobPool, data: IdData, plan: wf.Plan) -> AsyncIt
             yield _line(s.IdentLine(error=error_detail(exc)[1]))
     finally:
         job.cancel()
+        release()
 
 
 def _line(line: s.IdentLine) -> bytes:
@@ -138,7 +186,7 @@ async def _dataset(request: Request, src: s.RunData | s.FileData) -> tuple[IdDat
             raise ClientGone
         return _prefixed("data", lambda: table.dataset(src.input, src.output, src.Ts)), None
     m: RunManager = request.app.state.manager
-    record = await m.get(src.run)
+    record = await m.get(src.run, identity(request))
     names = [c[0] for c in record.channels]
     units = dict(record.channels)
     outputs = src.output or [

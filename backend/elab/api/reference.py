@@ -17,12 +17,35 @@ REF = "#/components/schemas/{model}"
 STATUS_TEXT = {
     200: "OK",
     201: "Created",
-    404: "Unknown id",
+    204: "Done (no content)",
+    401: "An unknown or revoked API token, or a wrong password",
+    403: "Not yours: only the owner or an instructor may (or a request from another site)",
+    404: "Unknown id (or a private run of someone else)",
+    415: "The body is not application/json",
     409: "Conflict with the run's state",
     413: "Body too large",
     422: "Invalid input (every field error listed)",
     429: "A limit on concurrent work (Retry-After says when to retry)",
     503: "A part of the server is down or failing (the engine, the store)",
+}
+SECURITY = {
+    "bearer": {
+        "type": "http",
+        "scheme": "bearer",
+        "description": "an API token from POST /api/v1/tokens: acts as the identity that made it",
+    },
+    "browser": {
+        "type": "apiKey",
+        "in": "cookie",
+        "name": "elab_id",
+        "description": "a browser's anonymous identity, set with the first response",
+    },
+    "instructor": {
+        "type": "apiKey",
+        "in": "cookie",
+        "name": "elab_session",
+        "description": "an instructor signed in with POST /api/v1/session",
+    },
 }
 STREAM_TEXT = """The live stream of a run: websocket `GET /api/v1/runs/{run_id}/stream`,
 subprotocol `elab.v1`, every message one msgpack map with a `type`. The server sends `hello`
@@ -80,7 +103,7 @@ def openapi_document() -> dict[str, Any]:
     for e in ENDPOINTS:
         if e.body is not None:
             roots.append((e.body, "validation"))
-        if e.response not in (None, "file"):
+        if e.response is not None and e.response != "file":
             roots.append((e.response, "serialization"))
         if e.stream is not None:
             roots.append((e.stream, "serialization"))
@@ -93,7 +116,9 @@ def openapi_document() -> dict[str, Any]:
         "openapi": "3.1.0",
         "info": {"title": "E-Lab API", "version": s.PROTOCOL, "description": STREAM_TEXT},
         "paths": paths,
-        "components": {"schemas": dict(sorted(defs.items()))},
+        "components": {"schemas": dict(sorted(defs.items())), "securitySchemes": SECURITY},
+        # every operation answers without credentials too (a new anonymous identity)
+        "security": [{}, {"bearer": []}, {"browser": []}, {"instructor": []}],
     }
 
 
@@ -121,7 +146,9 @@ def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict
             "required": True,
             "content": {"application/json": {"schema": ref[id(e.body), "validation"]}},
         }
-    if e.response == "file":
+    if e.response is None:
+        content = {}
+    elif e.response == "file":
         content = {
             m: {"schema": {"type": "string", "format": "binary"}}
             for m in ("text/csv", "application/x-matlab-data")
@@ -134,6 +161,8 @@ def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict
     op["responses"] = {
         str(e.status): {"description": STATUS_TEXT.get(e.status, "OK"), "content": content}
     }
+    if e.status == 204:
+        op["responses"]["204"] = {"description": STATUS_TEXT[204]}
     if e.links:
         op["responses"][str(e.status)]["links"] = {
             target: {"operationId": target, "parameters": {param: "$response.body#/id"}}
@@ -170,6 +199,13 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.IdentOut, "serialization"),
     (s.IdentLine, "serialization"),
     (s.StreamClose, "serialization"),
+    (s.Me, "serialization"),
+    (s.SignIn, "validation"),
+    (s.TokenCreate, "validation"),
+    (s.TokenInfo, "serialization"),
+    (s.TokenCreated, "serialization"),
+    (s.DemoPin, "validation"),
+    (s.DemoInfo, "serialization"),
     # the unions by name, as clients build them and as the server describes them
     (s.Controller, "validation"),
     (s.Controller, "serialization"),

@@ -1,4 +1,7 @@
-"""``/runs``: start, list, inspect, control and download runs."""
+"""``/runs``: start, list, inspect, control, delete and download runs.
+
+Every run belongs to whoever started it (:mod:`elab.api.auth`); the rules of
+:mod:`elab.access` decide who may do what, in the run manager."""
 
 from __future__ import annotations
 
@@ -9,8 +12,10 @@ from typing import Any
 from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response, StreamingResponse
 
+from elab.access import Identity, display_name, may_control
 from elab.api import convert
 from elab.api import schemas as s
+from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_float, query_int, read_model
 from elab.engines.base import Action, EngineStatus, StoreHealth
 from elab.errors import InvalidInput
@@ -32,11 +37,11 @@ def manager(request: HTTPConnection) -> RunManager:
     return request.app.state.manager  # type: ignore[no-any-return]
 
 
-def run_summary(record: RunSummary) -> s.RunSummaryInfo:
-    return s.RunSummaryInfo(**_summary_fields(record))
+def run_summary(record: RunSummary, who: Identity) -> s.RunSummaryInfo:
+    return s.RunSummaryInfo(**_summary_fields(record, who))
 
 
-def _summary_fields(record: RunSummary) -> dict[str, Any]:
+def _summary_fields(record: RunSummary, who: Identity) -> dict[str, Any]:
     return {
         "id": record.id,
         "plant": record.plant,
@@ -52,6 +57,10 @@ def _summary_fields(record: RunSummary) -> dict[str, Any]:
         "finished_at": record.finished_at,
         "error": record.error,
         "url": f"/api/v1/runs/{record.id}",
+        "owner": display_name(record.owner),
+        "private": record.private,
+        "mine": bool(who.id) and record.owner == who.id,
+        "can_control": may_control(who, record.owner),
     }
 
 
@@ -59,7 +68,7 @@ async def run_info(request: HTTPConnection, record: RunRecord) -> s.RunInfo:
     changes = await manager(request).param_changes(record.id)
     base = "/api/v1/runs/" + record.id
     return s.RunInfo(
-        **_summary_fields(record),
+        **_summary_fields(record, identity(request)),
         frame_samples=frame_samples(record.Ts),
         stream_url=base + "/stream",
         data_url=base + "/data",
@@ -77,15 +86,26 @@ async def run_info(request: HTTPConnection, record: RunRecord) -> s.RunInfo:
     body=s.RunCreate,
     response=s.RunInfo,
     status=201,
-    errors=(404, 409, 413, 422, 429, 503),
+    errors=(404, 409, 413, 415, 422, 429, 503),
     links=tuple(
         (op, "run_id")
-        for op in ("get_run", "pause_run", "resume_run", "stop_run", "set_params", "get_data")
+        for op in (
+            "get_run",
+            "pause_run",
+            "resume_run",
+            "stop_run",
+            "set_params",
+            "get_data",
+            "delete_run",
+        )
     ),
 )
 async def create_run(request: Request) -> Response:
     """Starts stepping at once (paced to real time unless ``pace`` is ``fast``). Follow it on
-    ``stream_url`` (websocket, subprotocol ``elab.v1``); download it from ``data_url``."""
+    ``stream_url`` (websocket, subprotocol ``elab.v1``); download it from ``data_url``.
+    The run belongs to the caller; a real-time run whose owner has had no connection to
+    it (its stream, or a request about it) for ``ELAB_OWNER_GRACE`` s pauses, and stops
+    at ``ELAB_OWNER_GONE`` s."""
     req = await read_model(request, s.RunCreate)
     plant = get_plant(req.plant)
     if req.mode == "rig":
@@ -103,7 +123,8 @@ async def create_run(request: Request) -> Response:
         mode=req.mode,
         experiment=req.experiment,
         request=req.model_dump(mode="json"),
-        client=client_of(request),
+        who=identity(request),
+        private=req.private,
     )
     return ok(await run_info(request, record), status=201)
 
@@ -111,12 +132,19 @@ async def create_run(request: Request) -> Response:
 @endpoint(
     "GET",
     "/runs",
-    "List runs, newest first",
+    "List runs, newest first (others' private runs only for instructors)",
     response=s.RunList,
     errors=(422,),
     params=(
         Param(
             "plant", "query", "only runs of this plant", {"type": "string", "enum": list(PLANTS)}
+        ),
+        Param("owner", "query", "me: only the caller's runs", {"type": "string", "enum": ["me"]}),
+        Param(
+            "live",
+            "query",
+            "true: only runs that are live (created, running or paused)",
+            {"type": "string", "enum": ["true", "false"]},
         ),
         Param(
             "limit",
@@ -137,11 +165,34 @@ async def list_runs(request: Request) -> Response:
     plant = query(request, "plant")
     if plant is not None and plant not in PLANTS:
         raise InvalidInput("plant", plant, "one of " + ", ".join(PLANTS))
+    owner = query(request, "owner")
+    if owner not in (None, "me"):
+        raise InvalidInput("owner", owner, "me (or leave it out for every run you may see)")
+    live = query(request, "live")
+    if live not in (None, "true", "false"):
+        raise InvalidInput("live", live, "true or false")
     limit = query_int(request, "limit", 50, 1, 500)
     offset = query_int(request, "offset", 0, 0, 10**9)
-    records, total = await m.page(plant=plant, limit=limit, offset=offset)
+    who = identity(request)
+    mine = who.id if owner == "me" else None
+    if owner == "me" and not who.id:
+        records: list[RunSummary] = []
+        total = 0
+    elif live == "true":
+        every = [
+            r
+            for r in m.live_runs()[::-1]
+            if (plant is None or r.plant == plant)
+            and (mine is None or r.owner == mine)
+            and (not r.private or may_control(who, r.owner))
+        ]
+        records, total = list(every[offset : offset + limit]), len(every)
+    else:
+        records, total = await m.page(who=who, plant=plant, owner=mine, limit=limit, offset=offset)
     return ok(
-        s.RunList(runs=[run_summary(r) for r in records], total=total, limit=limit, offset=offset)
+        s.RunList(
+            runs=[run_summary(r, who) for r in records], total=total, limit=limit, offset=offset
+        )
     )
 
 
@@ -221,12 +272,6 @@ def server_model(status: dict[str, Any], jobs: s.JobsInfo) -> s.ServerStatus:
     )
 
 
-def client_of(request: HTTPConnection) -> str | None:
-    """Who a request counts against for per-client limits: its address (one identity per
-    browser comes with accounts; docs/operations.md)."""
-    return request.client.host if request.client else None
-
-
 @endpoint(
     "GET",
     "/runs/{run_id}",
@@ -236,12 +281,28 @@ def client_of(request: HTTPConnection) -> str | None:
     errors=(404,),
 )
 async def get_run(request: Request) -> Response:
-    return ok(await run_info(request, await manager(request).get(request.path_params["run_id"])))
+    record = await manager(request).get(request.path_params["run_id"], identity(request))
+    return ok(await run_info(request, record))
 
 
 async def _control(request: Request, action: Action) -> Response:
-    record = await manager(request).control(request.path_params["run_id"], action)
+    record = await manager(request).control(
+        request.path_params["run_id"], action, identity(request)
+    )
     return ok(await run_info(request, record))
+
+
+@endpoint(
+    "DELETE",
+    "/runs/{run_id}",
+    "Delete an ended run and its recording (its owner or an instructor)",
+    params=(RUN_ID,),
+    status=204,
+    errors=(403, 404, 409, 503),
+)
+async def delete_run(request: Request) -> Response:
+    await manager(request).delete(request.path_params["run_id"], identity(request))
+    return Response(status_code=204)
 
 
 @endpoint(
@@ -250,7 +311,7 @@ async def _control(request: Request, action: Action) -> Response:
     "Stop a run; its samples so far stay recorded",
     response=s.RunInfo,
     params=(RUN_ID,),
-    errors=(404, 409, 503),
+    errors=(403, 404, 409, 503),
 )
 async def stop_run(request: Request) -> Response:
     return await _control(request, "stop")
@@ -262,7 +323,7 @@ async def stop_run(request: Request) -> Response:
     "Pause a run (its clock stops)",
     response=s.RunInfo,
     params=(RUN_ID,),
-    errors=(404, 409, 503),
+    errors=(403, 404, 409, 503),
 )
 async def pause_run(request: Request) -> Response:
     return await _control(request, "pause")
@@ -274,7 +335,7 @@ async def pause_run(request: Request) -> Response:
     "Resume a paused run",
     response=s.RunInfo,
     params=(RUN_ID,),
-    errors=(404, 409, 503),
+    errors=(403, 404, 409, 503),
 )
 async def resume_run(request: Request) -> Response:
     return await _control(request, "resume")
@@ -287,22 +348,25 @@ async def resume_run(request: Request) -> Response:
     body=s.ParamsUpdate,
     response=s.ParamsApplied,
     params=(RUN_ID,),
-    errors=(404, 409, 413, 422, 503),
+    errors=(403, 404, 409, 413, 415, 422, 503),
 )
 async def set_params(request: Request) -> Response:
     """Applied from the next sample; the change and its sample index are recorded."""
     req = await read_model(request, s.ParamsUpdate)
     run_id = request.path_params["run_id"]
-    k = await apply_params(manager(request), run_id, req.controller, req.signal)
-    record = await manager(request).get(run_id)
+    who = identity(request)
+    k = await apply_params(manager(request), run_id, req.controller, req.signal, who)
+    record = await manager(request).get(run_id, who)
     return ok(s.ParamsApplied(k=k, t=k * record.Ts))
 
 
-async def apply_params(m: RunManager, run_id: str, controller: Any, signal: Any) -> int:
+async def apply_params(
+    m: RunManager, run_id: str, controller: Any, signal: Any, who: Identity
+) -> int:
     """Shared by REST and the websocket's ``set_params``."""
     if controller is None and signal is None:
         raise InvalidInput("body", {}, "controller and/or signal")
-    record = await m.get(run_id)
+    record = await m.get(run_id, who)
     plant = get_plant(record.plant)
     params = {
         k: v.model_dump(mode="json")
@@ -314,6 +378,7 @@ async def apply_params(m: RunManager, run_id: str, controller: Any, signal: Any)
         law=convert.law(controller, plant) if controller else None,
         reference=convert.signal(signal) if signal else None,
         params=params,
+        who=who,
     )
 
 
@@ -345,7 +410,7 @@ async def get_data(request: Request) -> Response:
     if fmt not in FORMATS:
         raise InvalidInput("format", fmt, ", ".join(FORMATS))
     m = manager(request)
-    record = await m.get(request.path_params["run_id"])
+    record = await m.get(request.path_params["run_id"], identity(request))
     read = m.snapshot(record.id)  # at once after: the same moment of a live run
     changes = await m.param_changes(record.id)
     rec = export.Recording(
@@ -379,16 +444,21 @@ async def get_data(request: Request) -> Response:
 
 def _header(record: RunRecord) -> dict[str, str]:
     spec = record.spec
-    return {
+    header = {
         "run": record.id,
         "plant": record.plant,
         "mode": record.mode,
         "experiment": record.experiment,
         "status": record.status,
+        "owner": display_name(record.owner),
+        "reason": record.error or "",
         "controller": _compact(spec.get("controller")),
         "signal": _compact(spec.get("signal")),
         "generator": "elab serve",
     }
+    if record.error:  # who stopped it and why, why it failed or was interrupted
+        header["reason"] = record.error
+    return header
 
 
 def _compact(obj: Any) -> str:

@@ -157,6 +157,10 @@ class RunCreate(Model):
     saturate: bool | None = None
     Ts: Finite | None = Field(None, gt=0)
     x0: list[Finite] | None = Field(None, max_length=64)
+    private: bool = Field(
+        False,
+        description="only its owner and instructors may see it (default: anyone with its link)",
+    )
 
 
 class ChannelInfo(Model):
@@ -212,8 +216,17 @@ class RunSummaryInfo(Model):
     created_at: float
     started_at: float | None
     finished_at: float | None
-    error: str | None = Field(description="why it failed, stopped early or was interrupted")
+    error: str | None = Field(
+        description="why it failed, stopped early (who stopped it) or was interrupted"
+    )
     url: str
+    owner: str = Field(description="who started it, as others see them (guest 3f2a, a name)")
+    private: bool
+    mine: bool = Field(description="the caller started it")
+    can_control: bool = Field(
+        description="the caller may pause, resume, stop, change and delete it (its owner or "
+        "an instructor)"
+    )
 
 
 class RunInfo(RunSummaryInfo):
@@ -222,6 +235,51 @@ class RunInfo(RunSummaryInfo):
     data_url: str
     request: dict[str, Any]
     param_changes: list[ParamChangeInfo] = []
+
+
+# -- who may do what ------------------------------------------------------------------
+class Me(Model):
+    """Who the server takes the caller for."""
+
+    id: str | None = Field(description="what owned objects record (null: no identity)")
+    name: str = Field(description="as others see it")
+    role: Literal["student", "instructor"]
+    via: Literal["cookie", "session", "token", "none"] = Field(
+        description="cookie: the browser's anonymous identity; session: an instructor "
+        "signed in; token: an API token"
+    )
+
+
+class SignIn(Model):
+    name: str = Field(min_length=1, max_length=40)
+    password: str = Field(min_length=1, max_length=200)
+
+
+class TokenCreate(Model):
+    name: str = Field(min_length=1, max_length=60, description="what it is for")
+
+
+class TokenInfo(Model):
+    id: str
+    name: str
+    created_at: float
+    last_used: float | None
+
+
+class TokenCreated(TokenInfo):
+    token: str = Field(description="send as Authorization: Bearer <token>; shown once, never again")
+
+
+class DemoPin(Model):
+    run_id: str = Field(min_length=1, max_length=64)
+
+
+class DemoInfo(Model):
+    """The class demo an instructor pinned (``run`` null: none)."""
+
+    run: RunSummaryInfo | None
+    pinned_by: str | None = None
+    pinned_at: float | None = None
 
 
 class StepperTiming(Model):
@@ -464,7 +522,17 @@ class FieldError(Model):
 
 
 class ErrorDetail(Model):
-    code: Literal["invalid", "not_found", "conflict", "too_many", "too_large", "unavailable"]
+    code: Literal[
+        "invalid",
+        "not_found",
+        "conflict",
+        "too_many",
+        "too_large",
+        "unavailable",
+        "forbidden",
+        "unauthorized",
+        "unsupported_media_type",
+    ]
     message: str
     field: str | None = None
     errors: list[FieldError] = []

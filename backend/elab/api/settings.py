@@ -17,6 +17,8 @@ from elab.runs.limits import Limits
 
 #: the stepping thread's SCHED_FIFO priority by default (1..99; the kernel's threads: 50)
 REALTIME = 10
+#: the host names a server on one's own machine answers to
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,17 @@ class Settings:
     ``engine_stall`` s without a heartbeat before it is restarted (``ELAB_ENGINE_STALL``,
     30). Identification: ``ident_workers`` processes (``ELAB_IDENT_WORKERS``, 1),
     ``ident_timeout`` s per job (``ELAB_IDENT_TIMEOUT``, 120), ``ident_wait`` s a request
-    waits for a worker (``ELAB_IDENT_WAIT``, 30)."""
+    waits for a worker (``ELAB_IDENT_WAIT``, 30); per identity at once: identifications
+    ``max_ident_per_identity`` (``ELAB_MAX_IDENT_PER_IDENTITY``, 2) and large bodies
+    ``max_uploads_per_identity`` (``ELAB_MAX_UPLOADS_PER_IDENTITY``, 2).
+
+    Access (docs/access.md): ``secret`` signs identity cookies (``ELAB_SECRET``; default:
+    made once and kept in the data directory), ``hosts`` the ``Host`` names the server
+    answers (``ELAB_HOSTS``, loopback names; ``*``: any), ``origins`` other origins whose
+    pages may call it (``ELAB_ORIGINS``; default: none but its own), ``instructors`` a
+    file of instructor accounts (``ELAB_INSTRUCTORS``), ``secure_cookies`` behind HTTPS
+    (``ELAB_SECURE_COOKIES``, 0), ``session_hours`` an instructor's sign-in lasts
+    (``ELAB_SESSION_HOURS``, 12)."""
 
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
@@ -52,6 +64,14 @@ class Settings:
     ident_workers: int = 1
     ident_timeout: float = 120.0
     ident_wait: float = 30.0
+    max_ident_per_identity: int = 2
+    max_uploads_per_identity: int = 2
+    secret: str | None = None
+    hosts: tuple[str, ...] = LOOPBACK
+    origins: tuple[str, ...] = ()
+    instructors: Path | None = None
+    secure_cookies: bool = False
+    session_hours: float = 12.0
 
     @property
     def database(self) -> Path:
@@ -62,7 +82,14 @@ class Settings:
         d = Limits()
         limits = Limits(
             max_live=_int(env, "ELAB_MAX_LIVE_RUNS", d.max_live),
-            max_live_per_client=_int(env, "ELAB_MAX_LIVE_PER_CLIENT", d.max_live_per_client),
+            max_live_per_identity=_int(env, "ELAB_MAX_LIVE_PER_IDENTITY", d.max_live_per_identity),
+            max_runs_per_identity=_int(env, "ELAB_MAX_RUNS_PER_IDENTITY", d.max_runs_per_identity),
+            max_storage_per_identity=_int(
+                env, "ELAB_MAX_STORAGE_PER_IDENTITY", d.max_storage_per_identity
+            ),
+            retention=_float(env, "ELAB_RETENTION", d.retention, zero=True),
+            owner_grace=_float(env, "ELAB_OWNER_GRACE", d.owner_grace),
+            owner_gone=_float(env, "ELAB_OWNER_GONE", d.owner_gone),
             max_duration=_float(env, "ELAB_MAX_DURATION", d.max_duration),
             max_samples=_int(env, "ELAB_MAX_RUN_SAMPLES", d.max_samples),
             max_recording=_int(env, "ELAB_MAX_RECORDING", d.max_recording),
@@ -91,6 +118,14 @@ class Settings:
             ident_workers=_int(env, "ELAB_IDENT_WORKERS", 1, hi=64),
             ident_timeout=_float(env, "ELAB_IDENT_TIMEOUT", 120.0),
             ident_wait=_float(env, "ELAB_IDENT_WAIT", 30.0),
+            max_ident_per_identity=_int(env, "ELAB_MAX_IDENT_PER_IDENTITY", 2),
+            max_uploads_per_identity=_int(env, "ELAB_MAX_UPLOADS_PER_IDENTITY", 2),
+            secret=_secret(env),
+            hosts=_names(env, "ELAB_HOSTS", LOOPBACK),
+            origins=tuple(_origin(o) for o in _names(env, "ELAB_ORIGINS", ())),
+            instructors=Path(env["ELAB_INSTRUCTORS"]) if env.get("ELAB_INSTRUCTORS") else None,
+            secure_cookies=_int(env, "ELAB_SECURE_COOKIES", 0, lo=0, hi=1) == 1,
+            session_hours=_float(env, "ELAB_SESSION_HOURS", 12.0),
         )
 
 
@@ -107,7 +142,7 @@ def _int(env: Mapping[str, str], name: str, default: int, lo: int = 1, hi: int =
     return value
 
 
-def _float(env: Mapping[str, str], name: str, default: float) -> float:
+def _float(env: Mapping[str, str], name: str, default: float, zero: bool = False) -> float:
     raw = env.get(name)
     if raw is None:
         return default
@@ -115,6 +150,31 @@ def _float(env: Mapping[str, str], name: str, default: float) -> float:
         value = float(raw)
     except ValueError:
         value = float("nan")
-    if not 0 < value < float("inf"):
-        raise InvalidInput(name, raw, "a positive number")
+    if not (value >= 0 if zero else value > 0) or not value < float("inf"):
+        raise InvalidInput(name, raw, "a number ≥ 0" if zero else "a positive number")
     return value
+
+
+def _names(env: Mapping[str, str], name: str, default: tuple[str, ...]) -> tuple[str, ...]:
+    raw = env.get(name)
+    if raw is None:
+        return default
+    names = tuple(n.strip() for n in raw.split(",") if n.strip())
+    if not names:
+        raise InvalidInput(name, raw, "a comma-separated list of names")
+    return names
+
+
+def _origin(raw: str) -> str:
+    """``scheme://host[:port]``, as browsers send it in ``Origin``."""
+    scheme, sep, rest = raw.partition("://")
+    if scheme not in ("http", "https") or not sep or not rest or "/" in rest:
+        raise InvalidInput("ELAB_ORIGINS", raw, "origins like https://lab.example.org")
+    return raw.lower()
+
+
+def _secret(env: Mapping[str, str]) -> str | None:
+    raw = env.get("ELAB_SECRET")
+    if raw is not None and len(raw) < 32:
+        raise InvalidInput("ELAB_SECRET", "…", "at least 32 characters of random text")
+    return raw

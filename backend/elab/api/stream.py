@@ -23,7 +23,9 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
 from websockets.protocol import State
 
+from elab.access import Identity
 from elab.api import schemas as s
+from elab.api.auth import identity
 from elab.api.frames import pack
 from elab.api.http import error_detail, query_int
 from elab.api.runs import apply_params, run_info
@@ -138,9 +140,10 @@ async def stream(
         await ws.close(s.CloseCode.BAD_REQUEST, f"use the websocket subprotocol {s.PROTOCOL}")
         return
     m = ws.app.state.manager
+    who = identity(ws)
     try:
         from_seq = query_int(ws, "from_seq", -1, 0, 2**62)
-        record = await m.get(ws.path_params["run_id"])
+        record = await m.get(ws.path_params["run_id"], who)
     except (NotFound, InvalidInput) as exc:
         await ws.accept(subprotocol=s.PROTOCOL)
         code = s.CloseCode.NOT_FOUND if isinstance(exc, NotFound) else s.CloseCode.BAD_REQUEST
@@ -149,7 +152,11 @@ async def stream(
     await ws.accept(subprotocol=s.PROTOCOL)
     channel = m.channel(record)
     watcher = Watcher(
-        send_bytes, m.codec, max_frames=ws.app.state.settings.watcher_frames, write=write
+        send_bytes,
+        m.codec,
+        max_frames=ws.app.state.settings.watcher_frames,
+        write=write,
+        who=who.id,
     )
     try:
         info = await run_info(ws, record)
@@ -161,7 +168,7 @@ async def stream(
             channel.tell(watcher, m.codec.status(record.status, record.n_stored, record.error))
         async with anyio.create_task_group() as tg:
             tg.start_soon(_send, channel, watcher, tg.cancel_scope)
-            await _receive(ws, m, record.id, channel, watcher)
+            await _receive(ws, m, record.id, channel, watcher, who)
             tg.cancel_scope.cancel()
     except (WebSocketDisconnect, anyio.ClosedResourceError):
         pass
@@ -177,13 +184,15 @@ async def _send(channel: Any, watcher: Watcher, scope: anyio.CancelScope) -> Non
     scope.cancel()  # the client went away (or a send to it failed): stop receiving too
 
 
-async def _receive(ws: WebSocket, m: Any, run_id: str, channel: Any, watcher: Watcher) -> None:
+async def _receive(
+    ws: WebSocket, m: Any, run_id: str, channel: Any, watcher: Watcher, who: Identity
+) -> None:
     while True:
         message = await ws.receive()
         if message["type"] == "websocket.disconnect":
             return
         try:
-            await _handle(_message(message), m, run_id, channel, watcher)
+            await _handle(_message(message), m, run_id, channel, watcher, who)
         except (ValidationError, ElabError, ValueError) as exc:
             channel.tell(watcher, pack(_error(exc)))
 
@@ -198,13 +207,15 @@ def _message(message: Mapping[str, Any]) -> Any:
     return CLIENT.validate_json(message.get("text") or "")
 
 
-async def _handle(msg: Any, m: Any, run_id: str, channel: Any, watcher: Watcher) -> None:
+async def _handle(
+    msg: Any, m: Any, run_id: str, channel: Any, watcher: Watcher, who: Identity
+) -> None:
     if isinstance(msg, s.ResumeFrom):
         channel.resume_from(watcher, msg.seq)
     elif isinstance(msg, s.SetParams):
-        await apply_params(m, run_id, msg.controller, msg.signal)
+        await apply_params(m, run_id, msg.controller, msg.signal, who)
     else:
-        await m.control(run_id, msg.type)
+        await m.control(run_id, msg.type, who)
 
 
 def _error(exc: Exception) -> s.ErrorMessage:

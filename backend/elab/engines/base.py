@@ -49,12 +49,15 @@ class RunOrder:
     mode: str
     experiment: str
     request: dict[str, Any]
+    owner: str | None = None  # the identity that started it (elab.access)
+    private: bool = False
 
 
 @dataclass(frozen=True)
 class Changed:
     """Run ``run_id`` entered ``state`` at sample ``k`` (``error``: why it failed, stopped
-    early or was interrupted)."""
+    early or was interrupted; why it paused, for a pause with a reason; only an ended
+    run's is recorded)."""
 
     run_id: str
     state: RunState
@@ -152,8 +155,10 @@ class Engine(Protocol):
     async def add(self, order: RunOrder) -> RunRecord:
         """Start stepping a run; its record, as stored."""
 
-    async def control(self, run_id: str, action: Action) -> int:
-        """Pause, resume or stop a run; returns the sample index it happened at."""
+    async def control(self, run_id: str, action: Action, reason: str | None = None) -> int:
+        """Pause, resume or stop a run; returns the sample index it happened at. ``reason``
+        (who did it and why) goes with the change to the watchers and, for a stop, into
+        the record."""
 
     async def replace(
         self,

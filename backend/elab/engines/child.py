@@ -206,7 +206,7 @@ def _serve(
             order = wire.order_in(h["order"])
             _reply_when(workers.submit(engine.add, order), outbox, cid, wire.record_out)
         elif op == "control":
-            _reply_when(engine.control(h["run"], h["action"]), outbox, cid, int)
+            _reply_when(engine.control(h["run"], h["action"], h["reason"]), outbox, cid, int)
         elif op == "replace":
             _reply_when(
                 workers.submit(

@@ -134,8 +134,10 @@ class ProcessEngine:
     async def add(self, order: RunOrder) -> RunRecord:
         return wire.record_in(await self._call({"op": "add", "order": wire.order_out(order)}))
 
-    async def control(self, run_id: str, action: Action) -> int:
-        return int(await self._call({"op": "control", "run": run_id, "action": action}))
+    async def control(self, run_id: str, action: Action, reason: str | None = None) -> int:
+        return int(
+            await self._call({"op": "control", "run": run_id, "action": action, "reason": reason})
+        )
 
     async def replace(
         self,

@@ -208,7 +208,7 @@ class Recorder:
                     self.store.set_status(
                         op.run_id,
                         op.state.value,
-                        error=op.error,
+                        error=op.error if op.final else None,  # a pause's reason is news only
                         finished_at=time.time() if op.final else None,
                     )
             except StoreError:

@@ -141,6 +141,8 @@ class SimulationEngine:
             created_at=now,
             started_at=now,
             engine=self.id,
+            owner=order.owner,
+            private=order.private,
         )
         self.store.create_run(record)
         self.recorder.open(record.id, len(record.channels))
@@ -149,8 +151,8 @@ class SimulationEngine:
         self.stepper.add(record.id, run, order.pace, t_origin=origin)
         return record
 
-    def control(self, run_id: str, action: Action) -> Future[int]:
-        return self.stepper.control(run_id, action)
+    def control(self, run_id: str, action: Action, reason: str | None = None) -> Future[int]:
+        return self.stepper.control(run_id, action, reason)
 
     def replace(
         self,

@@ -120,12 +120,13 @@ class Stepper:
         clock; default: when the command is applied)."""
         self._commands.put(lambda: self._add(run_id, run, pace, t_origin))
 
-    def control(self, run_id: str, action: str) -> Future[int]:
-        """Pause, resume or stop; the sample index it happened at, or :class:`Conflict`."""
+    def control(self, run_id: str, action: str, reason: str | None = None) -> Future[int]:
+        """Pause, resume or stop (``reason``: who and why, carried by the change); the sample
+        index it happened at, or :class:`Conflict`."""
         target = {"pause": RunState.PAUSED, "resume": RunState.RUNNING, "stop": RunState.STOPPED}[
             action
         ]
-        return self._call(lambda: self._control(run_id, target))
+        return self._call(lambda: self._control(run_id, target, reason))
 
     def replace(
         self, run_id: str, run: CompiledRun, *, controller: bool, signals: bool
@@ -171,11 +172,11 @@ class Stepper:
             raise Conflict(f"run {run_id} has ended: it no longer steps")
         return live
 
-    def _control(self, run_id: str, target: RunState) -> int:
+    def _control(self, run_id: str, target: RunState, reason: str | None) -> int:
         live = self._live(run_id)
         transition(live.state, target)  # Conflict if not allowed
         if target is RunState.STOPPED:
-            ended = self._end(live, RunState.STOPPED)
+            ended = self._end(live, RunState.STOPPED, reason)
             self._on_tick([], [ended])
             return ended.k
         if target is RunState.PAUSED:
@@ -187,7 +188,7 @@ class Stepper:
             live.paused_at = None
         self._table.paused[live.slot] = target is RunState.PAUSED
         live.state = target
-        self._on_tick([], [Changed(run_id, target, self._k(live))])
+        self._on_tick([], [Changed(run_id, target, self._k(live), reason)])
         return self._k(live)
 
     def _replace(self, run_id: str, run: CompiledRun, controller: bool, signals: bool) -> int:

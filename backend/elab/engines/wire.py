@@ -107,6 +107,8 @@ def order_out(order: RunOrder) -> dict[str, Any]:
         "mode": order.mode,
         "experiment": order.experiment,
         "request": order.request,
+        "owner": order.owner,
+        "private": order.private,
     }
 
 
@@ -118,6 +120,8 @@ def order_in(data: dict[str, Any]) -> RunOrder:
         mode=data["mode"],
         experiment=data["experiment"],
         request=data["request"],
+        owner=data["owner"],
+        private=data["private"],
     )
 
 

@@ -77,6 +77,7 @@ class Watcher:
     # writes a message at once if the connection takes it now (True), else does nothing
     # (False: ``send`` then waits for room); None: every message goes through ``send``
     write: Callable[[bytes], bool] | None = None
+    who: str = ""  # the identity watching (elab.access): its run's owner is there
     # (first sample of a frame, or None for a control message, payload)
     items: deque[tuple[int | None, bytes]] = field(default_factory=deque)
     frames_queued: int = 0

@@ -1,8 +1,8 @@
-"""What one run, and one client, may ask of the server: checked before anything starts.
+"""What one run, and one identity, may ask of the server: checked before anything starts.
 
 Each limit is an environment setting of ``elab serve`` (docs/operations.md);
 a run over a size limit gets :class:`~elab.errors.InvalidInput` naming the field
-and what is allowed (HTTP 422), a client over a count limit gets
+and what is allowed (HTTP 422), an identity over a count or storage limit gets
 :class:`~elab.errors.TooMany` saying which limit and when to retry (HTTP 429).
 """
 
@@ -16,14 +16,24 @@ from elab.sim.spec import RunSpec
 
 @dataclass(frozen=True)
 class Limits:
-    """``max_live`` runs live on the server (``ELAB_MAX_LIVE_RUNS``) and per client
-    (``ELAB_MAX_LIVE_PER_CLIENT``); ``max_duration`` s per run (``ELAB_MAX_DURATION``);
+    """``max_live`` runs live on the server (``ELAB_MAX_LIVE_RUNS``) and per identity
+    (``ELAB_MAX_LIVE_PER_IDENTITY``); ``max_duration`` s per run (``ELAB_MAX_DURATION``);
     ``max_samples`` per run (``ELAB_MAX_RUN_SAMPLES``); ``max_recording`` bytes per
     recording (``ELAB_MAX_RECORDING``); the sample time at least the plant's default
-    divided by ``ts_ratio`` (``ELAB_TS_RATIO``)."""
+    divided by ``ts_ratio`` (``ELAB_TS_RATIO``). Kept runs: ``max_runs_per_identity``
+    (``ELAB_MAX_RUNS_PER_IDENTITY``) and ``max_storage_per_identity`` bytes of samples
+    (``ELAB_MAX_STORAGE_PER_IDENTITY``), ended runs deleted ``retention`` s after they
+    ended (``ELAB_RETENTION``; 0: kept for ever). Runs nobody watches: a real-time run
+    whose owner has had no connection to it for ``owner_grace`` s pauses
+    (``ELAB_OWNER_GRACE``) and stops at ``owner_gone`` s (``ELAB_OWNER_GONE``)."""
 
     max_live: int = 400
-    max_live_per_client: int = 20
+    max_live_per_identity: int = 20
+    max_runs_per_identity: int = 500
+    max_storage_per_identity: int = 2 << 30
+    retention: float = 30 * 86400.0
+    owner_grace: float = 60.0
+    owner_gone: float = 600.0
     max_duration: float = 3600.0
     max_samples: int = 3_600_000
     max_recording: int = 256 << 20

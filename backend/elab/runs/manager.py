@@ -12,8 +12,11 @@ the engine reports its final record stored; after that the store answers.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
+import math
 import secrets
+import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -22,8 +25,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from elab.access import Identity, may_view, require_control
 from elab.engines.base import Action, Block, Changed, Engine, Health, Pace, RunOrder
-from elab.errors import Conflict, ElabError, TooMany
+from elab.errors import Conflict, ElabError, NotFound, TooMany
 from elab.laws import ControlLaw
 from elab.lifecycle import RunState
 from elab.runs.fanout import Codec, RunChannel, Sender, publish_block
@@ -45,8 +49,9 @@ class _Run:
     record: RunRecord  # as started; status and progress below
     engine: str
     channel: RunChannel
-    client: str | None
     state: RunState = RunState.RUNNING
+    seen: float = field(default_factory=time.monotonic)  # its owner was last connected
+    idle_paused: bool = False  # paused because nobody watched it
     error: str | None = None
     next_k: int = 0  # the next sample expected from the engine
     committed: int = 0  # samples [0, committed) are in the store
@@ -56,6 +61,7 @@ class _Run:
     end_status: bytes | None = None  # the final status, held back while filling
     stored: bool = False
     moved: asyncio.Event = field(default_factory=asyncio.Event)  # committed grew / it ended
+    forgotten: asyncio.Event = field(default_factory=asyncio.Event)  # stored; the store answers
 
     def current(self) -> RunRecord:
         return replace(
@@ -83,14 +89,18 @@ class RunManager:
         self._runs: dict[str, _Run] = {}
         self._channels: dict[str, RunChannel] = {}
         self._sender = Sender()  # one pass over all watchers per tick
-        self._clients: dict[str, str | None] = {}  # run id → client, while it starts
-        self._starting: Counter[str | None] = Counter()
+        self._starting: Counter[str | None] = Counter()  # runs being started, by owner
         self._tasks: set[asyncio.Task[None]] = set()
+        self._patrol_task: asyncio.Task[None] | None = None
 
     async def start(self) -> None:
         await self.engine.start(self)
+        self._patrol_task = asyncio.get_running_loop().create_task(self._patrol())
 
     async def close(self) -> None:
+        if self._patrol_task is not None:
+            self._patrol_task.cancel()
+            await asyncio.gather(self._patrol_task, return_exceptions=True)
         await self.engine.close()
 
     # -- queries ---------------------------------------------------------------
@@ -107,20 +117,46 @@ class RunManager:
             "engine": st,
         }
 
-    async def get(self, run_id: str) -> RunRecord:
+    async def get(self, run_id: str, who: Identity | None = None) -> RunRecord:
+        """A run as it is now; given ``who``, :class:`NotFound` for a private run of
+        someone else (as if it did not exist)."""
         run = self._runs.get(run_id)
-        if run is not None:
-            return run.current()
-        return await asyncio.to_thread(self.store.get_run, run_id)
+        record = run.current() if run is not None else None
+        if record is None:
+            record = await asyncio.to_thread(self.store.get_run, run_id)
+        if who is not None and not may_view(who, record.owner, record.private):
+            raise NotFound("run", run_id)
+        if who is not None and run is not None and who.id and who.id == record.owner:
+            run.seen = time.monotonic()  # its owner asked about it: someone is there
+        return record
 
     async def page(
-        self, *, plant: str | None, limit: int, offset: int
+        self,
+        *,
+        who: Identity,
+        plant: str | None = None,
+        owner: str | None = None,
+        limit: int = 50,
+        offset: int = 0,
     ) -> tuple[list[RunSummary], int]:
-        """A page of runs, newest first (live ones with their current state)."""
+        """A page of the runs ``who`` may see (of ``owner`` if given), newest first, live
+        ones with their current state."""
         runs, total = await asyncio.to_thread(
-            self.store.list_runs, plant=plant, limit=limit, offset=offset
+            self.store.list_runs,
+            plant=plant,
+            owner=owner,
+            viewer=None if who.instructor else who.id,
+            limit=limit,
+            offset=offset,
         )
         return [self._runs[r.id].current() if r.id in self._runs else r for r in runs], total
+
+    def live_runs(self) -> list[RunRecord]:
+        """Every live run, oldest first (for instructors)."""
+        return sorted(
+            (r.current() for r in self._runs.values() if r.state.live),
+            key=lambda r: r.created_at,
+        )
 
     async def param_changes(self, run_id: str) -> list[ParamChange]:
         run = self._runs.get(run_id)
@@ -165,21 +201,59 @@ class RunManager:
         mode: str,
         experiment: str,
         request: dict[str, Any],
-        client: str | None = None,
+        who: Identity,
+        private: bool = False,
     ) -> RunRecord:
-        """Check the run against the limits and start it on the engine."""
+        """Check the run against the limits and start it on the engine, owned by ``who``."""
         plant = spec.plant
-        self.limits.check(spec, 2 + plant.ny + plant.nx)
-        self._check_room(client)
-        run_id = new_run_id()
-        self._clients[run_id] = client
-        self._starting[client] += 1
+        nch = 2 + plant.ny + plant.nx
+        self.limits.check(spec, nch)
+        owner = who.id or None
+        self._check_room(owner)
+        self._starting[owner] += 1
         try:
-            await self.engine.add(RunOrder(run_id, spec, pace, mode, experiment, request))
+            if owner is not None:
+                await self._check_quota(owner, spec, nch)
+            order = RunOrder(new_run_id(), spec, pace, mode, experiment, request, owner, private)
+            record = await self.engine.add(order)
         finally:
-            self._starting[client] -= 1
-            self._clients.pop(run_id, None)
-        return await self.get(run_id)
+            self._starting[owner] -= 1
+        return await self.get(record.id)
+
+    async def _check_quota(self, owner: str, spec: RunSpec, nch: int) -> None:
+        """The runs ``owner`` keeps, with this one, within the per-identity budgets (live
+        runs count at their planned size)."""
+        lim = self.limits
+        used = await asyncio.to_thread(self.store.usage, owner)
+        mine = [r for r in self._runs.values() if r.state.live and r.record.owner == owner]
+        planned = sum(r.record.n_planned * len(r.record.channels) * 8 for r in mine)
+        planned -= sum(r.next_k * len(r.record.channels) * 8 for r in mine)  # stored already
+        Ts = spec.plant.Ts if spec.Ts is None else spec.Ts
+        size = round(spec.duration / Ts) * nch * 8
+        retry = self._retry_hint()
+        if used.runs + 1 > lim.max_runs_per_identity:
+            raise TooMany(
+                f"you keep {used.runs} runs, the limit per identity "
+                f"(ELAB_MAX_RUNS_PER_IDENTITY = {lim.max_runs_per_identity}); delete some "
+                f"under My runs{retry[1]}",
+                retry_after=retry[0],
+            )
+        if used.bytes + planned + size > lim.max_storage_per_identity:
+            raise TooMany(
+                f"your runs hold {_mib(used.bytes + planned)} and this one needs "
+                f"{_mib(size)}, over the storage per identity (ELAB_MAX_STORAGE_PER_IDENTITY"
+                f" = {_mib(lim.max_storage_per_identity)}); delete runs under My runs or "
+                f"start a shorter run{retry[1]}",
+                retry_after=retry[0],
+            )
+
+    def _retry_hint(self) -> tuple[float, str]:
+        """When an identity over its storage budget gains room by itself: its oldest
+        ended run is deleted at most ``retention`` s from now."""
+        r = self.limits.retention
+        if r <= 0:
+            return 3600.0, ""
+        return r, f", or retry when old runs expire (ELAB_RETENTION = {r:g} s after they end)"
 
     def _check_room(self, client: str | None) -> None:
         live = [r for r in self._runs.values() if r.state.live]
@@ -191,20 +265,47 @@ class RunManager:
                 "has ended",
                 retry_after=10.0,
             )
-        mine = sum(r.client == client for r in live) + self._starting[client]
-        if mine >= self.limits.max_live_per_client:
+        if client is None:
+            return
+        mine = sum(r.record.owner == client for r in live) + self._starting[client]
+        if mine >= self.limits.max_live_per_identity:
             raise TooMany(
-                f"you have {mine} live runs, the limit per client "
-                f"(ELAB_MAX_LIVE_PER_CLIENT = {self.limits.max_live_per_client}); "
+                f"you have {mine} live runs, the limit per identity "
+                f"(ELAB_MAX_LIVE_PER_IDENTITY = {self.limits.max_live_per_identity}); "
                 "stop one or retry when one has ended",
                 retry_after=10.0,
             )
 
-    async def control(self, run_id: str, action: Action) -> RunRecord:
-        """Pause, resume or stop; :class:`Conflict` if the run cannot (it has ended)."""
+    async def control(self, run_id: str, action: Action, who: Identity) -> RunRecord:
+        """Pause, resume or stop as ``who``: :class:`Forbidden` unless the owner or an
+        instructor, :class:`Conflict` if the run cannot (it has ended)."""
+        record = await self.get(run_id, who)
+        require_control(who, record.owner, f"run {run_id}", action)
         await self._require_live(run_id)
+        by = "its owner" if who.id == record.owner else who.name
+        reason = {"pause": f"paused by {by}", "stop": f"stopped by {by}"}.get(action)
+        await self._command(run_id, action, reason)
+        run = self._runs.get(run_id)
+        if run is not None:  # someone who may control it is there
+            run.idle_paused, run.seen = False, time.monotonic()
+        return await self.get(run_id)
+
+    async def delete(self, run_id: str, who: Identity) -> None:
+        """Delete an ended run with its recording, as its owner or an instructor."""
+        record = await self.get(run_id, who)
+        require_control(who, record.owner, f"run {run_id}", "delete")
+        run = self._runs.get(run_id)
+        if run is not None and run.state.live:
+            raise Conflict(f"run {run_id} is {record.status}: stop it before deleting it")
+        if run is not None:  # just ended: its last record is on its way to the store
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(run.forgotten.wait(), 10.0)
+        self._channels.pop(run_id, None)
+        await asyncio.to_thread(self.store.delete_run, run_id)
+
+    async def _command(self, run_id: str, action: Action, reason: str | None) -> None:
         try:
-            await self.engine.control(run_id, action)
+            await self.engine.control(run_id, action, reason)
         except Conflict:
             run = self._runs.get(run_id)
             if run is None or not run.state.live:  # it ended meanwhile
@@ -213,7 +314,6 @@ class RunManager:
                     f"run {run_id} has ended ({record.status}): it cannot {action}"
                 ) from None
             raise
-        return await self.get(run_id)
 
     async def set_params(
         self,
@@ -222,8 +322,11 @@ class RunManager:
         law: ControlLaw | None,
         reference: Signal | None,
         params: dict[str, Any],
+        who: Identity,
     ) -> int:
         """Apply a new law and/or reference from the next sample; returns that sample."""
+        record = await self.get(run_id, who)
+        require_control(who, record.owner, f"run {run_id}", "change")
         await self._require_live(run_id)
         return await self.engine.replace(run_id, law=law, reference=reference, params=params)
 
@@ -266,7 +369,7 @@ class RunManager:
         names = tuple(n for n, _ in record.channels)
         ch = RunChannel(names, record.Ts, self._reader(record.id), self.codec, sender=self._sender)
         self._channels[record.id] = ch
-        self._runs[record.id] = _Run(record, engine, ch, self._clients.get(record.id))
+        self._runs[record.id] = _Run(record, engine, ch)
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
         runs = self._runs
@@ -344,6 +447,64 @@ class RunManager:
         for run in runs:
             self.stored(engine, run.record.id)
 
+    # -- runs nobody watches, runs past their retention -----------------------------
+    async def _patrol(self) -> None:
+        """Every second: pause and then stop real-time runs whose owner is gone; every
+        ten minutes, delete runs past the retention."""
+        sweep_at = 0.0
+        while True:
+            await asyncio.sleep(min(1.0, self.limits.owner_grace / 4))
+            now = time.monotonic()
+            for run in list(self._runs.values()):
+                self._look_after(run, now)
+            if self.limits.retention > 0 and now >= sweep_at:
+                sweep_at = now + 600.0
+                self._spawn(self._sweep())
+
+    def _look_after(self, run: _Run, now: float) -> None:
+        owner = run.record.owner
+        if not run.state.live or run.record.spec.get("pace") == "fast":
+            return
+        if owner and any(w.who == owner for w in run.channel.watchers):
+            run.seen = now
+            return
+        gone = now - run.seen
+        lim = self.limits
+        if gone >= lim.owner_gone:
+            reason = (
+                f"stopped: its owner had no connection to it for {lim.owner_gone:g} s "
+                f"(paused after {lim.owner_grace:g} s; ELAB_OWNER_GRACE, ELAB_OWNER_GONE)"
+            )
+            run.seen = math.inf  # once
+            self._spawn(self._quietly(run.record.id, "stop", reason))
+        elif gone >= lim.owner_grace and run.state is RunState.RUNNING and not run.idle_paused:
+            reason = (
+                f"paused: its owner has had no connection to it for {lim.owner_grace:g} s "
+                f"(ELAB_OWNER_GRACE); it stops {lim.owner_gone - lim.owner_grace:g} s later "
+                "unless its owner resumes it"
+            )
+            run.idle_paused = True
+            self._spawn(self._quietly(run.record.id, "pause", reason))
+
+    async def _quietly(self, run_id: str, action: Action, reason: str) -> None:
+        try:
+            await self._command(run_id, action, reason)
+        except ElabError as exc:  # it ended meanwhile, or the engine is down: next round
+            log.info("run %s: %s not done: %s", run_id, action, exc)
+            run = self._runs.get(run_id)
+            if run is not None and run.seen == math.inf:
+                run.seen = time.monotonic() - self.limits.owner_gone + 5.0
+
+    async def _sweep(self) -> None:
+        cutoff = time.time() - self.limits.retention
+        try:
+            while ids := await asyncio.to_thread(self.store.ended_before, cutoff):
+                for run_id in ids:
+                    await asyncio.to_thread(self.store.delete_run, run_id)
+                log.info("deleted %d runs past the retention", len(ids))
+        except ElabError:
+            log.exception("deleting runs past the retention failed; tried again later")
+
     # -- internals -----------------------------------------------------------------
     def _end(self, run: _Run, status: bytes) -> None:
         run.channel.end(status)
@@ -352,6 +513,7 @@ class RunManager:
 
     def _forget(self, run: _Run) -> None:
         self._runs.pop(run.record.id, None)
+        run.forgotten.set()
         self.release(run.record.id, run.channel)
 
     def _out_of_line(self, run: _Run, k0: int, rows: Array) -> None:
@@ -394,3 +556,7 @@ class RunManager:
         task = asyncio.get_running_loop().create_task(coro)
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
+
+
+def _mib(n: int) -> str:
+    return f"{n / (1 << 20):.1f} MiB"

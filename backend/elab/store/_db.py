@@ -45,6 +45,20 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         "CREATE INDEX runs_by_engine ON runs (engine, status)",
         "CREATE TABLE probe (id INTEGER PRIMARY KEY CHECK (id = 1), at REAL NOT NULL)",
     ),
+    (  # 3: who owns a run and whether others may see it; API tokens (only their hashes);
+        # pinned runs (the class demo)
+        "ALTER TABLE runs ADD COLUMN owner TEXT",
+        "ALTER TABLE runs ADD COLUMN private INTEGER NOT NULL DEFAULT 0",
+        "CREATE INDEX runs_by_owner ON runs (owner, created_at)",
+        "CREATE INDEX runs_by_finished ON runs (finished_at)",
+        """CREATE TABLE tokens (
+            id TEXT PRIMARY KEY, hash TEXT NOT NULL UNIQUE, owner TEXT NOT NULL,
+            name TEXT NOT NULL, created_at REAL NOT NULL, last_used REAL)""",
+        "CREATE INDEX tokens_by_owner ON tokens (owner, created_at)",
+        """CREATE TABLE pins (
+            name TEXT PRIMARY KEY, run_id TEXT NOT NULL REFERENCES runs (id),
+            owner TEXT NOT NULL, at REAL NOT NULL)""",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 

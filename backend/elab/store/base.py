@@ -52,6 +52,8 @@ class RunSummary:
     finished_at: float | None = None
     error: str | None = None  # why it failed, stopped early or was interrupted
     engine: str | None = None  # the engine that steps (or stepped) it
+    owner: str | None = None  # the identity that started it (elab.access); None: before owners
+    private: bool = False  # only its owner and instructors may see it
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -69,6 +71,59 @@ class ParamChange:
     k: int
     params: dict[str, Any]  # JSON-able
     at: float
+
+
+@dataclass(frozen=True)
+class Usage:
+    """An owner's runs in the store: how many, and their samples' bytes (8 per value)."""
+
+    runs: int
+    bytes: int
+
+
+@dataclass(frozen=True)
+class Token:
+    """An API token as kept: never the token itself, only its SHA-256 (``hash``)."""
+
+    id: str
+    owner: str
+    name: str
+    created_at: float
+    last_used: float | None = None
+
+
+@dataclass(frozen=True)
+class Pin:
+    """A run pinned under ``name`` (the class demo) by ``owner`` at ``at``."""
+
+    name: str
+    run_id: str
+    owner: str
+    at: float
+
+
+class AccessStore(Protocol):
+    """API tokens and pinned runs (identities themselves are not stored: an anonymous one
+    lives in its browser's signed cookie, instructors in the server's configuration)."""
+
+    def add_token(self, token: Token, digest: str) -> None: ...
+
+    def token_by_digest(self, digest: str) -> Token | None:
+        """The token whose SHA-256 is ``digest``, if any."""
+
+    def touch_token(self, token_id: str, at: float) -> None:
+        """Record a use of the token (``last_used``)."""
+
+    def tokens(self, owner: str) -> list[Token]: ...
+
+    def revoke_token(self, owner: str, token_id: str) -> None:
+        """:class:`NotFound` if ``owner`` has no token ``token_id``."""
+
+    def set_pin(self, pin: Pin) -> None: ...
+
+    def pin(self, name: str) -> Pin | None: ...
+
+    def clear_pin(self, name: str) -> None: ...
 
 
 class RunStore(Protocol):
@@ -91,9 +146,26 @@ class RunStore(Protocol):
     def get_run(self, run_id: str) -> RunRecord: ...
 
     def list_runs(
-        self, *, plant: str | None = None, limit: int = 50, offset: int = 0
+        self,
+        *,
+        plant: str | None = None,
+        owner: str | None = None,
+        viewer: str | None = None,
+        limit: int = 50,
+        offset: int = 0,
     ) -> tuple[list[RunSummary], int]:
-        """A page of runs, newest first, and how many match in all."""
+        """A page of runs, newest first, and how many match in all: of ``plant`` and of
+        ``owner`` if given; ``viewer`` given, private runs only of that owner (``None``:
+        every run, as an instructor sees them)."""
+
+    def delete_run(self, run_id: str) -> None:
+        """Remove an ended run with its samples and changes (:class:`Conflict` if live)."""
+
+    def usage(self, owner: str) -> Usage:
+        """What ``owner``'s runs hold in the store."""
+
+    def ended_before(self, t: float, limit: int = 100) -> list[str]:
+        """Ended runs that finished before ``t`` (unix s), oldest first, not pinned."""
 
     def mark_interrupted(self, engine: str, reason: str) -> list[str]:
         """Every run of ``engine`` still created, running or paused becomes interrupted

@@ -35,11 +35,20 @@ import numpy as np
 from elab.errors import Conflict, DimensionError, ElabError, InvalidInput, NotFound
 from elab.lifecycle import RunState
 from elab.store import _db
-from elab.store.base import Array, ParamChange, RunRecord, RunSummary, StoreError
+from elab.store.base import (
+    Array,
+    ParamChange,
+    Pin,
+    RunRecord,
+    RunSummary,
+    StoreError,
+    Token,
+    Usage,
+)
 
 _SUMMARY = (
     "id, plant, mode, experiment, status, Ts, channels, n_planned, n_stored, "
-    "created_at, started_at, finished_at, error, engine"
+    "created_at, started_at, finished_at, error, engine, owner, private"
 )
 _COLUMNS = _SUMMARY + ", spec"
 _NEWEST_FIRST = "ORDER BY created_at DESC, rowid DESC"
@@ -112,11 +121,13 @@ class SQLiteStore:
             record.finished_at,
             record.error,
             record.engine,
+            record.owner,
+            int(record.private),
             _json("spec", record.spec),
         )
         with self._transaction() as conn:
             try:
-                conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 15)})", row)
+                conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 17)})", row)
             except sqlite3.IntegrityError:
                 raise Conflict(f"run {record.id!r} already exists; choose another id") from None
 
@@ -147,13 +158,27 @@ class SQLiteStore:
         return RunRecord(**_summary_fields(row[:-1]), spec=json.loads(row[-1]))
 
     def list_runs(
-        self, *, plant: str | None = None, limit: int = 50, offset: int = 0
+        self,
+        *,
+        plant: str | None = None,
+        owner: str | None = None,
+        viewer: str | None = None,
+        limit: int = 50,
+        offset: int = 0,
     ) -> tuple[list[RunSummary], int]:
         if limit < 0:
             raise InvalidInput("limit", limit, "an integer >= 0")
         if offset < 0:
             raise InvalidInput("offset", offset, "an integer >= 0")
-        where, args = ("WHERE plant = ?", (plant,)) if plant is not None else ("", ())
+        terms: list[str] = []
+        args: tuple[Any, ...] = ()
+        if plant is not None:
+            terms, args = [*terms, "plant = ?"], (*args, plant)
+        if owner is not None:
+            terms, args = [*terms, "owner = ?"], (*args, owner)
+        if viewer is not None:
+            terms, args = [*terms, "(private = 0 OR owner = ?)"], (*args, viewer)
+        where = "WHERE " + " AND ".join(terms) if terms else ""
         with self._snapshot() as conn:
             total = conn.execute(f"SELECT count(*) FROM runs {where}", args).fetchone()[0]
             rows = conn.execute(
@@ -161,6 +186,36 @@ class SQLiteStore:
                 (*args, limit, offset),
             ).fetchall()
         return [RunSummary(**_summary_fields(r)) for r in rows], int(total)
+
+    def delete_run(self, run_id: str) -> None:
+        with self._transaction() as conn:
+            row = conn.execute("SELECT status FROM runs WHERE id = ?", (run_id,)).fetchone()
+            if row is None:
+                raise NotFound("run", run_id)
+            if row[0] in _LIVE:
+                raise Conflict(f"run {run_id} is {row[0]}: stop it before deleting it")
+            for table in ("chunks", "param_changes", "pins"):
+                conn.execute(f"DELETE FROM {table} WHERE run_id = ?", (run_id,))
+            conn.execute("DELETE FROM runs WHERE id = ?", (run_id,))
+
+    def usage(self, owner: str) -> Usage:
+        with self._snapshot() as conn:
+            runs, values = conn.execute(
+                "SELECT count(*), coalesce(sum(n_stored * json_array_length(channels)), 0) "
+                "FROM runs WHERE owner = ?",
+                (owner,),
+            ).fetchone()
+        return Usage(int(runs), int(values) * 8)
+
+    def ended_before(self, t: float, limit: int = 100) -> list[str]:
+        marks = ", ".join("?" * len(_LIVE))
+        with self._snapshot() as conn:
+            rows = conn.execute(
+                f"SELECT id FROM runs WHERE finished_at < ? AND status NOT IN ({marks}) "
+                "AND id NOT IN (SELECT run_id FROM pins) ORDER BY finished_at LIMIT ?",
+                (t, *_LIVE, limit),
+            ).fetchall()
+        return [r[0] for r in rows]
 
     def mark_interrupted(self, engine: str, reason: str) -> list[str]:
         marks = ", ".join("?" * len(_LIVE))
@@ -275,6 +330,61 @@ class SQLiteStore:
             )
         return out
 
+    # -- tokens and pins (AccessStore) -------------------------------------------
+    def add_token(self, token: Token, digest: str) -> None:
+        with self._transaction() as conn:
+            conn.execute(
+                "INSERT INTO tokens (id, hash, owner, name, created_at, last_used) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                (token.id, digest, token.owner, token.name, token.created_at, token.last_used),
+            )
+
+    def token_by_digest(self, digest: str) -> Token | None:
+        with self._snapshot() as conn:
+            row = conn.execute(
+                "SELECT id, owner, name, created_at, last_used FROM tokens WHERE hash = ?",
+                (digest,),
+            ).fetchone()
+        return Token(*row) if row else None
+
+    def touch_token(self, token_id: str, at: float) -> None:
+        with self._transaction() as conn:
+            conn.execute("UPDATE tokens SET last_used = ? WHERE id = ?", (at, token_id))
+
+    def tokens(self, owner: str) -> list[Token]:
+        with self._snapshot() as conn:
+            rows = conn.execute(
+                "SELECT id, owner, name, created_at, last_used FROM tokens WHERE owner = ? "
+                "ORDER BY created_at",
+                (owner,),
+            ).fetchall()
+        return [Token(*r) for r in rows]
+
+    def revoke_token(self, owner: str, token_id: str) -> None:
+        with self._transaction() as conn:
+            cur = conn.execute("DELETE FROM tokens WHERE id = ? AND owner = ?", (token_id, owner))
+            if cur.rowcount == 0:
+                raise NotFound("token", token_id)
+
+    def set_pin(self, pin: Pin) -> None:
+        with self._transaction() as conn:
+            _size(conn, pin.run_id)  # NotFound for an unknown run
+            conn.execute(
+                "INSERT OR REPLACE INTO pins (name, run_id, owner, at) VALUES (?, ?, ?, ?)",
+                (pin.name, pin.run_id, pin.owner, pin.at),
+            )
+
+    def pin(self, name: str) -> Pin | None:
+        with self._snapshot() as conn:
+            row = conn.execute(
+                "SELECT name, run_id, owner, at FROM pins WHERE name = ?", (name,)
+            ).fetchone()
+        return Pin(*row) if row else None
+
+    def clear_pin(self, name: str) -> None:
+        with self._transaction() as conn:
+            conn.execute("DELETE FROM pins WHERE name = ?", (name,))
+
     # -- health ----------------------------------------------------------------
     def probe(self) -> None:
         with self._transaction() as conn:
@@ -349,6 +459,8 @@ def _summary_fields(row: tuple[Any, ...]) -> dict[str, Any]:
         finished_at,
         error,
         engine,
+        owner,
+        private,
     ) = row
     return {
         "id": id_,
@@ -365,6 +477,8 @@ def _summary_fields(row: tuple[Any, ...]) -> dict[str, Any]:
         "finished_at": finished_at,
         "error": error,
         "engine": engine,
+        "owner": owner,
+        "private": bool(private),
     }
 
 

@@ -1,0 +1,195 @@
+"""Identities over HTTP: who am I, instructor sign-in, API tokens, the class demo.
+
+See :mod:`elab.api.auth` for how a request's identity is found and
+docs/access.md for the whole picture.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+from starlette.requests import Request
+from starlette.responses import Response
+
+from elab.access import Identity, display_name
+from elab.api import schemas as s
+from elab.api.auth import Authority, identity, me_fields, session_cookie_value
+from elab.api.http import Param, endpoint, ok, read_model
+from elab.api.runs import manager, run_summary
+from elab.errors import Forbidden, InvalidInput, NotFound
+from elab.store.base import Pin
+
+DEMO = "demo"
+
+
+def authority(request: Request) -> Authority:
+    return request.app.state.authority  # type: ignore[no-any-return]
+
+
+@endpoint("GET", "/me", "Who the server takes the caller for", response=s.Me, errors=())
+async def me(request: Request) -> Response:
+    """A browser's first request gives it an anonymous identity (a signed cookie); an
+    instructor signed in, or an API token, is that identity instead."""
+    return ok(s.Me(**me_fields(identity(request))))
+
+
+@endpoint(
+    "POST",
+    "/session",
+    "Sign in as an instructor (sets the session cookie)",
+    body=s.SignIn,
+    response=s.Me,
+    errors=(401, 413, 415, 422, 429),
+)
+async def sign_in(request: Request) -> Response:
+    """Accounts are configured by the operator (``ELAB_INSTRUCTORS``). Five failed
+    attempts a minute from one address, then 429."""
+    req = await read_model(request, s.SignIn)
+    auth = authority(request)
+    address = request.client.host if request.client else ""
+    value = await asyncio.to_thread(auth.sign_in, req.name, req.password, address)
+    who = auth.session(value)
+    assert who is not None
+    response = ok(s.Me(**me_fields(who)))
+    response.headers.append("set-cookie", session_cookie_value(auth, value))
+    return response
+
+
+@endpoint(
+    "DELETE",
+    "/session",
+    "Sign out (back to the browser's anonymous identity)",
+    response=s.Me,
+    errors=(),
+)
+async def sign_out(request: Request) -> Response:
+    auth = authority(request)
+    cookie = request.cookies.get("elab_id")
+    who = auth.anonymous(cookie) or Identity("", via="none")
+    response = ok(s.Me(**me_fields(who)))
+    response.headers.append("set-cookie", session_cookie_value(auth, None))
+    return response
+
+
+def _token_owner(request: Request) -> Identity:
+    who = identity(request)
+    if not who.id:
+        raise Forbidden("an API token belongs to an identity: open the lab in a browser first")
+    return who
+
+
+@endpoint(
+    "GET",
+    "/tokens",
+    "The caller's API tokens (not the tokens themselves)",
+    response=list[s.TokenInfo],
+    errors=(),
+)
+async def list_tokens(request: Request) -> Response:
+    who = identity(request)
+    tokens = await asyncio.to_thread(authority(request).store.tokens, who.id) if who.id else []
+    return ok(
+        [
+            s.TokenInfo(id=t.id, name=t.name, created_at=t.created_at, last_used=t.last_used)
+            for t in tokens
+        ]
+    )
+
+
+@endpoint(
+    "POST",
+    "/tokens",
+    "Make an API token that acts as the caller (for scripts and autograders)",
+    body=s.TokenCreate,
+    response=s.TokenCreated,
+    status=201,
+    errors=(403, 413, 415, 422, 429),
+    links=(("revoke_token", "token_id"),),
+)
+async def create_token(request: Request) -> Response:
+    """The token is in this answer only; the server keeps its SHA-256. At most 20 per
+    identity."""
+    req = await read_model(request, s.TokenCreate)
+    who = _token_owner(request)
+    auth = authority(request)
+    have = await asyncio.to_thread(auth.store.tokens, who.id)
+    if len(have) >= 20:
+        raise InvalidInput("name", req.name, "a 21st token: 20 per identity; revoke one first")
+    token, raw = await asyncio.to_thread(auth.make_token, who, req.name)
+    return ok(
+        s.TokenCreated(
+            id=token.id, name=token.name, created_at=token.created_at, last_used=None, token=raw
+        ),
+        status=201,
+    )
+
+
+@endpoint(
+    "DELETE",
+    "/tokens/{token_id}",
+    "Revoke one of the caller's API tokens",
+    params=(Param("token_id", "path", "token id (from POST /tokens)", required=True),),
+    status=204,
+    errors=(404,),
+)
+async def revoke_token(request: Request) -> Response:
+    who = identity(request)
+    token_id = request.path_params["token_id"]
+    if not who.id:
+        raise NotFound("token", token_id)
+    await asyncio.to_thread(authority(request).revoke, who, token_id)
+    return Response(status_code=204)
+
+
+# -- the class demo ------------------------------------------------------------------
+@endpoint(
+    "GET", "/demo", "The run an instructor pinned as the class demo", response=s.DemoInfo, errors=()
+)
+async def get_demo(request: Request) -> Response:
+    pin = await asyncio.to_thread(authority(request).store.pin, DEMO)
+    if pin is None:
+        return ok(s.DemoInfo(run=None))
+    try:
+        record = await manager(request).get(pin.run_id, identity(request))
+    except NotFound:  # private to someone else: not shown
+        return ok(s.DemoInfo(run=None))
+    return ok(
+        s.DemoInfo(
+            run=run_summary(record, identity(request)),
+            pinned_by=display_name(pin.owner),
+            pinned_at=pin.at,
+        )
+    )
+
+
+def _instructor(request: Request, action: str) -> Identity:
+    who = identity(request)
+    if not who.instructor:
+        raise Forbidden(f"only an instructor may {action} the class demo (sign in first)")
+    return who
+
+
+@endpoint(
+    "PUT",
+    "/demo",
+    "Pin a run as the class demo (instructors)",
+    body=s.DemoPin,
+    response=s.DemoInfo,
+    errors=(403, 404, 413, 415, 422),
+)
+async def pin_demo(request: Request) -> Response:
+    req = await read_model(request, s.DemoPin)
+    who = _instructor(request, "pin")
+    record = await manager(request).get(req.run_id, who)
+    await asyncio.to_thread(
+        authority(request).store.set_pin, Pin(DEMO, record.id, who.id, time.time())
+    )
+    return await get_demo(request)
+
+
+@endpoint("DELETE", "/demo", "Unpin the class demo (instructors)", status=204, errors=(403,))
+async def unpin_demo(request: Request) -> Response:
+    _instructor(request, "unpin")
+    await asyncio.to_thread(authority(request).store.clear_pin, DEMO)
+    return Response(status_code=204)

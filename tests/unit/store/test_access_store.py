@@ -1,0 +1,119 @@
+"""Owners, private runs, deletion, usage and retention, API tokens and pins in the SQLite
+store (real files), and a file of schema version 2 upgraded with its runs intact."""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elab.errors import Conflict, NotFound
+from elab.store import ParamChange, Pin, SQLiteStore, Token
+from elab.store._db import SCHEMA_VERSION
+from tests.unit.store.test_sqlite import NCH, record
+
+V2 = Path(__file__).resolve().parents[2] / "reference" / "store" / "v2.sql"
+
+
+def test_a_version_2_file_opens_upgraded_and_its_runs_have_no_owner(tmp_path: Path) -> None:
+    path = tmp_path / "v2.sqlite3"
+    conn = sqlite3.connect(path)
+    conn.executescript(V2.read_text())
+    conn.close()
+    with SQLiteStore(path) as store:
+        run = store.get_run("r-0000000000b2")
+        assert (run.status, run.n_stored, run.engine) == ("stopped", 25, "sim-0")
+        assert (run.owner, run.private) == (None, False)
+        np.testing.assert_array_equal(
+            store.read("r-0000000000b2"), np.random.default_rng(2).standard_normal((25, 3))
+        )
+        assert store.param_changes("r-0000000000b2") == [
+            ParamChange(10, {"signal": {"kind": "step", "amplitude": 0.5}}, 1.75e9 + 0.02)
+        ]
+        store.create_run(record("r-new", owner="a-1234"))
+        assert store.get_run("r-new").owner == "a-1234"
+    conn = sqlite3.connect(path)
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 3
+    conn.close()
+
+
+@pytest.fixture
+def store(tmp_path: Path) -> SQLiteStore:
+    return SQLiteStore(tmp_path / "s.sqlite3")
+
+
+def test_lists_by_owner_hide_private_runs_from_others(store: SQLiteStore) -> None:
+    store.create_run(record("r-a", owner="a-1", created_at=1))
+    store.create_run(record("r-b", owner="a-2", private=True, created_at=2))
+    store.create_run(record("r-c", owner="a-2", created_at=3))
+
+    def ids(**kw: str) -> list[str]:
+        runs, total = store.list_runs(**kw)  # type: ignore[arg-type]
+        assert total == len(runs)
+        return [r.id for r in runs]
+
+    assert ids() == ["r-c", "r-b", "r-a"]  # everything (an instructor)
+    assert ids(viewer="a-1") == ["r-c", "r-a"]  # a-2's private run hidden from a-1
+    assert ids(viewer="a-2") == ["r-c", "r-b", "r-a"]
+    assert ids(owner="a-2", viewer="a-1") == ["r-c"]
+    assert store.get_run("r-b").private is True
+
+
+def test_a_deleted_run_is_gone_with_its_samples_and_a_live_one_cannot_be(
+    store: SQLiteStore,
+) -> None:
+    store.create_run(record("r-1", owner="a-1"))
+    store.append("r-1", 0, np.ones((10, NCH)))
+    store.add_param_change("r-1", ParamChange(3, {"x": 1}, 1.0))
+    with pytest.raises(Conflict, match="stop it before deleting"):
+        store.delete_run("r-1")
+    store.set_status("r-1", "finished", finished_at=5.0)
+    store.set_pin(Pin("demo", "r-1", "i-prof", 6.0))
+    assert store.usage("a-1").runs == 1 and store.usage("a-1").bytes == 10 * NCH * 8
+    store.delete_run("r-1")
+    with pytest.raises(NotFound):
+        store.get_run("r-1")
+    with pytest.raises(NotFound):
+        store.read("r-1")
+    assert store.pin("demo") is None
+    assert store.usage("a-1").runs == 0 and store.usage("a-1").bytes == 0
+    with pytest.raises(NotFound):
+        store.delete_run("r-1")
+
+
+def test_retention_picks_ended_runs_finished_before_a_time_and_spares_pinned_ones(
+    store: SQLiteStore,
+) -> None:
+    for i, status in enumerate(["finished", "stopped", "running", "failed"]):
+        store.create_run(record(f"r-{i}", owner="a-1", created_at=i))
+        if status != "running":
+            store.set_status(f"r-{i}", status, finished_at=100.0 + i)
+    store.set_pin(Pin("demo", "r-1", "i-prof", 0.0))
+    assert store.ended_before(103.0) == ["r-0"]  # r-1 pinned, r-2 live, r-3 too recent
+    assert store.ended_before(104.0) == ["r-0", "r-3"]
+
+
+def test_tokens_are_kept_by_digest_per_owner(store: SQLiteStore) -> None:
+    t = Token("t-1", "a-1", "grader", 10.0)
+    store.add_token(t, "d" * 64)
+    assert store.token_by_digest("d" * 64) == t
+    assert store.token_by_digest("e" * 64) is None
+    store.touch_token("t-1", 20.0)
+    assert store.tokens("a-1") == [Token("t-1", "a-1", "grader", 10.0, 20.0)]
+    assert store.tokens("a-2") == []
+    with pytest.raises(NotFound):
+        store.revoke_token("a-2", "t-1")  # not theirs
+    store.revoke_token("a-1", "t-1")
+    assert store.token_by_digest("d" * 64) is None
+
+
+def test_a_pin_names_an_existing_run(store: SQLiteStore) -> None:
+    with pytest.raises(NotFound):
+        store.set_pin(Pin("demo", "r-none", "i-prof", 1.0))
+    store.create_run(record("r-1"))
+    store.set_pin(Pin("demo", "r-1", "i-prof", 1.0))
+    assert store.pin("demo") == Pin("demo", "r-1", "i-prof", 1.0)
+    store.clear_pin("demo")
+    assert store.pin("demo") is None
