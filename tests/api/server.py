@@ -112,10 +112,10 @@ class Server:
         return pid
 
 
-def identity_of(client: httpx.Client) -> dict[str, str]:
-    """The headers that carry ``client``'s identity to a websocket: its cookies (as a
-    browser sends them) or its bearer token."""
-    if "authorization" in client.headers:
+def identity_of(client: httpx.Client | Server) -> dict[str, str]:
+    """The headers that carry the identity of ``client`` (or of a server's ``client()``)
+    to a websocket: its cookies (as a browser sends them) or its bearer token."""
+    if isinstance(client, httpx.Client) and "authorization" in client.headers:
         return {"authorization": client.headers["authorization"]}
     jar = "; ".join(f"{k}={v}" for k, v in client.cookies.items())
     return {"cookie": jar} if jar else {}
@@ -157,8 +157,6 @@ class Watcher:
     ) -> Watcher:
         """Watch a run; ``as_``: with that client's identity (its cookies), so it may
         control the runs that client started."""
-        if isinstance(as_, Server):
-            as_ = as_.client()
         if as_ is not None:
             kw["additional_headers"] = {**kw.get("additional_headers", {}), **identity_of(as_)}
         conn = await connect(

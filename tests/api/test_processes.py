@@ -194,9 +194,7 @@ def test_commands_racing_over_rest_and_the_websocket_keep_the_connection(
 ) -> None:
     async def scenario() -> list[dict[str, Any]]:
         w = await Watcher.open(server.ws_url, long_run, as_=server)
-        async with httpx.AsyncClient(
-            base_url=server.url + "/api/v1", cookies=server.cookies
-        ) as c:
+        async with httpx.AsyncClient(base_url=server.url + "/api/v1", cookies=server.cookies) as c:
             sends = [
                 w.conn.send(json.dumps({"type": t}))
                 for t in ("pause", "stop", "resume", "stop", "pause")

@@ -450,7 +450,8 @@ class RunManager:
     # -- runs nobody watches, runs past their retention -----------------------------
     async def _patrol(self) -> None:
         """Every second: pause and then stop real-time runs whose owner is gone; every
-        ten minutes, delete runs past the retention."""
+        ten minutes (a quarter of the retention if shorter), delete runs past the
+        retention."""
         sweep_at = 0.0
         while True:
             await asyncio.sleep(min(1.0, self.limits.owner_grace / 4))
@@ -458,7 +459,7 @@ class RunManager:
             for run in list(self._runs.values()):
                 self._look_after(run, now)
             if self.limits.retention > 0 and now >= sweep_at:
-                sweep_at = now + 600.0
+                sweep_at = now + min(600.0, max(1.0, self.limits.retention / 4))
                 self._spawn(self._sweep())
 
     def _look_after(self, run: _Run, now: float) -> None:
