@@ -77,7 +77,8 @@ docs: install
 screenshots: install chromium
 	ELAB_SCREENSHOTS=docs/screenshots $(PY) -m pytest tests/e2e -q
 
-# The wire schema from the pydantic models, then the app's TypeScript types from it.
+# The wire schema from the pydantic models, then the app's TypeScript types and its
+# precompiled wire checks (src/wire.validate.gen.js) from it.
 protocol: install
 	$(PY) scripts/wire_schema.py
 	cd frontend && node scripts/gen-protocol.mjs

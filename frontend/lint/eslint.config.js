@@ -10,7 +10,7 @@ import { fileURLToPath } from "node:url";
 const app = dirname(dirname(fileURLToPath(import.meta.url)));
 
 export default tseslint.config(
-  { ignores: ["**/protocol.gen.ts"] },
+  { ignores: ["**/protocol.gen.ts", "**/wire.validate.gen.*"] },
   js.configs.recommended,
   ...tseslint.configs.recommendedTypeChecked,
   {

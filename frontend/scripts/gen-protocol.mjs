@@ -1,14 +1,15 @@
-// Generate src/protocol.gen.ts from ../shared/elab.v1.schema.json (written from the
-// backend's pydantic models by scripts/wire_schema.py). `--check` exits 1 when the
-// committed file differs from what the schema gives (tests/unit/test_wire_schema.py).
-import { readFileSync, writeFileSync } from "node:fs";
+// Generate src/protocol.gen.ts (the types) and src/wire.validate.gen.js (the checks, with
+// their .d.ts) from ../shared/elab.v1.schema.json (written from the backend's pydantic
+// models by scripts/wire_schema.py). `--check` exits 1 when a committed file differs
+// from what the schema gives (tests/unit/test_wire_schema.py).
+import { existsSync, readFileSync, writeFileSync } from "node:fs";
 import { dirname, resolve } from "node:path";
 import { fileURLToPath } from "node:url";
 import { compile } from "json-schema-to-typescript";
+import { validators } from "./validators.mjs";
 
 const here = dirname(fileURLToPath(import.meta.url));
 const schemaPath = resolve(here, "../../shared/elab.v1.schema.json");
-const outPath = resolve(here, "../src/protocol.gen.ts");
 
 /** msgpack `bin` (JSON Schema: string, format binary) arrives as a Uint8Array. */
 function binaryAsBytes(node) {
@@ -33,7 +34,8 @@ function dropPropertyTitles(node, isModel = false) {
   return out;
 }
 
-const schema = dropPropertyTitles(binaryAsBytes(JSON.parse(readFileSync(schemaPath, "utf8"))));
+const wire = JSON.parse(readFileSync(schemaPath, "utf8"));
+const schema = dropPropertyTitles(binaryAsBytes(wire));
 // A model used both ways has two definitions: `X-Input` (what a client sends, defaults
 // optional) becomes X and `X-Output` (what the server sends, every field present) XOut.
 for (const [key, def] of Object.entries(schema.$defs)) {
@@ -57,14 +59,20 @@ const ts = await compile(root, "ElabProtocol", {
   style: { singleQuote: false, printWidth: 100 },
 });
 
-if (process.argv.includes("--check")) {
-  const current = readFileSync(outPath, "utf8");
-  if (current !== ts) {
-    console.error("frontend/src/protocol.gen.ts is out of date: run `make protocol`");
-    process.exit(1);
+const [checks, checksTypes] = validators(wire, banner);
+const files = { "protocol.gen.ts": ts, "wire.validate.gen.js": checks, "wire.validate.gen.d.ts": checksTypes };
+
+const check = process.argv.includes("--check");
+let stale = false;
+for (const [name, text] of Object.entries(files)) {
+  const path = resolve(here, "../src", name);
+  if (!check) {
+    writeFileSync(path, text);
+    console.log(`wrote frontend/src/${name}`);
+  } else if (!existsSync(path) || readFileSync(path, "utf8") !== text) {
+    console.error(`frontend/src/${name} is out of date: run \`make protocol\``);
+    stale = true;
   }
-  console.log("frontend/src/protocol.gen.ts is current");
-} else {
-  writeFileSync(outPath, ts);
-  console.log("wrote frontend/src/protocol.gen.ts");
 }
+if (stale) process.exit(1);
+if (check) console.log("the generated protocol files are current");

@@ -3,12 +3,13 @@
 import type {
   AnalysisInfo,
   BodeList,
+  DemoInfo,
   DesignOut,
   ErrorDetail,
-  IdentLine,
   IdentOut,
   IdentRequest,
   LQRRequest,
+  Me,
   ParamsApplied,
   ParamsUpdate,
   PlaceRequest,
@@ -17,10 +18,13 @@ import type {
   RunCreate,
   RunInfo,
   RunList,
+  SignIn,
   StepOut,
   StepRequest,
+  TokenCreated,
+  TokenInfo,
 } from "./protocol.gen";
-import { check } from "./wire";
+import { identLine } from "./wire";
 
 export const API = "/api/v1";
 
@@ -75,18 +79,43 @@ export const api = {
   step: (id: string, req: StepRequest) => call<StepOut>("POST", `/plants/${encodeURIComponent(id)}/step`, req),
   lqr: (id: string, req: LQRRequest) => call<DesignOut>("POST", `/plants/${encodeURIComponent(id)}/design/lqr`, req),
   place: (id: string, req: PlaceRequest) => call<DesignOut>("POST", `/plants/${encodeURIComponent(id)}/design/place`, req),
-  runs: (query: { plant?: string; limit?: number; offset?: number } = {}) => {
-    const q = new URLSearchParams();
-    for (const [k, v] of Object.entries(query)) if (v !== undefined) q.set(k, String(v));
-    return call<RunList>("GET", `/runs${q.size ? "?" + q.toString() : ""}`);
-  },
+  runs: (query: RunsQuery = {}) => call<RunList>("GET", `/runs${queryString(query)}`),
   run: (id: string) => call<RunInfo>("GET", `/runs/${encodeURIComponent(id)}`),
   createRun: (req: RunCreate) => call<RunInfo>("POST", "/runs", req),
   stop: (id: string) => call<RunInfo>("POST", `/runs/${encodeURIComponent(id)}/stop`),
   pause: (id: string) => call<RunInfo>("POST", `/runs/${encodeURIComponent(id)}/pause`),
   resume: (id: string) => call<RunInfo>("POST", `/runs/${encodeURIComponent(id)}/resume`),
   params: (id: string, req: ParamsUpdate) => call<ParamsApplied>("POST", `/runs/${encodeURIComponent(id)}/params`, req),
+  /** 409 while the run is live (stop it first), 403 unless its owner or an instructor */
+  deleteRun: (id: string) => call<null>("DELETE", `/runs/${encodeURIComponent(id)}`),
+  me: () => call<Me>("GET", "/me"),
+  signIn: (req: SignIn) => call<Me>("POST", "/session", req),
+  signOut: () => call<Me>("DELETE", "/session"),
+  tokens: () => call<TokenInfo[]>("GET", "/tokens"),
+  /** the answer's `token` is shown this once: the server keeps only its hash */
+  createToken: (name: string) => call<TokenCreated>("POST", "/tokens", { name }),
+  revokeToken: (id: string) => call<null>("DELETE", `/tokens/${encodeURIComponent(id)}`),
+  demo: () => call<DemoInfo>("GET", "/demo"),
+  pinDemo: (runId: string) => call<DemoInfo>("PUT", "/demo", { run_id: runId }),
+  unpinDemo: () => call<null>("DELETE", "/demo"),
 };
+
+export interface RunsQuery {
+  plant?: string;
+  /** only the caller's runs */
+  owner?: "me";
+  /** only runs that are live (instructors see others' private ones too) */
+  live?: boolean;
+  limit?: number;
+  offset?: number;
+}
+
+/** "?plant=…&live=true", or "" when nothing is asked. */
+export function queryString(query: RunsQuery): string {
+  const q = new URLSearchParams();
+  for (const [k, v] of Object.entries<string | number | boolean | undefined>({ ...query })) if (v !== undefined && v !== false) q.set(k, String(v));
+  return q.size ? "?" + q.toString() : "";
+}
 
 /**
  * Identification with progress: the server streams `{"progress": {stage, done}}` lines,
@@ -116,7 +145,7 @@ export async function identify(req: IdentRequest, onProgress: (stage: string, do
     if (value) buffer += value;
     let nl: number;
     while ((nl = buffer.indexOf("\n")) >= 0) {
-      const line = check<IdentLine>("IdentLine", JSON.parse(buffer.slice(0, nl)));
+      const line = identLine(JSON.parse(buffer.slice(0, nl)));
       buffer = buffer.slice(nl + 1);
       if (line.progress) onProgress(line.progress.stage, line.progress.done);
       if (line.result) return line.result;

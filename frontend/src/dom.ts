@@ -61,3 +61,16 @@ export function csv(header: string[], columns: ArrayLike<number | null>[]): stri
   for (let i = 0; i < n; i++) lines.push(columns.map((c) => (i < c.length && c[i] !== null ? String(c[i]) : "")).join(","));
   return lines.join("\n") + "\n";
 }
+
+/** Copy text to the clipboard and say so on the button for a moment (without clipboard
+ * access, e.g. over plain HTTP from another machine: show the text to copy by hand). */
+export async function copyText(text: string, button: HTMLButtonElement, done = "Copied"): Promise<void> {
+  const label = button.textContent;
+  try {
+    await navigator.clipboard.writeText(text);
+    button.textContent = done;
+  } catch {
+    window.prompt("Copy this:", text);
+  }
+  setTimeout(() => (button.textContent = label), 2000);
+}

@@ -1,8 +1,11 @@
 // The forms every experiment shares: controller gains and the reference or excitation
-// signal, with allowed ranges shown, values in display units (°, mm) and SI on the wire.
+// signal, with allowed ranges shown, values in display units (°, mm) and SI on the wire;
+// how a run starts (private, and what becomes of the page's previous run).
+import { api, ApiError } from "./api";
 import { FieldSet, NumberField, type NumberSpec } from "./forms";
 import { h } from "./dom";
 import type { Controller, ControllerOut, PlantDetail, Signal, SignalOut } from "./protocol.gen";
+import type { RunPanel } from "./runpanel";
 import { display } from "./units";
 
 export const GAIN_LIMIT = 1e6;
@@ -136,4 +139,37 @@ export class SignalForm {
 /** The run length field. */
 export function durationField(value: number, onChange?: () => void): NumberField {
   return new NumberField({ field: "duration", label: "Duration", unit: "s", value, min: 0, minExclusive: true, max: MAX_DURATION }, onChange);
+}
+
+/** "Private run" and "Keep my previous run going": how the next run starts. */
+export class StartOptions {
+  readonly root: HTMLElement;
+  private readonly privateBox: HTMLInputElement;
+  private readonly keepBox: HTMLInputElement;
+
+  constructor(idPrefix = "start") {
+    this.privateBox = h("input", { type: "checkbox", id: `${idPrefix}-private`, name: "private" });
+    this.keepBox = h("input", { type: "checkbox", id: `${idPrefix}-keep`, name: "keep" });
+    this.root = h(
+      "div.start-options",
+      h("label.check", { title: "Only you and instructors may see it; others cannot open its link." }, this.privateBox, " Private run"),
+      h("label.check", { title: "Otherwise Start stops this page's previous run if it is still going." }, this.keepBox, " Keep my previous run going"),
+    );
+  }
+
+  get private(): boolean {
+    return this.privateBox.checked;
+  }
+
+  /** Stop the page's previous run once a new one has started: if it is yours, still live,
+   * and not to be kept going. */
+  async retire(previous: RunPanel | null): Promise<void> {
+    if (!previous || this.keepBox.checked || !previous.live || !previous.run.mine) return;
+    try {
+      await api.stop(previous.run.id);
+    } catch (err) {
+      if (err instanceof ApiError && err.status === 409) return; // it ended meanwhile
+      throw err;
+    }
+  }
 }

@@ -1,9 +1,12 @@
 // E-Lab in the browser: the routes, the shell (header, classroom mode) and the views.
 import "katex/dist/katex.min.css";
 import "./style.css";
-import { h, link } from "./dom";
+import { identityLabel } from "./access";
+import { fill, h, link } from "./dom";
+import { identity } from "./identity";
 import { plotSettings } from "./plot";
 import { Router } from "./router";
+import { accountPage } from "./views/account";
 import { analysisPage } from "./views/analysis";
 import { designPage } from "./views/design";
 import { home } from "./views/home";
@@ -27,10 +30,21 @@ function shell(): HTMLElement {
   const main = h("main#main", { tabindex: "-1" });
   document.body.append(
     h("a.skip", { href: "#main" }, "Skip to content"),
-    h("div.topbar", link("/", h("span.logo", "E-Lab")), h("nav", link("/", "Experiments"), link("/runs", "Runs"), h("a", { href: "/api/v1/docs" }, "API")), toggle),
+    h("div.topbar", link("/", h("span.logo", "E-Lab")), h("nav", link("/", "Experiments"), link("/runs", "Runs"), h("a", { href: "/api/v1/docs" }, "API")), whoAmI(), toggle),
     main,
   );
   return main;
+}
+
+/** Who the lab takes this browser for, linking to the account page. */
+function whoAmI(): HTMLElement {
+  const who = h("a.who", { href: "/account", "data-link": true, "data-testid": "who", title: "Your identity, instructor sign-in and API tokens" }, "Account");
+  identity.listen((me) => {
+    fill(who, identityLabel(me));
+    who.dataset.role = me.role;
+  });
+  void identity.get().catch(() => undefined); // unreachable server: the pages say so
+  return who;
 }
 
 const main = shell();
@@ -44,7 +58,8 @@ router
   .add("/plants/:id/identification", identificationPage)
   .add("/plants/:id/design", designPage)
   .add("/runs", runsPage)
-  .add("/runs/:id", runPage);
+  .add("/runs/:id", runPage)
+  .add("/account", accountPage);
 void router.render();
 
 // debugging and benchmark knobs, for the console and tests/bench/liveplot.py

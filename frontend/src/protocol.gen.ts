@@ -72,6 +72,8 @@ export interface ElabProtocol {
   "Controller-Input"?: Controller;
   "Controller-Output"?: ControllerOut;
   CorrelationOut?: CorrelationOut;
+  DemoInfo?: DemoInfo;
+  DemoPin?: DemoPin;
   DesignOut?: DesignOut;
   ErrorBody?: ErrorBody;
   ErrorDetail?: ErrorDetail;
@@ -90,6 +92,7 @@ export interface ElabProtocol {
   LQRRequest?: LQRRequest;
   "LTIControllerModel-Input"?: LTIControllerModel;
   "LTIControllerModel-Output"?: LTIControllerModelOut;
+  Me?: Me;
   N4sidOrdersOut?: N4SidOrdersOut;
   N4sidSpec?: N4SidSpec;
   OeSpec?: OeSpec;
@@ -121,6 +124,7 @@ export interface ElabProtocol {
   SamplesSignal?: SamplesSignal;
   ServerMessage?: ServerMessage;
   SetParams?: SetParams;
+  SignIn?: SignIn;
   "Signal-Input"?: Signal;
   "Signal-Output"?: SignalOut;
   SineOut?: SineOut;
@@ -141,6 +145,9 @@ export interface ElabProtocol {
   "StepSignal-Output"?: StepSignalOut;
   Stop?: Stop;
   StreamClose?: StreamClose;
+  TokenCreate?: TokenCreate;
+  TokenCreated?: TokenCreated;
+  TokenInfo?: TokenInfo;
   TransferFunctionInfo?: TransferFunctionInfo;
   TransferFunctionOut?: TransferFunctionOut;
 }
@@ -609,6 +616,63 @@ export interface LTIControllerModelOut {
   dt: number | null;
 }
 /**
+ * The class demo an instructor pinned (``run`` null: none).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "DemoInfo".
+ */
+export interface DemoInfo {
+  run: RunSummaryInfo | null;
+  pinned_by: string | null;
+  pinned_at: number | null;
+}
+/**
+ * A run in a list: without its request and parameter changes (``GET /runs/{id}``
+ * has them).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "RunSummaryInfo".
+ */
+export interface RunSummaryInfo {
+  id: string;
+  plant: string;
+  mode: string;
+  experiment: string;
+  status: "created" | "running" | "paused" | "finished" | "stopped" | "failed" | "interrupted";
+  Ts: number;
+  channels: ChannelInfo[];
+  n_planned: number;
+  n_samples: number;
+  created_at: number;
+  started_at: number | null;
+  finished_at: number | null;
+  /**
+   * why it failed, stopped early (who stopped it) or was interrupted; while it is paused, who paused it or why
+   */
+  error: string | null;
+  url: string;
+  /**
+   * who started it, as others see them (guest 3f2a, a name)
+   */
+  owner: string;
+  private: boolean;
+  /**
+   * the caller started it
+   */
+  mine: boolean;
+  /**
+   * the caller may pause, resume, stop, change and delete it (its owner or an instructor)
+   */
+  can_control: boolean;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "DemoPin".
+ */
+export interface DemoPin {
+  run_id: string;
+}
+/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "DesignOut".
  */
@@ -631,7 +695,16 @@ export interface ErrorBody {
  * via the `definition` "ErrorDetail".
  */
 export interface ErrorDetail {
-  code: "invalid" | "not_found" | "conflict" | "too_many" | "too_large" | "unavailable";
+  code:
+    | "invalid"
+    | "not_found"
+    | "conflict"
+    | "too_many"
+    | "too_large"
+    | "unavailable"
+    | "forbidden"
+    | "unauthorized"
+    | "unsupported_media_type";
   message: string;
   field: string | null;
   errors: FieldError[];
@@ -744,10 +817,23 @@ export interface RunInfo {
   started_at: number | null;
   finished_at: number | null;
   /**
-   * why it failed, stopped early or was interrupted
+   * why it failed, stopped early (who stopped it) or was interrupted; while it is paused, who paused it or why
    */
   error: string | null;
   url: string;
+  /**
+   * who started it, as others see them (guest 3f2a, a name)
+   */
+  owner: string;
+  private: boolean;
+  /**
+   * the caller started it
+   */
+  mine: boolean;
+  /**
+   * the caller may pause, resume, stop, change and delete it (its owner or an instructor)
+   */
+  can_control: boolean;
   frame_samples: number;
   stream_url: string;
   data_url: string;
@@ -994,6 +1080,35 @@ export interface LQRRequest {
   R?: number | [number[], ...number[][]];
 }
 /**
+ * Who the server takes the caller for.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "Me".
+ */
+export interface Me {
+  /**
+   * what owned objects record (null: no identity)
+   */
+  id: string | null;
+  /**
+   * as others see it
+   */
+  name: string;
+  role: "student" | "instructor";
+  /**
+   * cookie: the browser's anonymous identity; session: an instructor signed in; token: an API token
+   */
+  via: "cookie" | "session" | "token" | "none";
+  /**
+   * the instructor account's name (null: none)
+   */
+  account: string | null;
+  /**
+   * this server has instructor accounts to sign in to
+   */
+  sign_in: boolean;
+}
+/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "PRBSSignal-Output".
  */
@@ -1186,6 +1301,10 @@ export interface RunCreate {
   saturate?: boolean | null;
   Ts?: number | null;
   x0?: number[] | null;
+  /**
+   * only its owner and instructors may see it (default: anyone with its link)
+   */
+  private?: boolean;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -1196,32 +1315,6 @@ export interface RunList {
   total: number;
   limit: number;
   offset: number;
-}
-/**
- * A run in a list: without its request and parameter changes (``GET /runs/{id}``
- * has them).
- *
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "RunSummaryInfo".
- */
-export interface RunSummaryInfo {
-  id: string;
-  plant: string;
-  mode: string;
-  experiment: string;
-  status: "created" | "running" | "paused" | "finished" | "stopped" | "failed" | "interrupted";
-  Ts: number;
-  channels: ChannelInfo[];
-  n_planned: number;
-  n_samples: number;
-  created_at: number;
-  started_at: number | null;
-  finished_at: number | null;
-  /**
-   * why it failed, stopped early or was interrupted
-   */
-  error: string | null;
-  url: string;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -1242,6 +1335,14 @@ export interface Skipped {
   from_seq: number;
   to_seq: number;
   reason: string;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "SignIn".
+ */
+export interface SignIn {
+  name: string;
+  password: string;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -1307,4 +1408,38 @@ export interface StepRequest {
 export interface StreamClose {
   code: CloseCode;
   reason: string;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "TokenCreate".
+ */
+export interface TokenCreate {
+  /**
+   * what it is for
+   */
+  name: string;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "TokenCreated".
+ */
+export interface TokenCreated {
+  id: string;
+  name: string;
+  created_at: number;
+  last_used: number | null;
+  /**
+   * send as Authorization: Bearer <token>; shown once, never again
+   */
+  token: string;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "TokenInfo".
+ */
+export interface TokenInfo {
+  id: string;
+  name: string;
+  created_at: number;
+  last_used: number | null;
 }

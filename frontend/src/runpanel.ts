@@ -1,14 +1,16 @@
-// A run as the user sees it: status, the live plot, controls and downloads. Used by the
-// experiment views (for the run they start) and the run page (spectators, replays).
+// A run as the user sees it: status, who controls it, the live plot, controls and
+// downloads. Used by the experiment views (for the run they start) and the run page
+// (spectators, replays). Pause, resume and stop are there only for whoever may use them.
+import { controlLabel, ENDED, reasonTone } from "./access";
 import { api, ApiError, dataUrl } from "./api";
-import { csv, h, fill, saveText } from "./dom";
+import { copyText, csv, h, fill, saveText } from "./dom";
+import { identity } from "./identity";
 import { LivePlot, type LiveTrace } from "./plot";
 import type { PlantDetail, RunInfo } from "./protocol.gen";
 import { SampleRing } from "./series";
 import { RunStream } from "./stream";
 import { display, fmt } from "./units";
 
-const ENDED = new Set(["finished", "stopped", "failed", "interrupted"]);
 /** Samples kept per channel in the page (10 min at 1 kHz); older ones scroll out. */
 const MAX_RING = 600_000;
 const WINDOW_S = 10;
@@ -16,7 +18,7 @@ const WINDOW_S = 10;
 export interface RunPanelOptions {
   /** outputs to plot (default: every output of the plant) */
   outputs?: string[];
-  /** show pause / resume / stop */
+  /** show pause / resume / stop (to those who may use them; default true) */
   controls?: boolean;
   onState?(state: string): void;
 }
@@ -31,6 +33,9 @@ export class RunPanel {
   private readonly progressEl = h("span.progress");
   private readonly connEl = h("span.conn", { "aria-live": "polite" });
   private readonly messageEl = h("p.error", { role: "alert" });
+  /** why a run was paused or stopped: what people do with runs, not a failure */
+  private readonly noticeEl = h("p.notice", { "aria-live": "polite", "data-testid": "run-notice" });
+  private readonly demoSlot = h("span.group");
   private readonly buttons: Record<"pause" | "resume" | "stop", HTMLButtonElement>;
   private readonly windowSel: HTMLSelectElement;
   private marks: number[] = [];
@@ -77,11 +82,13 @@ export class RunPanel {
         this.statusEl,
         this.progressEl,
         this.connEl,
+        h("span.owner", { "data-testid": "run-owner" }, controlLabel(run)),
+        run.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null,
       ),
       plotDiv,
       h(
         "div.toolbar",
-        options.controls === false ? null : h("span.group", this.buttons.pause, this.buttons.resume, this.buttons.stop),
+        options.controls !== false && run.can_control ? h("span.group", this.buttons.pause, this.buttons.resume, this.buttons.stop) : null,
         h("label.inline", "Window ", this.windowSel),
         h(
           "span.group.downloads",
@@ -91,8 +98,10 @@ export class RunPanel {
           h("a", { href: dataUrl(run, "mat"), download: `${run.id}.mat` }, "MATLAB .mat"),
           h("button", { type: "button", class: "link", onclick: () => this.savePlotData() }, "plot data"),
         ),
-        h("button", { type: "button", class: "link", onclick: (ev: Event) => void copy(share, ev.currentTarget as HTMLButtonElement), title: share }, "Copy share link"),
+        h("button", { type: "button", class: "link", onclick: (ev: Event) => void copyText(share, ev.currentTarget as HTMLButtonElement, "Link copied"), title: share }, "Copy share link"),
+        this.demoSlot,
       ),
+      this.noticeEl,
       this.messageEl,
     );
     this.stream = new RunStream(run.stream_url, {
@@ -105,7 +114,10 @@ export class RunPanel {
         this.progress();
         this.plot.dirty();
       },
-      status: (s) => this.setState(s.state, s.error ?? null),
+      status: (s) => {
+        this.setState(s.state);
+        this.setReason(s.state, s.error ?? null);
+      },
       params: (p) => {
         this.marks = [...this.marks, p.k];
         this.plot.setMarks(this.marks);
@@ -122,6 +134,12 @@ export class RunPanel {
       },
     }, { fromSeq: this.firstSeq(run) }).open();
     this.setState(run.status);
+    this.setReason(run.status, run.error);
+    void this.offerPin();
+  }
+
+  get live(): boolean {
+    return !ENDED.has(this.state);
   }
 
   /** Where a late joiner starts: the last window of a live run, all of an ended one. */
@@ -152,7 +170,7 @@ export class RunPanel {
     this.plot.setTraces(this.traces(plant, outputs));
   }
 
-  private setState(state: string, error: string | null = null): void {
+  private setState(state: string): void {
     this.state = state;
     fill(this.statusEl, state);
     this.statusEl.dataset.state = state;
@@ -160,9 +178,34 @@ export class RunPanel {
     this.buttons.pause.disabled = state !== "running";
     this.buttons.resume.disabled = state !== "paused";
     this.buttons.stop.disabled = ended;
-    if (error) fill(this.messageEl, error);
     this.options.onState?.(state);
     this.progress();
+  }
+
+  /** Why the run is in `state` (paused by someone, stopped, failed), from the server. */
+  private setReason(state: string, reason: string | null): void {
+    const tone = reasonTone(state, reason);
+    if (tone === "error") fill(this.messageEl, reason);
+    else if (tone === "notice") fill(this.noticeEl, reason);
+    else if (!ENDED.has(state)) fill(this.noticeEl); // resumed: the pause's reason is over
+  }
+
+  /** Instructors may pin any run they see as the class demo on the start page. */
+  private async offerPin(): Promise<void> {
+    const me = await identity.get().catch(() => null);
+    if (me?.role !== "instructor") return;
+    const pin = h("button", { type: "button", onclick: () => void this.pin() }, "Pin as class demo");
+    fill(this.demoSlot, pin);
+  }
+
+  private async pin(): Promise<void> {
+    fill(this.messageEl);
+    try {
+      await api.pinDemo(this.run.id);
+      fill(this.demoSlot, h("span.note", { "data-testid": "pinned" }, "Pinned as the class demo"));
+    } catch (err) {
+      fill(this.messageEl, err instanceof ApiError ? err.message : String(err));
+    }
   }
 
   private progress(): void {
@@ -201,16 +244,4 @@ export class RunPanel {
     this.stream.close();
     this.plot.destroy();
   }
-}
-
-/** Copy text to the clipboard and say so on the button (or show the text to copy by hand). */
-async function copy(text: string, button: HTMLButtonElement): Promise<void> {
-  const label = button.textContent;
-  try {
-    await navigator.clipboard.writeText(text);
-    button.textContent = "Link copied";
-  } catch {
-    window.prompt("Copy this link:", text);
-  }
-  setTimeout(() => (button.textContent = label), 2000);
 }

@@ -1,13 +1,13 @@
 import { describe, expect, it } from "vitest";
 import schema from "../../shared/elab.v1.schema.json";
 import type { ServerMessage } from "./protocol.gen";
-import { serverMessage, WireError } from "./wire";
+import { identLine, serverMessage, WireError } from "./wire";
 
 const run = {
   id: "r-1", plant: "flexible_link", mode: "simulation", experiment: "analysis", status: "running", Ts: 0.001,
   channels: [{ name: "y", unit: "rad" }], n_planned: 10, n_samples: 0, created_at: 0, started_at: 0,
   finished_at: null, error: null, url: "/api/v1/runs/r-1", frame_samples: 20, stream_url: "/s", data_url: "/d",
-  request: {}, param_changes: [],
+  request: {}, param_changes: [], owner: "guest 3f2a", private: false, mine: true, can_control: true,
 };
 const VALID: Record<ServerMessage["type"], ServerMessage> = {
   hello: { type: "hello", protocol: "elab.v1", run: { ...run, status: "running" }, live_seq: 3 },
@@ -50,5 +50,13 @@ describe("serverMessage", () => {
     ];
     for (const b of bad) expect(() => serverMessage(b), JSON.stringify(b)).toThrow(WireError);
     expect(() => serverMessage({ ...VALID.status, state: "exploded" })).toThrow(/state/);
+  });
+});
+
+describe("identLine", () => {
+  it("accepts a progress line and refuses one whose fields have the wrong type, naming the field", () => {
+    const line = { progress: { stage: "arx", done: 0.5 }, result: null, error: null };
+    expect(identLine(line)).toBe(line);
+    expect(() => identLine({ ...line, progress: { stage: "arx", done: "half" } })).toThrow(/progress\/done/);
   });
 });

@@ -3,14 +3,14 @@
 // functions, Bode, open- and closed-loop step.
 import { api, ApiError } from "../api";
 import { fill, h } from "../dom";
-import { ControllerForm, durationField, SignalForm } from "../experiment";
+import { ControllerForm, durationField, SignalForm, StartOptions } from "../experiment";
 import { FieldSet, type NumberField } from "../forms";
 import { tex } from "../markdown";
 import { chart, purge } from "../plot";
 import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, RunInfo, StepOut } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
 import { display, fmt } from "../units";
-import { downloadButton, experimentPage, failure, loading, showApiError } from "./common";
+import { downloadButton, errorText, experimentPage, failure, loading, showApiError } from "./common";
 
 export function analysisPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
   return experimentPage(root, params.id, "analysis", (plant) => {
@@ -28,6 +28,7 @@ class AnalysisView {
   private readonly signal: SignalForm;
   private readonly duration: NumberField;
   private readonly runFields = new FieldSet();
+  private readonly startOptions = new StartOptions();
   private readonly outputs: HTMLSelectElement;
   private readonly startBtn: HTMLButtonElement;
   private readonly applyBtn: HTMLButtonElement;
@@ -57,7 +58,7 @@ class AnalysisView {
       h("h2", "Closed-loop run"),
       this.controller.root,
       this.signal.root,
-      h("fieldset", h("legend", "Run"), h("div.grid", this.duration.root, h("div.field", h("label", { for: "outputs" }, "Plot"), this.outputs))),
+      h("fieldset", h("legend", "Run"), h("div.grid", this.duration.root, h("div.field", h("label", { for: "outputs" }, "Plot"), this.outputs)), this.startOptions.root),
       h("div.actions", this.startBtn, this.applyBtn),
       this.formMsg,
       this.applied,
@@ -84,15 +85,18 @@ class AnalysisView {
       fill(this.formMsg, "Please correct the marked fields; nothing was sent.");
       return;
     }
-    const req: RunCreate = { plant: this.plant.id, experiment: "analysis", controller, signal, duration, pace: "realtime" };
+    const req: RunCreate = { plant: this.plant.id, experiment: "analysis", controller, signal, duration, pace: "realtime", private: this.startOptions.private };
     this.startBtn.disabled = true;
+    const previous = this.run;
     try {
       this.attach(await api.createRun(req));
     } catch (err) {
       showApiError(err, [this.controller.fields, this.signal.fields, this.runFields], this.formMsg);
+      return;
     } finally {
       this.startBtn.disabled = false;
     }
+    await this.startOptions.retire(previous).catch((err: unknown) => fill(this.formMsg, `The previous run goes on: ${errorText(err)}`));
   }
 
   /** Follow an existing run of this plant (from the page's ?run= address). */
@@ -108,14 +112,14 @@ class AnalysisView {
 
   private attach(info: RunInfo): void {
     this.run?.destroy();
-    this.run = new RunPanel(info, this.plant, { outputs: this.chosenOutputs(), onState: (s) => this.onState(s) });
+    this.run = new RunPanel(info, this.plant, { outputs: this.chosenOutputs(), onState: (s) => this.onState(s, info) });
     fill(this.runArea, this.run.root);
     history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
   }
 
-  private onState(state: string): void {
+  private onState(state: string, run: RunInfo): void {
     const live = state === "running" || state === "paused";
-    this.applyBtn.disabled = !live;
+    this.applyBtn.disabled = !live || !run.can_control;
     this.startBtn.textContent = live ? "Start a new run" : "Start";
   }
 

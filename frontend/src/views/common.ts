@@ -34,6 +34,13 @@ export function failure(err: unknown): HTMLElement {
   return h("div.panel.failure", { role: "alert" }, h("strong", "Could not load this page: "), msg, " ", link("/", "Back to the start page"));
 }
 
+/** What went wrong, in a sentence: the server's field errors, or its message. */
+export function errorText(err: unknown): string {
+  if (!(err instanceof ApiError)) return String(err);
+  const fields = err.detail.errors.map((e) => (e.message.startsWith(e.field) ? e.message : `${e.field}: ${e.message}`));
+  return fields.length ? fields.join("; ") : err.message;
+}
+
 export function loading(text = "Loading…"): HTMLElement {
   return h("p.loading", { "aria-busy": "true" }, text);
 }

@@ -2,7 +2,7 @@
 // predefined controller on the closed-loop step, then run live.
 import { api, ApiError } from "../api";
 import { fill, h } from "../dom";
-import { durationField, SignalForm } from "../experiment";
+import { durationField, SignalForm, StartOptions } from "../experiment";
 import { FieldSet, NumberField } from "../forms";
 import { discreteStep, handedModel, type HandedModel } from "../ident";
 import { tex } from "../markdown";
@@ -10,7 +10,7 @@ import { chart, purge } from "../plot";
 import type { DesignOut, LQRRequest, PlaceRequest, PlantDetail, StepOut } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
 import { display, fmt } from "../units";
-import { downloadButton, experimentPage, failure, loading, showApiError } from "./common";
+import { downloadButton, errorText, experimentPage, failure, loading, showApiError } from "./common";
 
 export function designPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
   return experimentPage(root, params.id, "design", (plant) => {
@@ -33,6 +33,7 @@ class DesignView {
   private readonly modelDiv = h("div.chart", { "data-testid": "identified-step" });
   private design: DesignOut | null = null;
   private run: RunPanel | null = null;
+  private readonly startOptions = new StartOptions();
 
   constructor(
     readonly plant: PlantDetail,
@@ -180,6 +181,7 @@ class DesignView {
         h("h3", "Run it"),
         reference.root,
         h("div.grid", ...[...runFields.fields.values()].map((f) => f.root)),
+        this.startOptions.root,
         h("div.actions", h("button.primary", { type: "submit" }, "Run with this K")),
         runMsg,
       ),
@@ -203,8 +205,9 @@ class DesignView {
     if (!signal || !v) return void fill(msg, "Please correct the marked fields; nothing was sent.");
     const p = this.plant;
     const estimate = p.predefined.kind === "state_feedback" ? p.predefined.estimate : "true_state";
+    const previous = this.run;
     try {
-      const info = await api.createRun({ plant: this.plant.id, experiment: "design", controller: { kind: "state_feedback", K: d.K as [number, ...number[]], estimate }, signal, duration: v.get("duration")!, pace: "realtime" });
+      const info = await api.createRun({ plant: this.plant.id, experiment: "design", controller: { kind: "state_feedback", K: d.K as [number, ...number[]], estimate }, signal, duration: v.get("duration")!, pace: "realtime", private: this.startOptions.private });
       this.run?.destroy();
       this.run = new RunPanel(info, this.plant);
       this.runBox.hidden = false;
@@ -212,7 +215,9 @@ class DesignView {
     } catch (err) {
       if (err instanceof ApiError) showApiError(err, [reference.fields, runFields], msg);
       else fill(msg, String(err));
+      return;
     }
+    await this.startOptions.retire(previous).catch((err: unknown) => fill(msg, `The previous run goes on: ${errorText(err)}`));
   }
 
   destroy(): void {

@@ -1,18 +1,32 @@
-// The gate: every plant × experiment as a card, and the recent runs.
+// The gate: the class demo (when an instructor pinned one), every plant × experiment as
+// a card, and the recent runs.
 import { api } from "../api";
 import { fill, h, link } from "../dom";
-import type { RunSummaryInfo } from "../protocol.gen";
-import { fmt } from "../units";
-import { EXPERIMENTS, failure, loading } from "./common";
+import { identity } from "../identity";
+import { EXPERIMENTS, errorText, failure, loading, plantDetail } from "./common";
+import { runTable } from "./runtable";
 
-export async function home(root: HTMLElement): Promise<void> {
+/** How often the start page asks whether the class demo changed (a projector shows it). */
+const DEMO_REFRESH_MS = 5000;
+
+export async function home(root: HTMLElement): Promise<() => void> {
+  const demo = h("div", { "data-testid": "demo-slot" });
   const cards = h("div.cards", loading());
   const recent = h("div", loading());
+  const recentMsg = h("p.error", { role: "alert" });
   root.append(
     h("header.page.hero", h("h1", "E-Lab"), h("p.lead", "A web laboratory for control engineering. Pick a plant and an experiment; the response draws itself live as the run goes.")),
+    demo,
     h("section", { "aria-labelledby": "plants-h" }, h("h2#plants-h", "Plants and experiments"), cards),
-    h("section", { "aria-labelledby": "runs-h" }, h("h2#runs-h", "Recent runs"), recent),
+    h("section", { "aria-labelledby": "runs-h" }, h("h2#runs-h", "Recent runs"), recentMsg, recent),
   );
+  const showDemo = async () => {
+    const banner = await demoBanner(showDemo).catch(() => null);
+    const shown = demo.firstElementChild as HTMLElement | null;
+    if (banner?.dataset.key !== shown?.dataset.key) fill(demo, banner); // unchanged: keep focus where it is
+  };
+  const timer = setInterval(() => void showDemo(), DEMO_REFRESH_MS);
+  await showDemo();
   try {
     const plants = await api.plants();
     fill(
@@ -31,31 +45,46 @@ export async function home(root: HTMLElement): Promise<void> {
   } catch (err) {
     fill(cards, failure(err));
   }
-  try {
-    const list = await api.runs({ limit: 10 });
-    fill(recent, list.runs.length ? runTable(list.runs) : h("p.muted", "No runs yet: start one from an experiment above."), list.total > list.runs.length ? h("p", link("/runs", `All ${list.total} runs`)) : null);
-  } catch (err) {
-    fill(recent, failure(err));
-  }
+  const showRecent = async () => {
+    try {
+      const list = await api.runs({ limit: 10 });
+      const actions = { changed: () => void showRecent(), failed: (m: string) => fill(recentMsg, m) };
+      fill(recent, list.runs.length ? runTable(list.runs, actions) : h("p.muted", "No runs yet: start one from an experiment above."), list.total > list.runs.length ? h("p", link("/runs", `All ${list.total} runs`)) : null);
+    } catch (err) {
+      fill(recent, failure(err));
+    }
+  };
+  await showRecent();
+  return () => clearInterval(timer);
 }
 
-export function runTable(runs: RunSummaryInfo[]): HTMLElement {
+/** The pinned class demo as a banner (null: none pinned); instructors may unpin it. */
+async function demoBanner(changed: () => Promise<void>): Promise<HTMLElement | null> {
+  const [info, me] = await Promise.all([api.demo(), identity.get().catch(() => null)]);
+  const run = info.run;
+  if (!run) return null;
+  const plant = await plantDetail(run.plant).then((p) => p.name, () => run.plant);
+  const msg = h("p.error", { role: "alert" });
+  const unpin = async () => {
+    try {
+      await api.unpinDemo();
+      await changed();
+    } catch (err) {
+      fill(msg, errorText(err));
+    }
+  };
   return h(
-    "table.runs",
-    h("thead", h("tr", h("th", "Run"), h("th", "Plant"), h("th", "Experiment"), h("th", "Status"), h("th", "Length"), h("th", "Started"))),
+    "section.demo-banner",
+    { "aria-labelledby": "demo-h", "data-testid": "demo-banner", "data-run": run.id, "data-key": `${run.id} ${run.status}` },
+    h("h2#demo-h", "Class demo"),
     h(
-      "tbody",
-      ...runs.map((r) =>
-        h(
-          "tr",
-          h("td", link(`/runs/${r.id}`, h("span.mono", r.id))),
-          h("td", r.plant),
-          h("td", r.experiment),
-          h("td", h("span.badge", { "data-state": r.status }, r.status)),
-          h("td", `${fmt(r.n_samples * r.Ts)} s`),
-          h("td", new Date(r.created_at * 1000).toLocaleString()),
-        ),
-      ),
+      "p",
+      link(`/runs/${run.id}`, `${plant}: ${EXPERIMENTS[run.experiment]?.title.toLowerCase() ?? run.experiment}`),
+      " ",
+      h("span.badge", { "data-state": run.status }, run.status),
+      h("span.muted", ` · ${run.owner === info.pinned_by ? `by ${run.owner}` : `run by ${run.owner}, pinned by ${info.pinned_by ?? "an instructor"}`}`),
     ),
+    me?.role === "instructor" ? h("button", { type: "button", onclick: () => void unpin() }, "Unpin") : null,
+    msg,
   );
 }

@@ -2,12 +2,12 @@
 // predefined controller — or in open loop — record the response live, download it.
 import { api } from "../api";
 import { fill, h } from "../dom";
-import { durationField, SignalForm } from "../experiment";
+import { durationField, SignalForm, StartOptions } from "../experiment";
 import { FieldSet } from "../forms";
 import type { PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
 import { fmt } from "../units";
-import { experimentPage, showApiError } from "./common";
+import { errorText, experimentPage, showApiError } from "./common";
 import { IdentAnalysis } from "./identanalysis";
 
 export function identificationPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
@@ -23,6 +23,7 @@ class IdentificationView {
   readonly root: HTMLElement;
   private excitation!: SignalForm;
   private readonly runFields = new FieldSet();
+  private readonly startOptions = new StartOptions();
   private readonly loop: HTMLSelectElement;
   private readonly excitationSlot = h("div");
   private readonly formMsg = h("p.error", { role: "alert", "data-testid": "form-error" });
@@ -52,7 +53,7 @@ class IdentificationView {
       h("h2", "Experiment"),
       h("fieldset", h("legend", "Loop"), h("div.field", h("label", { for: "loop" }, "Configuration"), this.loop), h("small.hint", `The predefined controller (${plant.predefined_design}) keeps the plant near its operating point; open loop suits stable plants only.`)),
       this.excitationSlot,
-      h("fieldset", h("legend", "Length"), h("div.grid", duration.root)),
+      h("fieldset", h("legend", "Length"), h("div.grid", duration.root), this.startOptions.root),
       h("div.actions", h("button.primary", { type: "submit" }, "Start")),
       this.formMsg,
     );
@@ -83,7 +84,7 @@ class IdentificationView {
     const excitation = this.excitation.value();
     const v = this.runFields.values();
     if (!excitation || !v) return null;
-    const base = { plant: this.plant.id, experiment: "identification" as const, duration: v.get("duration")!, pace: "realtime" as const };
+    const base = { plant: this.plant.id, experiment: "identification" as const, duration: v.get("duration")!, pace: "realtime" as const, private: this.startOptions.private };
     const loop = this.loop.value as Loop;
     if (loop === "open") return { ...base, controller: { kind: "open_loop" }, signal: excitation };
     return { ...base, controller: { kind: "predefined" }, signal: { kind: "step", amplitude: 0 }, excitation, excitation_at: loop === "closed-input" ? "input" : "reference" };
@@ -96,6 +97,7 @@ class IdentificationView {
       fill(this.formMsg, "Please correct the marked fields; nothing was sent.");
       return;
     }
+    const previous = this.run;
     try {
       const info = await api.createRun(req);
       this.run?.destroy();
@@ -108,7 +110,9 @@ class IdentificationView {
       history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
     } catch (err) {
       showApiError(err, [this.excitation.fields, this.runFields], this.formMsg);
+      return;
     }
+    await this.startOptions.retire(previous).catch((err: unknown) => fill(this.formMsg, `The previous run goes on: ${errorText(err)}`));
   }
 
   private onState(state: string): void {

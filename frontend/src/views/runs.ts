@@ -1,25 +1,47 @@
-// Every run, newest first: filter by plant, page through, statuses refresh by themselves.
-import { api } from "../api";
+// Every run the viewer may see, newest first: all, only mine, or only the live ones (in
+// the address: ?owner=me, ?live=true), by plant; page through; statuses refresh by
+// themselves.
+import { filterFrom, filterQuery, type RunsFilter } from "../access";
+import { api, queryString } from "../api";
 import { fill, h } from "../dom";
 import { failure, pageHeader } from "./common";
-import { runTable } from "./home";
+import { runTable } from "./runtable";
 
 const PAGE = 25;
 const REFRESH_MS = 3000;
+const FILTERS: [RunsFilter, string][] = [
+  ["all", "All runs"],
+  ["mine", "My runs"],
+  ["live", "Live now"],
+];
+const EMPTY: Record<RunsFilter, string> = { all: "No runs.", mine: "You have no runs yet: start one from an experiment.", live: "No run is live right now." };
 
 export async function runsPage(root: HTMLElement, _params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
   const plants = await api.plants().catch(() => []);
   const plant = h("select", { id: "plant-filter", "aria-label": "plant" }, h("option", { value: "" }, "all plants"), ...plants.map((p) => h("option", { value: p.id }, p.name)));
   plant.value = query.get("plant") ?? "";
+  let filter = filterFrom(query);
   let offset = Math.max(0, Number(query.get("offset")) || 0);
+  const radios = FILTERS.map(([value, label]) => {
+    const input = h("input", { type: "radio", name: "show", value, checked: value === filter, onchange: () => ((filter = value), go(0)) });
+    return h("label.inline", input, ` ${label}`);
+  });
   const table = h("div");
   const pager = h("div.toolbar");
-  root.append(pageHeader("Runs", [["/runs", "Runs"]], h("p.lead", "Every run on this lab, newest first. Open one to follow it live or replay it.")), h("div.toolbar", h("label.inline", "Plant ", plant)), table, pager);
+  const msg = h("p.error", { role: "alert", "data-testid": "runs-error" });
+  root.append(
+    pageHeader("Runs", [["/runs", "Runs"]], h("p.lead", "Every run on this lab you may see, newest first. Open one to follow it live or replay it.")),
+    h("div.toolbar", h("div.group", { role: "radiogroup", "aria-label": "which runs" }, ...radios), h("label.inline", "Plant ", plant)),
+    msg,
+    table,
+    pager,
+  );
 
   const load = async () => {
     try {
-      const list = await api.runs({ plant: plant.value || undefined, limit: PAGE, offset });
-      fill(table, list.runs.length ? runTable(list.runs) : h("p.muted", "No runs."));
+      const list = await api.runs({ plant: plant.value || undefined, ...filterQuery(filter), limit: PAGE, offset });
+      const actions = { changed: () => void load(), failed: (m: string) => fill(msg, m) };
+      fill(table, list.runs.length ? runTable(list.runs, actions) : h("p.muted", EMPTY[filter]));
       const prev = h("button", { type: "button", disabled: offset === 0, onclick: () => go(Math.max(0, offset - PAGE)) }, "Newer");
       const next = h("button", { type: "button", disabled: offset + PAGE >= list.total, onclick: () => go(offset + PAGE) }, "Older");
       fill(pager, prev, `${list.total ? offset + 1 : 0}–${Math.min(offset + PAGE, list.total)} of ${list.total}`, next);
@@ -29,10 +51,8 @@ export async function runsPage(root: HTMLElement, _params: Record<string, string
   };
   const go = (to: number) => {
     offset = to;
-    const q = new URLSearchParams();
-    if (plant.value) q.set("plant", plant.value);
-    if (offset) q.set("offset", String(offset));
-    history.replaceState(null, "", `/runs${q.size ? "?" + q.toString() : ""}`);
+    fill(msg);
+    history.replaceState(null, "", `/runs${queryString({ plant: plant.value || undefined, ...filterQuery(filter), offset: offset || undefined })}`);
     void load();
   };
   plant.addEventListener("change", () => go(0));

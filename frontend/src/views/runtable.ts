@@ -1,0 +1,68 @@
+// Runs as a table (the start page's recent runs, the runs page): whose each one is, and
+// Stop or Delete for those the viewer may control.
+import { ENDED } from "../access";
+import { api } from "../api";
+import { h, link } from "../dom";
+import type { RunSummaryInfo } from "../protocol.gen";
+import { fmt } from "../units";
+import { errorText } from "./common";
+
+export interface RowActions {
+  /** a run was stopped or deleted: show the list again */
+  changed(): void;
+  failed(message: string): void;
+}
+
+export function runTable(runs: RunSummaryInfo[], actions?: RowActions): HTMLElement {
+  return h(
+    "table.runs",
+    h("thead", h("tr", h("th", "Run"), h("th", "Plant"), h("th", "Experiment"), h("th", "Owner"), h("th", "Status"), h("th", "Length"), h("th", "Started"), actions ? h("th", h("span.visually-hidden", "Actions")) : null)),
+    h(
+      "tbody",
+      ...runs.map((r) =>
+        h(
+          "tr",
+          { "data-run": r.id },
+          h("td", link(`/runs/${r.id}`, h("span.mono", r.id))),
+          h("td", r.plant),
+          h("td", r.experiment),
+          h("td.owner", r.mine ? h("span", { title: r.owner }, "you") : r.owner, r.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null),
+          h("td", h("span.badge", { "data-state": r.status }, r.status)),
+          h("td", `${fmt(r.n_samples * r.Ts)} s`),
+          h("td", new Date(r.created_at * 1000).toLocaleString()),
+          actions ? h("td.actions-cell", rowAction(r, actions)) : null,
+        ),
+      ),
+    ),
+  );
+}
+
+/** Stop for a live run, Delete for an ended one; nothing for runs the viewer may not control. */
+function rowAction(r: RunSummaryInfo, actions: RowActions): HTMLButtonElement | null {
+  if (!r.can_control) return null;
+  const act = async (button: HTMLButtonElement, action: () => Promise<unknown>) => {
+    button.disabled = true;
+    try {
+      await action();
+    } catch (err) {
+      actions.failed(`${r.id}: ${errorText(err)}`);
+    }
+    actions.changed();
+  };
+  if (!ENDED.has(r.status)) {
+    const stop = h("button", { type: "button", "aria-label": `Stop run ${r.id}`, onclick: () => void act(stop, () => api.stop(r.id)) }, "Stop");
+    return stop;
+  }
+  const del = h(
+    "button.danger",
+    {
+      type: "button",
+      "aria-label": `Delete run ${r.id}`,
+      onclick: () => {
+        if (confirm(`Delete run ${r.id} and its recording? This cannot be undone.`)) void act(del, () => api.deleteRun(r.id));
+      },
+    },
+    "Delete",
+  );
+  return del;
+}
