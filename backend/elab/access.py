@@ -57,7 +57,7 @@ def display_name(owner: str | None) -> str:
     """How an owner is shown to others: ``guest 3f2a`` for an anonymous browser, the
     account name for an instructor."""
     if not owner:
-        return "nobody (made before owners were recorded)"
+        return "no one (an older run, from before owners)"
     if owner.startswith(INSTRUCTOR):
         return owner[len(INSTRUCTOR) :] + " (instructor)"
     if owner.startswith(ANONYMOUS):

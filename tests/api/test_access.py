@@ -339,3 +339,63 @@ def test_a_new_browser_gets_a_signed_httponly_samesite_cookie(server: Server) ->
     forged = value.split(".")[0] + ".forged"
     r = httpx.get(server.url + "/api/v1/me", cookies={"elab_id": forged})
     assert r.json()["id"] != value.split(".")[0]  # a forged cookie is a new visitor
+
+
+def test_kept_runs_storage_uploads_and_identifications_are_budgeted_per_identity(
+    tmp_path: Path,
+) -> None:
+    srv = Server(
+        tmp_path / "data",
+        ELAB_MAX_RUNS_PER_IDENTITY="3",
+        ELAB_MAX_STORAGE_PER_IDENTITY=str(3 << 20),
+        ELAB_MAX_UPLOADS_PER_IDENTITY="1",
+        ELAB_MAX_IDENT_PER_IDENTITY="1",
+        ELAB_IDENT_WORKERS="2",
+        ELAB_RETENTION="3",
+    ).start()
+    fast = {"plant": "belt_conveyor", "pace": "fast"}
+    try:
+        with srv.stranger() as me, srv.stranger() as other:
+            # storage: belt conveyor runs record 8 channels of 8 bytes a sample (1 kHz)
+            r = me.post("/runs", json={**fast, "duration": 70})  # 4.5 MB > 3 MiB
+            assert r.status_code == 429, r.text
+            message = r.json()["error"]["message"]
+            assert "ELAB_MAX_STORAGE_PER_IDENTITY = 3.0 MiB" in message, message
+            assert "this one needs 4.3 MiB" in message, message
+            ids = [me.post("/runs", json={**fast, "duration": 1}).json()["id"] for _ in range(3)]
+            r = me.post("/runs", json={**fast, "duration": 1})
+            assert r.status_code == 429 and "ELAB_MAX_RUNS_PER_IDENTITY = 3" in r.text
+            assert int(r.headers["retry-after"]) >= 3  # the retention frees room
+            assert other.post("/runs", json={**fast, "duration": 1}).status_code == 201
+
+            # retention: ended runs go 3 s after they ended, and the budget is free again
+            until(lambda: all(me.get(f"/runs/{i}").status_code == 404 for i in ids), 30)
+            assert me.post("/runs", json={**fast, "duration": 1}).status_code == 201
+
+            # one identification at a time per identity
+            excited = {"excitation": {"kind": "prbs", "amplitude": 1.0}, "duration": 20}
+            rid = other.post("/runs", json={**fast, **excited}).json()["id"]
+            until(lambda: other.get(f"/runs/{rid}").json()["finished_at"], 30)
+            heavy = {
+                "data": {"source": "run", "run": rid, "input": ["u"], "output": ["x"]},
+                "models": [{"kind": "oe", "nb": 6, "nf": 6, "nk": 1}] * 3,
+            }
+            light = {**heavy, "models": [], "correlation": False, "spectral": False}
+
+            async def two_at_once() -> list[httpx.Response]:
+                async with httpx.AsyncClient(
+                    base_url=srv.url + "/api/v1", cookies=me.cookies, timeout=120
+                ) as c:
+                    first = asyncio.create_task(c.post("/ident", json=heavy))
+                    while (await c.get("/server")).json()["ident"]["busy"] == 0:
+                        await asyncio.sleep(0.02)  # the first is being worked on
+                    second = await c.post("/ident", json=light)
+                    return [await first, second]
+
+            first, second = asyncio.run(two_at_once())
+            assert first.status_code == 200, first.text[:300]
+            assert second.status_code == 429, second.text[:300]
+            assert "ELAB_MAX_IDENT_PER_IDENTITY = 1" in second.json()["error"]["message"]
+            assert other.post("/ident", json=light).status_code == 200
+    finally:
+        srv.stop()

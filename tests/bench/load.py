@@ -113,7 +113,9 @@ async def bad_burst(url: str, n: int = 1000, at_once: int = 50) -> dict[int, int
         async def one(i: int) -> None:
             method, path, body = BAD[i % len(BAD)]
             async with gate:
-                r = await c.request(method, path, content=body)
+                r = await c.request(
+                    method, path, content=body, headers={"content-type": "application/json"}
+                )
             codes[r.status_code] = codes.get(r.status_code, 0) + 1
 
         await asyncio.gather(*(one(i) for i in range(n)))

@@ -17,7 +17,7 @@ from elab.api import schemas as s
 from elab.api.auth import Authority, identity, me_fields, session_cookie_value
 from elab.api.http import Param, endpoint, ok, read_model
 from elab.api.runs import manager, run_summary
-from elab.errors import Forbidden, InvalidInput, NotFound
+from elab.errors import Forbidden, NotFound, TooMany
 from elab.store.base import Pin
 
 DEMO = "demo"
@@ -31,7 +31,7 @@ def authority(request: Request) -> Authority:
 async def me(request: Request) -> Response:
     """A browser's first request gives it an anonymous identity (a signed cookie); an
     instructor signed in, or an API token, is that identity instead."""
-    return ok(s.Me(**me_fields(identity(request))))
+    return ok(s.Me(**me_fields(identity(request), authority(request))))
 
 
 @endpoint(
@@ -51,7 +51,7 @@ async def sign_in(request: Request) -> Response:
     value = await asyncio.to_thread(auth.sign_in, req.name, req.password, address)
     who = auth.session(value)
     assert who is not None
-    response = ok(s.Me(**me_fields(who)))
+    response = ok(s.Me(**me_fields(who, auth)))
     response.headers.append("set-cookie", session_cookie_value(auth, value))
     return response
 
@@ -67,7 +67,7 @@ async def sign_out(request: Request) -> Response:
     auth = authority(request)
     cookie = request.cookies.get("elab_id")
     who = auth.anonymous(cookie) or Identity("", via="none")
-    response = ok(s.Me(**me_fields(who)))
+    response = ok(s.Me(**me_fields(who, auth)))
     response.headers.append("set-cookie", session_cookie_value(auth, None))
     return response
 
@@ -108,14 +108,20 @@ async def list_tokens(request: Request) -> Response:
     links=(("revoke_token", "token_id"),),
 )
 async def create_token(request: Request) -> Response:
-    """The token is in this answer only; the server keeps its SHA-256. At most 20 per
-    identity."""
+    """The token is in this answer only; the server keeps its SHA-256. At most
+    ``ELAB_MAX_TOKENS_PER_IDENTITY`` (20) per identity. Without credentials the caller is a
+    new anonymous identity, which the token then carries: a script's way to one."""
     req = await read_model(request, s.TokenCreate)
     who = _token_owner(request)
     auth = authority(request)
     have = await asyncio.to_thread(auth.store.tokens, who.id)
-    if len(have) >= 20:
-        raise InvalidInput("name", req.name, "a 21st token: 20 per identity; revoke one first")
+    limit = request.app.state.settings.max_tokens_per_identity
+    if len(have) >= limit:
+        raise TooMany(
+            f"you have {len(have)} API tokens, the limit per identity "
+            f"(ELAB_MAX_TOKENS_PER_IDENTITY = {limit}); revoke one first",
+            retry_after=60.0,
+        )
     token, raw = await asyncio.to_thread(auth.make_token, who, req.name)
     return ok(
         s.TokenCreated(

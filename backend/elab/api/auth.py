@@ -323,10 +323,12 @@ def session_cookie_value(auth: Authority, value: str | None) -> str:
     return auth.cookie(SESSION_COOKIE, value, None)
 
 
-def me_fields(who: Identity) -> dict[str, Any]:
+def me_fields(who: Identity, auth: Authority) -> dict[str, Any]:
     return {
         "id": who.id or None,
         "name": who.name if who.id else "nobody",
         "role": who.role.value,
         "via": who.via,
+        "account": who.id[len(INSTRUCTOR) :] if who.instructor else None,
+        "sign_in": bool(auth.instructors),
     }

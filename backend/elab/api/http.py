@@ -226,7 +226,7 @@ def query(request: HTTPConnection, name: str) -> str | None:
 
 def query_float(request: Request, name: str) -> float | None:
     raw = query(request, name)
-    if raw is None or raw == "":
+    if raw is None:
         return None
     try:
         value = float(raw)

@@ -406,7 +406,8 @@ async def get_data(request: Request) -> Response:
     is streamed as it is written, part by part (a download of any length holds one part of
     the recording in memory), and stops when the client goes away. A live run downloads
     as recorded so far."""
-    fmt = query(request, "format") or "csv"
+    fmt = query(request, "format")
+    fmt = "csv" if fmt is None else fmt
     if fmt not in FORMATS:
         raise InvalidInput("format", fmt, ", ".join(FORMATS))
     m = manager(request)

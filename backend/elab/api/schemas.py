@@ -217,7 +217,8 @@ class RunSummaryInfo(Model):
     started_at: float | None
     finished_at: float | None
     error: str | None = Field(
-        description="why it failed, stopped early (who stopped it) or was interrupted"
+        description="why it failed, stopped early (who stopped it) or was interrupted; "
+        "while it is paused, who paused it or why"
     )
     url: str
     owner: str = Field(description="who started it, as others see them (guest 3f2a, a name)")
@@ -248,6 +249,8 @@ class Me(Model):
         description="cookie: the browser's anonymous identity; session: an instructor "
         "signed in; token: an API token"
     )
+    account: str | None = Field(description="the instructor account's name (null: none)")
+    sign_in: bool = Field(description="this server has instructor accounts to sign in to")
 
 
 class SignIn(Model):

@@ -40,7 +40,8 @@ class Settings:
     ``ident_timeout`` s per job (``ELAB_IDENT_TIMEOUT``, 120), ``ident_wait`` s a request
     waits for a worker (``ELAB_IDENT_WAIT``, 30); per identity at once: identifications
     ``max_ident_per_identity`` (``ELAB_MAX_IDENT_PER_IDENTITY``, 2) and large bodies
-    ``max_uploads_per_identity`` (``ELAB_MAX_UPLOADS_PER_IDENTITY``, 2).
+    ``max_uploads_per_identity`` (``ELAB_MAX_UPLOADS_PER_IDENTITY``, 2); API tokens an
+    identity may have ``max_tokens_per_identity`` (``ELAB_MAX_TOKENS_PER_IDENTITY``, 20).
 
     Access (docs/access.md): ``secret`` signs identity cookies (``ELAB_SECRET``; default:
     made once and kept in the data directory), ``hosts`` the ``Host`` names the server
@@ -66,6 +67,7 @@ class Settings:
     ident_wait: float = 30.0
     max_ident_per_identity: int = 2
     max_uploads_per_identity: int = 2
+    max_tokens_per_identity: int = 20
     secret: str | None = None
     hosts: tuple[str, ...] = LOOPBACK
     origins: tuple[str, ...] = ()
@@ -120,6 +122,7 @@ class Settings:
             ident_wait=_float(env, "ELAB_IDENT_WAIT", 30.0),
             max_ident_per_identity=_int(env, "ELAB_MAX_IDENT_PER_IDENTITY", 2),
             max_uploads_per_identity=_int(env, "ELAB_MAX_UPLOADS_PER_IDENTITY", 2),
+            max_tokens_per_identity=_int(env, "ELAB_MAX_TOKENS_PER_IDENTITY", 20),
             secret=_secret(env),
             hosts=_names(env, "ELAB_HOSTS", LOOPBACK),
             origins=tuple(_origin(o) for o in _names(env, "ELAB_ORIGINS", ())),

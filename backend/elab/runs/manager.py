@@ -393,11 +393,11 @@ class RunManager:
         if run is None:
             return
         run.state = change.state
+        run.error = change.error  # while paused: who paused it or why, for late joiners
         status = self.codec.status(change.state.value, run.next_k, change.error)
         if change.state.live:
             run.channel.control(status)
             return
-        run.error = change.error
         run.moved.set()
         if run.filling is not None:
             run.end_status = status  # sent once the gap is filled
