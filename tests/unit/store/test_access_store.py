@@ -13,15 +13,13 @@ from elab.errors import Conflict, NotFound
 from elab.store import ParamChange, Pin, SQLiteStore, Token
 from elab.store._db import SCHEMA_VERSION
 from tests.unit.store.test_sqlite import NCH, record
+from tests.unit.store.test_versions_and_faults import restored
 
 V2 = Path(__file__).resolve().parents[2] / "reference" / "store" / "v2.sql"
 
 
 def test_a_version_2_file_opens_upgraded_and_its_runs_have_no_owner(tmp_path: Path) -> None:
-    path = tmp_path / "v2.sqlite3"
-    conn = sqlite3.connect(path)
-    conn.executescript(V2.read_text())
-    conn.close()
+    path = restored(V2, tmp_path / "v2.sqlite3")
     with SQLiteStore(path) as store:
         run = store.get_run("r-0000000000b2")
         assert (run.status, run.n_stored, run.engine) == ("stopped", 25, "sim-0")

@@ -22,13 +22,17 @@ from tests.unit.store.test_sqlite import NCH, record
 V1 = Path(__file__).resolve().parents[2] / "reference" / "store" / "v1.sql"
 
 
-def v1_file(tmp_path: Path) -> Path:
-    """A store as E-Lab's schema version 1 wrote it (its dump, committed beside the tests)."""
-    path = tmp_path / "v1.sqlite3"
+def restored(dump: Path, path: Path) -> Path:
+    """A store file made from a dump an earlier E-Lab wrote (committed beside the tests)."""
     conn = sqlite3.connect(path)
-    conn.executescript(V1.read_text())
+    conn.executescript(dump.read_text())
     conn.close()
     return path
+
+
+def v1_file(tmp_path: Path) -> Path:
+    """A store as E-Lab's schema version 1 wrote it."""
+    return restored(V1, tmp_path / "v1.sqlite3")
 
 
 def test_a_version_1_file_opens_upgraded_with_everything_in_it(tmp_path: Path) -> None:
