@@ -1,5 +1,5 @@
 """Every limit a client can push has a setting and a clear 4xx naming it: run size (sample
-time, samples, recording bytes), live runs per client, uploads at once, identification time
+time, samples, recording bytes), live runs per identity, uploads at once, identification time
 and workers; an identification whose client leaves stops its work; downloads stream."""
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ def test_a_run_over_a_size_limit_is_422_naming_field_and_setting(
     assert names in r.json()["error"]["message"]
 
 
-def test_live_runs_per_client_are_limited_with_retry_after(limited: Server) -> None:
+def test_live_runs_per_identity_are_limited_with_retry_after(limited: Server) -> None:
     with limited.client() as c:
         ids = [
             c.post("/runs", json={"plant": "belt_conveyor", "duration": 60}).json()["id"]

@@ -253,12 +253,15 @@ def summarise(window: Window, frames: dict[str, np.ndarray]) -> dict[str, float]
 
 
 def lab_server(data: Path, runs: int) -> Server:
-    """A started ``elab serve`` that takes ``runs`` live runs from one client; its runs
-    are watched by spectators only, so their owner's absence must not pause them."""
+    """A started ``elab serve`` that takes ``runs`` live hour-long runs from one client
+    (its storage budget too: each reserves 259 MB); its runs are watched by spectators
+    only, so their owner's absence must not pause them."""
     return Server(
         data,
         ELAB_MAX_LIVE_RUNS=str(runs + 10),
         ELAB_MAX_LIVE_PER_IDENTITY=str(runs + 10),
+        ELAB_MAX_STORAGE_PER_IDENTITY=str(1 << 50),
+        ELAB_MAX_RUNS_PER_IDENTITY=str(10 * runs + 10),
         ELAB_OWNER_GRACE="86400",
         ELAB_OWNER_GONE="86400",
     ).start()
