@@ -399,3 +399,22 @@ def test_kept_runs_storage_uploads_and_identifications_are_budgeted_per_identity
             assert other.post("/ident", json=light).status_code == 200
     finally:
         srv.stop()
+
+
+def test_a_run_deleted_while_it_downloads_is_hidden_at_once_and_the_download_completes(
+    server: Server,
+) -> None:
+    with server.stranger() as me:
+        rid = start(me, plant="flexible_link", pace="fast", duration=120)["id"]
+        until(lambda: me.get(f"/runs/{rid}").json()["finished_at"], 60)
+        whole = me.get(f"/runs/{rid}/data").content
+        with me.stream("GET", f"/runs/{rid}/data") as r:
+            parts = r.iter_bytes()
+            got = next(parts)
+            assert me.delete(f"/runs/{rid}").status_code == 204
+            assert me.get(f"/runs/{rid}").status_code == 404  # gone for everyone else
+            assert rid not in [x["id"] for x in me.get("/runs?owner=me").json()["runs"]]
+            got += b"".join(parts)
+        assert got == whole  # the download under way lost nothing
+        assert me.get(f"/runs/{rid}/data").status_code == 404
+    assert "Traceback" not in server.log

@@ -6,9 +6,10 @@ Every run belongs to whoever started it (:mod:`elab.api.auth`); the rules of
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator
+from collections.abc import AsyncIterator, Callable, Iterator
 from typing import Any
 
+from starlette.concurrency import iterate_in_threadpool
 from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response, StreamingResponse
 
@@ -437,10 +438,20 @@ async def get_data(request: Request) -> Response:
     }
     filename = f"{record.id}-{record.plant}.{fmt}"
     return StreamingResponse(
-        writers[fmt](rec),
+        _while_downloading(m, record.id, writers[fmt](rec)),
         media_type=FORMATS[fmt],
         headers={"content-disposition": f'attachment; filename="{filename}"'},
     )
+
+
+async def _while_downloading(
+    m: RunManager, run_id: str, parts: Iterator[str | bytes]
+) -> AsyncIterator[str | bytes]:
+    """The parts, written in a worker thread, with the run kept in the store until the
+    last one (a run deleted meanwhile goes after)."""
+    with m.downloading(run_id):
+        async for part in iterate_in_threadpool(parts):
+            yield part
 
 
 def _header(record: RunRecord) -> dict[str, str]:

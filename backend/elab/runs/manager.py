@@ -18,7 +18,7 @@ import math
 import secrets
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -90,6 +90,8 @@ class RunManager:
         self._channels: dict[str, RunChannel] = {}
         self._sender = Sender()  # one pass over all watchers per tick
         self._starting: Counter[str | None] = Counter()  # runs being started, by owner
+        self._downloads: Counter[str] = Counter()  # downloads under way, by run
+        self._deleted: set[str] = set()  # deleted while downloaded: removed after the last
         self._tasks: set[asyncio.Task[None]] = set()
         self._patrol_task: asyncio.Task[None] | None = None
 
@@ -120,6 +122,8 @@ class RunManager:
     async def get(self, run_id: str, who: Identity | None = None) -> RunRecord:
         """A run as it is now; given ``who``, :class:`NotFound` for a private run of
         someone else (as if it did not exist)."""
+        if run_id in self._deleted:
+            raise NotFound("run", run_id)
         run = self._runs.get(run_id)
         record = run.current() if run is not None else None
         if record is None:
@@ -149,7 +153,9 @@ class RunManager:
             limit=limit,
             offset=offset,
         )
-        return [self._runs[r.id].current() if r.id in self._runs else r for r in runs], total
+        shown = [r for r in runs if r.id not in self._deleted]
+        total -= len(runs) - len(shown)
+        return [self._runs[r.id].current() if r.id in self._runs else r for r in shown], total
 
     def live_runs(self) -> list[RunRecord]:
         """Every live run, oldest first (for instructors)."""
@@ -301,7 +307,34 @@ class RunManager:
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(run.forgotten.wait(), 10.0)
         self._channels.pop(run_id, None)
-        await asyncio.to_thread(self.store.delete_run, run_id)
+        await self._remove(run_id)
+
+    @contextlib.contextmanager
+    def downloading(self, run_id: str) -> Iterator[None]:
+        """While a download of the run is under way: deleting the run then hides it at once
+        and removes it when the last download has ended (a download never loses its end)."""
+        self._downloads[run_id] += 1
+        try:
+            yield
+        finally:
+            self._downloads[run_id] -= 1
+            if self._downloads[run_id] <= 0:
+                del self._downloads[run_id]
+                if run_id in self._deleted:
+                    self._spawn(self._remove(run_id))
+
+    async def _remove(self, run_id: str) -> bool:
+        """Delete an ended run from the store, or later if it is being downloaded."""
+        self._deleted.add(run_id)
+        if self._downloads[run_id]:
+            return False
+        try:
+            await asyncio.to_thread(self.store.delete_run, run_id)
+        except NotFound:
+            pass  # deleted meanwhile (a second request, the retention)
+        finally:
+            self._deleted.discard(run_id)
+        return True
 
     async def _command(self, run_id: str, action: Action, reason: str | None) -> None:
         try:
@@ -500,9 +533,10 @@ class RunManager:
         cutoff = time.time() - self.limits.retention
         try:
             while ids := await asyncio.to_thread(self.store.ended_before, cutoff):
-                for run_id in ids:
-                    await asyncio.to_thread(self.store.delete_run, run_id)
-                log.info("deleted %d runs past the retention", len(ids))
+                done = [run_id for run_id in ids if await self._remove(run_id)]
+                log.info("deleted %d runs past the retention", len(done))
+                if not done:  # all being downloaded: they go when their downloads end
+                    break
         except ElabError:
             log.exception("deleting runs past the retention failed; tried again later")
 
