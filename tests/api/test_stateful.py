@@ -1,7 +1,9 @@
 """A hypothesis state machine drives a real server with random interleavings of create,
-pause, resume, stop and parameter changes (over REST and over websockets), watchers that
-join and vanish, and time passing, checked against a model of the run state machine: no
-500, nothing hangs, every answer agrees with the model, and at the end every recording is
+pause, resume, stop and parameter changes (over REST and over websockets, as the runs'
+owner), a stranger trying the same on them, watchers that join and vanish, and time
+passing, checked against a model of the run state machine: no 500, nothing hangs, every
+answer agrees with the model, every stranger's attempt is refused and changes nothing,
+and at the end every recording is
 complete and equal to the offline simulation with the recorded parameter changes, and every
 watcher still connected received every sample."""
 
@@ -27,7 +29,7 @@ from websockets.sync.client import ClientConnection, connect
 from elab.laws import StateFeedback
 from elab.plants import get_plant
 from elab.sim import RunSpec, Samples, Simulation, Square, Step
-from tests.api.server import Server
+from tests.api.server import Server, identity_of
 
 FLEX = get_plant("flexible_link")
 SQUARE = {"kind": "square", "amplitude": math.radians(20), "period": 1.0}
@@ -78,7 +80,8 @@ class Lab(RuleBasedStateMachine):
 
     def __init__(self) -> None:
         super().__init__()
-        self.c = httpx.Client(base_url=self.server.url + "/api/v1", timeout=30)
+        self.c = httpx.Client(base_url=self.server.url + "/api/v1", timeout=30)  # the owner
+        self.stranger = httpx.Client(base_url=self.server.url + "/api/v1", timeout=30)
         self.all_runs: list[Run] = []
         self.all_watches: list[Watch] = []
 
@@ -138,6 +141,39 @@ class Lab(RuleBasedStateMachine):
         now = self.server_state(watch.run)
         watch.run.state = "ended" if now in ENDED else now
 
+    @rule(
+        run=runs,
+        action=st.sampled_from(["pause", "resume", "stop", "params", "delete"]),
+        over=st.sampled_from(["rest", "websocket"]),
+    )
+    def a_stranger_tries(self, run: Run, action: str, over: str) -> None:
+        """Refused, whatever the run's state; the invariant checks nothing changed."""
+        if over == "rest" or action == "delete":
+            method, path, body = "POST", f"/runs/{run.id}/{action}", None
+            if action == "params":
+                body = {"controller": {"kind": "state_feedback", "K": GAINS[1]}}
+            if action == "delete":
+                method, path = "DELETE", f"/runs/{run.id}"
+            r = self.stranger.request(method, path, json=body)
+            assert r.status_code == 403, r.text
+            return
+        message: dict[str, Any] = {"type": action}
+        if action == "params":
+            message = {
+                "type": "set_params",
+                "controller": {"kind": "state_feedback", "K": GAINS[1]},
+            }
+        with connect(
+            f"{self.server.ws_url}/api/v1/runs/{run.id}/stream",
+            subprotocols=["elab.v1"],  # type: ignore[list-item]
+            additional_headers=identity_of(self.stranger),
+            max_size=None,
+        ) as conn:
+            conn.send(json.dumps(message))
+            while (msg := msgpack.unpackb(conn.recv(timeout=10)))["type"] != "error":
+                assert msg["type"] != "status" or msg["state"] in ENDED, msg
+            assert msg["code"] == "forbidden", msg
+
     @rule(run=runs, gains=st.sampled_from(GAINS), step=st.booleans())
     def change_params(self, run: Run, gains: list[float], step: bool) -> None:
         body: dict[str, Any] = {"controller": {"kind": "state_feedback", "K": gains}}
@@ -156,6 +192,7 @@ class Lab(RuleBasedStateMachine):
         conn = connect(
             f"{self.server.ws_url}/api/v1/runs/{run.id}/stream?from_seq=0",
             subprotocols=["elab.v1"],
+            additional_headers=identity_of(self.c),  # the owner's: its commands count
             max_size=None,  # type: ignore[list-item]
             legacy=True,
         )  # closed in teardown, not by a with block
@@ -188,6 +225,7 @@ class Lab(RuleBasedStateMachine):
                 assert now in ENDED, f"{run.id}: {now}, model ended"
         for w in self.all_watches:
             assert w.failure is None, w.failure
+            assert all(e["code"] != "forbidden" for e in w.errors), w.errors
 
     # -- the end ------------------------------------------------------------------------
     def teardown(self) -> None:
@@ -205,6 +243,7 @@ class Lab(RuleBasedStateMachine):
                 w.closed_by_us = True
                 w.conn.close()
             self.c.close()
+            self.stranger.close()
 
     def check_recording(self, run: Run) -> None:
         info = self.call("GET", f"/runs/{run.id}").json()
