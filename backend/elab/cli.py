@@ -317,6 +317,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--data", help="data directory (default: $ELAB_DATA or ./data)")
     p.set_defaults(func=cmd_serve)
     p = sub.add_parser(
+        "check", help="read a controller file and print its report on a plant's model"
+    )
+    p.add_argument("file", help="a .toml, .json, .mat or .npz controller (elab template)")
+    p.add_argument("--plant", required=True, choices=list(PLANTS))
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_check)
+    p = sub.add_parser("template", help="write a plant's controller template")
+    p.add_argument("plant", choices=list(PLANTS))
+    p.add_argument("--format", default="toml", choices=["toml", "json", "mat", "npz"])
+    p.add_argument("-o", "--output", help="file to write (default: standard output, text only)")
+    p.set_defaults(func=cmd_template)
+    p = sub.add_parser(
         "instructor",
         help="print an ELAB_INSTRUCTORS line for an instructor account (asks the password)",
     )
@@ -326,6 +338,55 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_instructor)
     return parser
+
+
+def cmd_check(args: argparse.Namespace) -> str:
+    from elab import controllers
+
+    plant = get_plant(args.plant)
+    path = Path(args.file)
+    fmt = controllers.format_of(path.name)
+    try:
+        with path.open("rb") as f:
+            data = f.read(controllers.files.MAX_BYTES + 1)
+    except OSError as exc:
+        raise InvalidInput("file", str(path), f"a readable file ({exc.strerror})") from None
+    ctrl = controllers.read_controller(data, fmt, plant)
+    report = controllers.check(plant, ctrl.law)
+    if args.json:
+        return _json(
+            {
+                "plant": plant.id,
+                "controller": controllers.law_fields(ctrl.law),
+                "name": ctrl.name,
+                "stable": report.stable,
+                "closed_loop_poles": _complex_list(report.poles),
+                "gain_margin_db": _finite_or_none(report.gain_margin_db)
+                if report.gain_margin_db is not None
+                else None,
+                "phase_margin_deg": _finite_or_none(report.phase_margin_deg)
+                if report.phase_margin_deg is not None
+                else None,
+                "peak_u": report.peak_u,
+                "u_max": report.u_max,
+                "rig_ready": report.rig_ready,
+                "problems": list(report.problems),
+                "warnings": list(report.warnings),
+            }
+        )
+    return report.text()
+
+
+def cmd_template(args: argparse.Namespace) -> str:
+    from elab.controllers import template
+
+    data = template(get_plant(args.plant), args.format)
+    if args.output:
+        Path(args.output).write_bytes(data)
+        return f"wrote {args.output} ({args.format}, {len(data)} bytes)"
+    if args.format in ("mat", "npz"):
+        raise InvalidInput("output", None, f"a file to write the binary {args.format} to (-o)")
+    return data.decode().rstrip("\n")
 
 
 def cmd_instructor(args: argparse.Namespace) -> str:

@@ -1,0 +1,17 @@
+"""Controllers users bring: files in the lab's formats, templates, and the validation
+report (docs/controllers.md)."""
+
+from elab.controllers.files import FORMATS, Controller, format_of, read_controller
+from elab.controllers.report import Report, check
+from elab.controllers.templates import law_fields, template
+
+__all__ = [
+    "FORMATS",
+    "Controller",
+    "Report",
+    "check",
+    "format_of",
+    "law_fields",
+    "read_controller",
+    "template",
+]

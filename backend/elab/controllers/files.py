@@ -1,0 +1,353 @@
+"""Controllers as users write them: TOML, JSON, MATLAB ``.mat`` and NumPy ``.npz`` files,
+read into the lab's control laws (:mod:`elab.laws`), and a template of each per plant.
+
+Every format says the same thing (docs/controllers.md):
+
+- ``kind = "state_feedback"``: ``K`` (one gain per plant state), ``estimate``
+  (``"velocity_filters"``, what the rig can measure, or ``"true_state"``);
+- ``kind = "pid"``: ``Kp``, ``Ki``, ``Kd``, ``N`` (derivative filter), ``Tt``
+  (anti-windup tracking time);
+- ``kind = "lti"``: a transfer function ``num``, ``den`` or a state space ``A``, ``B``,
+  ``C``, ``D`` on the error r − y, continuous (Tustin at the run's sample time) or
+  discrete with its sample time ``dt`` (MATLAB's ``Ts``; 0 means continuous);
+- ``kind = "open_loop"``: u = r.
+
+A ``.mat`` or ``.npz`` file holds plain matrices named as above; the kind follows from
+which are there. Nothing is ever unpickled, and every size is bounded before data are
+read: a file of at most :data:`MAX_BYTES`, at most :data:`MAX_ORDER` controller states or
+coefficients, a ``.npz`` whose members together expand to at most :data:`MAX_EXPANDED`.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import re
+import tomllib
+import zipfile
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from elab.errors import InvalidInput
+from elab.laws import PID, ControlLaw, LTIController, OpenLoop, StateFeedback
+from elab.plants import Plant
+
+FORMATS = ("toml", "json", "mat", "npz")
+VERSION = 1
+MAX_BYTES = 64 * 1024
+MAX_ORDER = 20  # controller states, or polynomial coefficients
+MAX_EXPANDED = 1 << 20  # bytes a .npz may expand to
+_FIELDS = {
+    "state_feedback": ("K", "estimate"),
+    "pid": ("Kp", "Ki", "Kd", "N", "Tt"),
+    "lti": ("num", "den", "A", "B", "C", "D", "dt"),
+    "open_loop": (),
+}
+_COMMON = ("version", "kind", "plant", "name")
+_MAT_FIX = "save -v7 ctrl.mat A B C D Ts  (or K, or Kp Ki Kd, or num den Ts)"
+
+
+@dataclass(frozen=True)
+class Controller:
+    """A controller read from a file: its law and what the file said about itself."""
+
+    law: ControlLaw
+    format: str
+    name: str = ""
+    plant: str | None = None  # the plant the file names, if it does
+
+
+def read_controller(data: bytes, fmt: str, plant: Plant) -> Controller:
+    """Read a controller file for ``plant``. :class:`InvalidInput` names what is wrong:
+    the line and column of a syntax error, an unknown field and the allowed ones, a
+    dimension against the plant, a non-finite number."""
+    if fmt not in FORMATS:
+        raise InvalidInput("format", fmt, ", ".join(FORMATS))
+    if len(data) > MAX_BYTES:
+        raise InvalidInput("file", f"{len(data)} bytes", f"a file of at most {MAX_BYTES} bytes")
+    if not data:
+        raise InvalidInput("file", "an empty file", f"a {fmt} controller file")
+    if fmt in ("toml", "json"):
+        fields = _text_fields(data, fmt)
+    elif fmt == "mat":
+        fields = _mat_fields(data)
+    else:
+        fields = _npz_fields(data)
+    return _controller(fields, fmt, plant)
+
+
+def format_of(filename: str) -> str:
+    """The format of a file from its name's extension."""
+    ext = filename.rsplit(".", 1)[-1].lower() if "." in filename else ""
+    if ext not in FORMATS:
+        raise InvalidInput(
+            "file", filename, "a name ending in " + ", ".join("." + f for f in FORMATS)
+        )
+    return ext
+
+
+# -- text formats ---------------------------------------------------------------------
+def _text_fields(data: bytes, fmt: str) -> dict[str, Any]:
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InvalidInput(
+            "file", f"byte {exc.start}: {data[exc.start : exc.start + 4]!r}", "UTF-8 text"
+        ) from None
+    try:
+        parsed = tomllib.loads(text) if fmt == "toml" else json.loads(text, parse_constant=_no_nan)
+    except tomllib.TOMLDecodeError as exc:
+        raise InvalidInput("file", _where(str(exc), text), "valid TOML") from None
+    except json.JSONDecodeError as exc:
+        raise InvalidInput(
+            "file", f"line {exc.lineno}, column {exc.colno}: {exc.msg}", "valid JSON"
+        ) from None
+    except RecursionError:
+        raise InvalidInput("file", "nested too deeply", f"a flat {fmt} file") from None
+    if not isinstance(parsed, dict):
+        raise InvalidInput("file", type(parsed).__name__, "a table of fields (kind = …)")
+    if "version" not in parsed:
+        raise InvalidInput("version", None, f"version = {VERSION} (the file format's version)")
+    if parsed["version"] != VERSION or isinstance(parsed["version"], bool):
+        raise InvalidInput("version", parsed["version"], f"{VERSION}")
+    return parsed
+
+
+def _no_nan(token: str) -> Any:
+    raise InvalidInput("file", token, "finite numbers (JSON has no NaN or Infinity)")
+
+
+def _where(message: str, text: str) -> str:
+    """tomllib's message with its position first: 'line 3, column 7: …'."""
+    m = re.search(r"\(at line (\d+), column (\d+)\)", message)
+    if not m:
+        end = message.replace("(at end of document)", "").strip()
+        return f"line {text.count(chr(10)) + 1}, the end of the file: {end}"
+    return f"line {m.group(1)}, column {m.group(2)}: {message[: m.start()].strip()}"
+
+
+# -- binary formats -------------------------------------------------------------------
+def _mat_fields(data: bytes) -> dict[str, Any]:
+    import scipy.io
+
+    if data[:128].find(b"MATLAB 7.3") >= 0 or data[512:516] == b"\x89HDF":
+        raise InvalidInput(
+            "file", "a MATLAB v7.3 (HDF5) file", f"a v7 or older .mat file: {_MAT_FIX}"
+        )
+    try:
+        raw = scipy.io.loadmat(io.BytesIO(data), squeeze_me=False, struct_as_record=True)
+    except Exception as exc:  # scipy raises many kinds for a damaged file
+        raise InvalidInput(
+            "file", f"not a readable .mat file ({exc})", f"a v4-v7 .mat file: {_MAT_FIX}"
+        ) from None
+    out: dict[str, Any] = {}
+    for name, value in raw.items():
+        if name.startswith("__"):
+            continue
+        out[name] = _mat_value(name, value)
+    return _binary_kind(out)
+
+
+def _mat_value(name: str, value: Any) -> Any:
+    if isinstance(value, np.ndarray) and value.dtype.kind in "U":
+        return "".join(value.ravel().tolist())
+    if not isinstance(value, np.ndarray) or value.dtype.kind not in "fiub":
+        raise InvalidInput(
+            name,
+            f"a MATLAB {type(value).__name__ if not isinstance(value, np.ndarray) else 'object'}",
+            f"plain numeric matrices (no ss/tf objects, structs or cells): {_MAT_FIX}",
+        )
+    return value.astype(np.float64)
+
+
+def _npz_fields(data: bytes) -> dict[str, Any]:
+    try:
+        archive = zipfile.ZipFile(io.BytesIO(data))
+        members = archive.infolist()
+    except zipfile.BadZipFile:
+        raise InvalidInput("file", "not a zip archive", "an .npz file (numpy.savez)") from None
+    if len(members) > 16 or sum(m.file_size for m in members) > MAX_EXPANDED:
+        raise InvalidInput(
+            "file",
+            f"{len(members)} members expanding to {sum(m.file_size for m in members)} bytes",
+            f"at most 16 arrays and {MAX_EXPANDED} bytes expanded",
+        )
+    try:
+        npz = np.load(io.BytesIO(data), allow_pickle=False)
+        out = {name: npz[name] for name in npz.files}
+    except ValueError as exc:  # object arrays need pickle: refused
+        raise InvalidInput(
+            "file", f"{exc}", "numeric arrays (pickled objects are never loaded)"
+        ) from None
+    except Exception as exc:
+        raise InvalidInput(
+            "file", f"not a readable .npz ({exc})", "an .npz file (numpy.savez)"
+        ) from None
+    for name, value in out.items():
+        if value.dtype.kind == "U":
+            out[name] = str(value.item()) if value.size == 1 else value
+        elif value.dtype.kind not in "fiub":
+            raise InvalidInput(name, str(value.dtype), "numeric arrays")
+        else:
+            out[name] = value.astype(np.float64)
+    return _binary_kind(out)
+
+
+def _binary_kind(fields: dict[str, Any]) -> dict[str, Any]:
+    """The kind a set of matrices means (the names say it); ``Ts`` is MATLAB's ``dt``."""
+    out: dict[str, Any] = {k: _plain(v) for k, v in fields.items()}
+    if "Ts" in out:
+        ts = out.pop("Ts")
+        out["dt"] = None if ts in (0, 0.0, -1, -1.0) else ts
+    names = set(out)
+    if "kind" in out:
+        return {"version": VERSION, **out}
+    for kind, marker in (("state_feedback", {"K"}), ("pid", {"Kp"}), ("lti", {"num", "A"})):
+        if names & marker:
+            return {"version": VERSION, "kind": kind, **out}
+    raise InvalidInput(
+        "file",
+        ", ".join(sorted(names)) or "no matrices",
+        "K (state feedback), Kp/Ki/Kd (PID), num and den, or A, B, C, D (with Ts)",
+    )
+
+
+def _plain(value: Any) -> Any:
+    """A matrix as nested lists (a 1×1 one as a number), as the text formats give them."""
+    if isinstance(value, np.ndarray):
+        if value.size == 1:
+            return float(value.ravel()[0])
+        return value.tolist()
+    return value
+
+
+# -- fields to a law ------------------------------------------------------------------
+def _controller(fields: Mapping[str, Any], fmt: str, plant: Plant) -> Controller:
+    kind = fields.get("kind")
+    if kind not in _FIELDS:
+        raise InvalidInput("kind", kind, ", ".join(_FIELDS))
+    allowed = _COMMON + _FIELDS[kind]
+    for key in fields:
+        if key not in allowed:
+            raise InvalidInput(
+                key, fields[key], f"a field of a {kind} controller: {', '.join(allowed)}"
+            )
+    named = fields.get("plant")
+    if named is not None and named != plant.id:
+        raise InvalidInput("plant", named, f"{plant.id} (the file is for another plant)")
+    name = fields.get("name", "")
+    if not isinstance(name, str) or len(name) > 80:
+        raise InvalidInput("name", name, "a text of at most 80 characters")
+    law = _LAWS[kind](fields, plant)
+    return Controller(law, fmt, name, named)
+
+
+def _state_feedback(f: Mapping[str, Any], plant: Plant) -> StateFeedback:
+    K = _vector("K", f.get("K"), plant.nx, plant.nx)
+    estimate = f.get("estimate", "velocity_filters")
+    if estimate not in ("velocity_filters", "true_state"):
+        raise InvalidInput("estimate", estimate, "velocity_filters or true_state")
+    if len(K) != plant.nx:
+        states = ", ".join(s.name for s in plant.states)
+        raise InvalidInput("K", list(K), f"{plant.nx} gains, one per state of {plant.id}: {states}")
+    return StateFeedback(K, estimate)
+
+
+def _pid(f: Mapping[str, Any], plant: Plant) -> PID:
+    Tt = f.get("Tt")
+    return PID(
+        _number("Kp", f.get("Kp")),
+        _number("Ki", f.get("Ki", 0.0)),
+        _number("Kd", f.get("Kd", 0.0)),
+        _number("N", f.get("N", 10.0), positive=True),
+        None if Tt is None else _number("Tt", Tt, positive=True),
+    )
+
+
+def _lti(f: Mapping[str, Any], plant: Plant) -> LTIController:
+    dt = f.get("dt")
+    dt = None if dt is None else _number("dt", dt, positive=True)
+    tf = "num" in f or "den" in f
+    ss = any(k in f for k in ("A", "B", "C", "D"))
+    if tf == ss:
+        raise InvalidInput(
+            "kind", "lti", "either num and den, or A, B, C, D (not both, not neither)"
+        )
+    if tf:
+        num = _vector("num", f.get("num"), 1, MAX_ORDER)
+        den = _vector("den", f.get("den"), 1, MAX_ORDER)
+        if den[0] == 0:
+            raise InvalidInput("den", list(den), "a leading coefficient that is not zero")
+        if len(num) > len(den):
+            raise InvalidInput(
+                "num", list(num), f"at most {len(den)} coefficients (a proper controller)"
+            )
+        return LTIController(num=num, den=den, dt=dt)
+    A = _matrix("A", f.get("A"))
+    n = len(A)
+    if any(len(row) != n for row in A) or n > MAX_ORDER:
+        raise InvalidInput("A", "…", f"a square matrix of at most {MAX_ORDER} rows")
+    B, C, D = _matrix("B", f.get("B")), _matrix("C", f.get("C")), _matrix("D", f.get("D", [[0.0]]))
+    for name, m, shape in (("B", B, (n, 1)), ("C", C, (1, n)), ("D", D, (1, 1))):
+        if (len(m), len(m[0]) if m else 0) != shape:
+            raise InvalidInput(
+                name,
+                f"{len(m)}×{len(m[0]) if m else 0}",
+                f"{shape[0]}×{shape[1]} (SISO, {n} states)",
+            )
+    return LTIController(A=A, B=B, C=C, D=D, dt=dt)
+
+
+def _open_loop(f: Mapping[str, Any], plant: Plant) -> OpenLoop:
+    return OpenLoop()
+
+
+_LAWS: dict[str, Callable[[Mapping[str, Any], Plant], ControlLaw]] = {
+    "state_feedback": _state_feedback,
+    "pid": _pid,
+    "lti": _lti,
+    "open_loop": _open_loop,
+}
+
+
+def _number(field: str, value: Any, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InvalidInput(field, value, "a number")
+    x = float(value)
+    if not math.isfinite(x) or (positive and x <= 0):
+        raise InvalidInput(
+            field, value, "a positive finite number" if positive else "a finite number"
+        )
+    return x
+
+
+def _vector(field: str, value: Any, lo: int, hi: int) -> tuple[float, ...]:
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        value = [value]
+    if isinstance(value, list) and value and all(isinstance(r, list) for r in value):
+        if len(value) == 1:  # a row vector, as MATLAB writes one
+            value = value[0]
+        elif all(len(r) == 1 for r in value):  # a column vector
+            value = [r[0] for r in value]
+    if not isinstance(value, list) or not lo <= len(value) <= hi:
+        raise InvalidInput(
+            field, value, f"a list of {lo}..{hi} numbers" if lo != hi else f"a list of {lo} numbers"
+        )
+    return tuple(_number(f"{field}.{i}", v) for i, v in enumerate(value))
+
+
+def _matrix(field: str, value: Any) -> tuple[tuple[float, ...], ...]:
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        value = [[value]]
+    if not isinstance(value, list) or not value or len(value) > MAX_ORDER:
+        raise InvalidInput(field, value, f"a matrix: a list of 1..{MAX_ORDER} rows")
+    rows = [v if isinstance(v, list) else [v] for v in value]
+    if len({len(r) for r in rows}) != 1 or len(rows[0]) > MAX_ORDER:
+        raise InvalidInput(field, value, f"rows of equal length, at most {MAX_ORDER}")
+    return tuple(
+        tuple(_number(f"{field}.{i}.{j}", x) for j, x in enumerate(r)) for i, r in enumerate(rows)
+    )
