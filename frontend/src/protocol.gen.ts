@@ -71,6 +71,10 @@ export interface ElabProtocol {
   ContinuousOut?: ContinuousOut;
   "Controller-Input"?: Controller;
   "Controller-Output"?: ControllerOut;
+  ControllerList?: ControllerList;
+  ControllerOut?: ControllerOut1;
+  ControllerReportOut?: ControllerReportOut;
+  ControllerUpload?: ControllerUpload;
   CorrelationOut?: CorrelationOut;
   DemoInfo?: DemoInfo;
   DemoPin?: DemoPin;
@@ -614,6 +618,80 @@ export interface LTIControllerModelOut {
   C: [] | [number[]] | null;
   D: [] | [number[]] | null;
   dt: number | null;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ControllerList".
+ */
+export interface ControllerList {
+  controllers: ControllerOut1[];
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ControllerOut".
+ */
+export interface ControllerOut1 {
+  id: string;
+  plant: string;
+  name: string;
+  format: string;
+  owner: string;
+  mine: boolean;
+  created_at: number;
+  /**
+   * the law read from the file
+   */
+  controller:
+    | PredefinedController
+    | StateFeedbackControllerOut
+    | PIDControllerOut
+    | LTIControllerModelOut
+    | OpenLoopController;
+  report: ControllerReportOut;
+  url: string;
+}
+/**
+ * The report on the plant's linear model (docs/controllers.md).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ControllerReportOut".
+ */
+export interface ControllerReportOut {
+  stable: boolean;
+  /**
+   * z: a discrete controller, poles in z
+   */
+  domain: "s" | "z";
+  poles: Complex[];
+  gain_margin_db: number | null;
+  phase_margin_deg: number | null;
+  /**
+   * V, for a step of the default reference
+   */
+  peak_u: number | null;
+  u_max: number;
+  step_amplitude: number;
+  rig_ready: boolean;
+  problems: string[];
+  warnings: string[];
+}
+/**
+ * A controller file (docs/controllers.md): TOML or JSON as text, .mat or .npz as base64.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ControllerUpload".
+ */
+export interface ControllerUpload {
+  plant: string;
+  format: "toml" | "json" | "mat" | "npz";
+  /**
+   * the file: text, or base64 for mat/npz
+   */
+  content: string;
+  /**
+   * default: the file's own name
+   */
+  name?: string | null;
 }
 /**
  * The class demo an instructor pinned (``run`` null: none).
@@ -1305,6 +1383,10 @@ export interface RunCreate {
    * only its owner and instructors may see it (default: anyone with its link)
    */
   private?: boolean;
+  /**
+   * an uploaded controller (POST /controllers) to run; its law replaces `controller`, and the recorded request holds both
+   */
+  controller_id?: string | null;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

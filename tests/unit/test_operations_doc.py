@@ -42,6 +42,7 @@ def test_documented_defaults_are_the_code_defaults() -> None:
     assert num("ELAB_MAX_IDENT_PER_IDENTITY") == s.max_ident_per_identity
     assert num("ELAB_MAX_UPLOADS_PER_IDENTITY") == s.max_uploads_per_identity
     assert num("ELAB_MAX_TOKENS_PER_IDENTITY") == s.max_tokens_per_identity
+    assert num("ELAB_MAX_CONTROLLERS_PER_IDENTITY") == s.max_controllers_per_identity
     assert num("ELAB_SECURE_COOKIES") == int(s.secure_cookies)
     assert num("ELAB_SESSION_HOURS") == s.session_hours
     assert num("ELAB_MAX_DURATION") == d.max_duration

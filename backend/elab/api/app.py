@@ -18,7 +18,13 @@ from starlette.responses import FileResponse, HTMLResponse, JSONResponse, Redire
 from starlette.routing import BaseRoute, Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 
-from elab.api import access, ident, plants, runs  # noqa: F401  (registers their endpoints)
+from elab.api import (  # noqa: F401  (registers their endpoints)
+    access,
+    controllers,
+    ident,
+    plants,
+    runs,
+)
 from elab.api.auth import Authority, Identify, load_secret, read_instructors
 from elab.api.frames import MsgpackCodec
 from elab.api.guard import Guard
@@ -56,6 +62,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
         )
         manager = RunManager(store, engine, MsgpackCodec(), limits=settings.limits)
         app.state.manager = manager
+        app.state.controllers = store
         app.state.authority = Authority(
             load_secret(settings.secret, settings.data_dir),
             store,

@@ -49,8 +49,13 @@ def law_model(law_: ControlLaw) -> Any:
         return s.PIDController(kind="pid", Kp=law_.Kp, Ki=law_.Ki, Kd=law_.Kd, N=law_.N, Tt=law_.Tt)
     if isinstance(law_, OpenLoop):
         return s.OpenLoopController(kind="open_loop")
+    matrices = {
+        k: [list(r) for r in getattr(law_, k)]
+        for k in ("A", "B", "C", "D")
+        if getattr(law_, k) is not None
+    }
     return s.LTIControllerModel.model_validate(
-        {"kind": "lti", "num": _list(law_.num), "den": _list(law_.den), "dt": law_.dt}
+        {"kind": "lti", "num": _list(law_.num), "den": _list(law_.den), "dt": law_.dt, **matrices}
     )
 
 
@@ -74,15 +79,16 @@ def default_signal(plant: Plant) -> Any:
     return s.StepSignal.model_validate({"kind": "step", "amplitude": d.amplitude})
 
 
-def run_spec(req: s.RunCreate, plant: Plant) -> RunSpec:
-    """The core run of a request, with the plant's defaults filled in."""
+def run_spec(req: s.RunCreate, plant: Plant, law_: ControlLaw | None = None) -> RunSpec:
+    """The core run of a request, with the plant's defaults filled in (``law_``: the law of
+    an uploaded controller, instead of ``req.controller``'s)."""
     if req.mode == "rig" and "rig" not in plant.modes:
         raise InvalidInput("mode", req.mode, f"one of {', '.join(plant.modes)} for {plant.id}")
     if req.experiment not in plant.experiments:
         raise InvalidInput("experiment", req.experiment, f"one of {', '.join(plant.experiments)}")
     return RunSpec(
         plant=plant,
-        law=law(req.controller, plant),
+        law=law_ if law_ is not None else law(req.controller, plant),
         reference=signal(req.signal or default_signal(plant)),
         duration=req.duration if req.duration is not None else plant.signal.duration,
         Ts=req.Ts,

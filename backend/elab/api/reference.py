@@ -206,6 +206,9 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.TokenCreated, "serialization"),
     (s.DemoPin, "validation"),
     (s.DemoInfo, "serialization"),
+    (s.ControllerUpload, "validation"),
+    (s.ControllerOut, "serialization"),
+    (s.ControllerList, "serialization"),
     # the unions by name, as clients build them and as the server describes them
     (s.Controller, "validation"),
     (s.Controller, "serialization"),

@@ -14,7 +14,7 @@ from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response, StreamingResponse
 
 from elab.access import Identity, display_name, may_control
-from elab.api import convert
+from elab.api import controllers, convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_float, query_int, read_model
@@ -111,13 +111,17 @@ async def create_run(request: Request) -> Response:
     plant = get_plant(req.plant)
     if req.mode == "rig":
         raise InvalidInput("mode", "rig", "simulation (the rig is not connected to this server)")
+    uploaded = None
+    if req.controller_id is not None:
+        uploaded = await controllers.law_of(request, req.controller_id, plant.id)
     req = req.model_copy(
         update={  # store what ran, with the plant's defaults filled in
             "signal": req.signal or convert.default_signal(plant),
             "duration": req.duration if req.duration is not None else plant.signal.duration,
         }
+        | ({"controller": convert.law_model(uploaded)} if uploaded is not None else {})
     )
-    spec = convert.run_spec(req, plant)
+    spec = convert.run_spec(req, plant, uploaded)
     record = await manager(request).create(
         spec,
         pace=req.pace,

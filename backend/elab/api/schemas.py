@@ -161,6 +161,13 @@ class RunCreate(Model):
         False,
         description="only its owner and instructors may see it (default: anyone with its link)",
     )
+    controller_id: str | None = Field(
+        None,
+        min_length=1,
+        max_length=64,
+        description="an uploaded controller (POST /controllers) to run; its law replaces "
+        "`controller`, and the recorded request holds both",
+    )
 
 
 class ChannelInfo(Model):
@@ -386,6 +393,51 @@ class ParamsApplied(Model):
 class Complex(Model):
     re: float
     im: float
+
+
+# -- uploaded controllers ----------------------------------------------------------------
+class ControllerUpload(Model):
+    """A controller file (docs/controllers.md): TOML or JSON as text, .mat or .npz as base64."""
+
+    plant: str = Field(min_length=1, max_length=64)
+    format: Literal["toml", "json", "mat", "npz"]
+    content: str = Field(
+        min_length=1, max_length=90_000, description="the file: text, or base64 for mat/npz"
+    )
+    name: str | None = Field(None, max_length=80, description="default: the file's own name")
+
+
+class ControllerReportOut(Model):
+    """The report on the plant's linear model (docs/controllers.md)."""
+
+    stable: bool
+    domain: Literal["s", "z"] = Field(description="z: a discrete controller, poles in z")
+    poles: list[Complex]
+    gain_margin_db: float | None
+    phase_margin_deg: float | None
+    peak_u: float | None = Field(description="V, for a step of the default reference")
+    u_max: float
+    step_amplitude: float
+    rig_ready: bool
+    problems: list[str]
+    warnings: list[str]
+
+
+class ControllerOut(Model):
+    id: str
+    plant: str
+    name: str
+    format: str
+    owner: str
+    mine: bool
+    created_at: float
+    controller: Controller = Field(description="the law read from the file")
+    report: ControllerReportOut
+    url: str
+
+
+class ControllerList(Model):
+    controllers: list[ControllerOut]
 
 
 class PlantSummary(Model):

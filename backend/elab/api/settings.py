@@ -41,7 +41,9 @@ class Settings:
     waits for a worker (``ELAB_IDENT_WAIT``, 30); per identity at once: identifications
     ``max_ident_per_identity`` (``ELAB_MAX_IDENT_PER_IDENTITY``, 2) and large bodies
     ``max_uploads_per_identity`` (``ELAB_MAX_UPLOADS_PER_IDENTITY``, 2); API tokens an
-    identity may have ``max_tokens_per_identity`` (``ELAB_MAX_TOKENS_PER_IDENTITY``, 20).
+    identity may have ``max_tokens_per_identity`` (``ELAB_MAX_TOKENS_PER_IDENTITY``, 20),
+    uploaded controllers it may keep ``max_controllers_per_identity``
+    (``ELAB_MAX_CONTROLLERS_PER_IDENTITY``, 100).
 
     Access (docs/access.md): ``secret`` signs identity cookies (``ELAB_SECRET``; default:
     made once and kept in the data directory), ``hosts`` the ``Host`` names the server
@@ -68,6 +70,7 @@ class Settings:
     max_ident_per_identity: int = 2
     max_uploads_per_identity: int = 2
     max_tokens_per_identity: int = 20
+    max_controllers_per_identity: int = 100
     secret: str | None = None
     hosts: tuple[str, ...] = LOOPBACK
     origins: tuple[str, ...] = ()
@@ -123,6 +126,7 @@ class Settings:
             max_ident_per_identity=_int(env, "ELAB_MAX_IDENT_PER_IDENTITY", 2),
             max_uploads_per_identity=_int(env, "ELAB_MAX_UPLOADS_PER_IDENTITY", 2),
             max_tokens_per_identity=_int(env, "ELAB_MAX_TOKENS_PER_IDENTITY", 20),
+            max_controllers_per_identity=_int(env, "ELAB_MAX_CONTROLLERS_PER_IDENTITY", 100),
             secret=_secret(env),
             hosts=_names(env, "ELAB_HOSTS", LOOPBACK),
             origins=tuple(_origin(o) for o in _names(env, "ELAB_ORIGINS", ())),

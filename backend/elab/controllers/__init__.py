@@ -1,7 +1,13 @@
 """Controllers users bring: files in the lab's formats, templates, and the validation
 report (docs/controllers.md)."""
 
-from elab.controllers.files import FORMATS, Controller, format_of, read_controller
+from elab.controllers.files import (
+    FORMATS,
+    Controller,
+    format_of,
+    law_from_fields,
+    read_controller,
+)
 from elab.controllers.report import Report, check
 from elab.controllers.templates import law_fields, template
 
@@ -12,6 +18,7 @@ __all__ = [
     "check",
     "format_of",
     "law_fields",
+    "law_from_fields",
     "read_controller",
     "template",
 ]

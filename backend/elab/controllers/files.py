@@ -80,6 +80,12 @@ def read_controller(data: bytes, fmt: str, plant: Plant) -> Controller:
     return _controller(fields, fmt, plant)
 
 
+def law_from_fields(fields: Mapping[str, Any], plant: Plant) -> ControlLaw:
+    """The law of a controller file's fields (as :func:`elab.controllers.law_fields`
+    writes them; how a stored controller comes back)."""
+    return _controller({"version": VERSION, **fields}, "stored", plant).law
+
+
 def format_of(filename: str) -> str:
     """The format of a file from its name's extension."""
     ext = filename.rsplit(".", 1)[-1].lower() if "." in filename else ""

@@ -3,11 +3,13 @@
 
 from elab.store.base import (
     AccessStore,
+    ControllerStore,
     ParamChange,
     Pin,
     RunRecord,
     RunStore,
     RunSummary,
+    StoredController,
     StoreError,
     Token,
     Usage,
@@ -16,6 +18,7 @@ from elab.store.sqlite import SQLiteStore
 
 __all__ = [
     "AccessStore",
+    "ControllerStore",
     "ParamChange",
     "Pin",
     "RunRecord",
@@ -23,6 +26,7 @@ __all__ = [
     "RunSummary",
     "SQLiteStore",
     "StoreError",
+    "StoredController",
     "Token",
     "Usage",
 ]

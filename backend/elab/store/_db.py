@@ -59,6 +59,13 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             name TEXT PRIMARY KEY, run_id TEXT NOT NULL REFERENCES runs (id),
             owner TEXT NOT NULL, at REAL NOT NULL)""",
     ),
+    (  # 4: controllers users upload: the file as sent, the law read from it, its report
+        """CREATE TABLE controllers (
+            id TEXT PRIMARY KEY, owner TEXT NOT NULL, plant TEXT NOT NULL,
+            name TEXT NOT NULL, format TEXT NOT NULL, law TEXT NOT NULL,
+            report TEXT NOT NULL, source BLOB NOT NULL, created_at REAL NOT NULL)""",
+        "CREATE INDEX controllers_by_owner ON controllers (owner, created_at)",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 

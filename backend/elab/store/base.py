@@ -102,6 +102,41 @@ class Pin:
     at: float
 
 
+@dataclass(frozen=True)
+class StoredController:
+    """A controller a user uploaded: ``law`` as the fields of a controller file (JSON-able),
+    ``report`` its validation report (JSON-able), ``source`` the file as sent."""
+
+    id: str
+    owner: str
+    plant: str
+    name: str
+    format: str
+    law: dict[str, Any]
+    report: dict[str, Any]
+    created_at: float
+    source: bytes = b""
+
+
+class ControllerStore(Protocol):
+    """Uploaded controllers, by owner."""
+
+    def add_controller(self, controller: StoredController) -> None: ...
+
+    def get_controller(self, controller_id: str) -> StoredController:
+        """:class:`NotFound` for an unknown id."""
+
+    def list_controllers(
+        self, owner: str | None, plant: str | None = None
+    ) -> list[StoredController]:
+        """Newest first, without their sources; ``owner`` None: everyone's."""
+
+    def count_controllers(self, owner: str) -> int: ...
+
+    def delete_controller(self, controller_id: str) -> None:
+        """:class:`NotFound` for an unknown id."""
+
+
 class AccessStore(Protocol):
     """API tokens and pinned runs (identities themselves are not stored: an anonymous one
     lives in its browser's signed cookie, instructors in the server's configuration)."""

@@ -41,6 +41,7 @@ from elab.store.base import (
     Pin,
     RunRecord,
     RunSummary,
+    StoredController,
     StoreError,
     Token,
     Usage,
@@ -51,6 +52,7 @@ _SUMMARY = (
     "created_at, started_at, finished_at, error, engine, owner, private"
 )
 _COLUMNS = _SUMMARY + ", spec"
+_CONTROLLER = "id, owner, plant, name, format, law, report, created_at"
 _NEWEST_FIRST = "ORDER BY created_at DESC, rowid DESC"
 # the chunk holding ``start`` and every later one starting before ``stop``
 _OVERLAPPING = """SELECT k0, n, data FROM chunks
@@ -330,6 +332,60 @@ class SQLiteStore:
             )
         return out
 
+    # -- uploaded controllers (ControllerStore) ------------------------------------
+    def add_controller(self, controller: StoredController) -> None:
+        c = controller
+        with self._transaction() as conn:
+            conn.execute(
+                "INSERT INTO controllers (id, owner, plant, name, format, law, report, "
+                "source, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (
+                    c.id,
+                    c.owner,
+                    c.plant,
+                    c.name,
+                    c.format,
+                    _json("law", c.law),
+                    _json("report", c.report),
+                    c.source,
+                    c.created_at,
+                ),
+            )
+
+    def get_controller(self, controller_id: str) -> StoredController:
+        with self._snapshot() as conn:
+            row = conn.execute(
+                f"SELECT {_CONTROLLER}, source FROM controllers WHERE id = ?", (controller_id,)
+            ).fetchone()
+        if row is None:
+            raise NotFound("controller", controller_id)
+        return _controller(row[:-1], bytes(row[-1]))
+
+    def list_controllers(
+        self, owner: str | None, plant: str | None = None
+    ) -> list[StoredController]:
+        terms = [t for t, v in (("owner = ?", owner), ("plant = ?", plant)) if v is not None]
+        args = [v for v in (owner, plant) if v is not None]
+        where = "WHERE " + " AND ".join(terms) if terms else ""
+        with self._snapshot() as conn:
+            rows = conn.execute(
+                f"SELECT {_CONTROLLER} FROM controllers {where} "
+                "ORDER BY created_at DESC, rowid DESC LIMIT 1000",
+                args,
+            ).fetchall()
+        return [_controller(r) for r in rows]
+
+    def count_controllers(self, owner: str) -> int:
+        with self._snapshot() as conn:
+            n = conn.execute("SELECT count(*) FROM controllers WHERE owner = ?", (owner,))
+            return int(n.fetchone()[0])
+
+    def delete_controller(self, controller_id: str) -> None:
+        with self._transaction() as conn:
+            cur = conn.execute("DELETE FROM controllers WHERE id = ?", (controller_id,))
+            if cur.rowcount == 0:
+                raise NotFound("controller", controller_id)
+
     # -- tokens and pins (AccessStore) -------------------------------------------
     def add_token(self, token: Token, digest: str) -> None:
         with self._transaction() as conn:
@@ -480,6 +536,13 @@ def _summary_fields(row: tuple[Any, ...]) -> dict[str, Any]:
         "owner": owner,
         "private": bool(private),
     }
+
+
+def _controller(row: tuple[Any, ...], source: bytes = b"") -> StoredController:
+    id_, owner, plant, name, fmt, law, report, created_at = row
+    return StoredController(
+        id_, owner, plant, name, fmt, json.loads(law), json.loads(report), created_at, source
+    )
 
 
 def _status(status: str) -> str:

@@ -33,7 +33,7 @@ def test_a_version_2_file_opens_upgraded_and_its_runs_have_no_owner(tmp_path: Pa
         store.create_run(record("r-new", owner="a-1234"))
         assert store.get_run("r-new").owner == "a-1234"
     conn = sqlite3.connect(path)
-    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 3
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
     conn.close()
 
 
@@ -115,3 +115,30 @@ def test_a_pin_names_an_existing_run(store: SQLiteStore) -> None:
     assert store.pin("demo") == Pin("demo", "r-1", "i-prof", 1.0)
     store.clear_pin("demo")
     assert store.pin("demo") is None
+
+
+V3 = V2.with_name("v3.sql")
+
+
+def test_a_version_3_file_keeps_owners_tokens_and_pins_and_takes_controllers(
+    tmp_path: Path,
+) -> None:
+    from elab.store import StoredController
+
+    with SQLiteStore(restored(V3, tmp_path / "v3.sqlite3")) as store:
+        run = store.get_run("r-0000000000c3")
+        assert (run.owner, run.private, run.n_stored) == ("a-00c3", True, 12)
+        assert store.token_by_digest("e" * 64) == Token("t-0000c3", "a-00c3", "grader", 1.76e9)
+        assert store.pin("demo") == Pin("demo", "r-0000000000c3", "i-prof", 1.76e9 + 1)
+        c = StoredController(
+            "c-1", "a-00c3", "belt_conveyor", "mine", "toml", {"kind": "pid"}, {}, 1.0, b"x"
+        )
+        store.add_controller(c)
+        assert store.get_controller("c-1") == c
+        assert store.list_controllers("a-00c3") == [
+            StoredController(**{**c.__dict__, "source": b""})
+        ]
+        assert store.count_controllers("a-00c3") == 1
+        store.delete_controller("c-1")
+        with pytest.raises(NotFound):
+            store.get_controller("c-1")

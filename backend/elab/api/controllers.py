@@ -1,0 +1,241 @@
+"""Uploaded controllers: templates, upload with the report, list, get, delete, and the law
+of one for a run (``POST /runs`` with ``controller_id``). docs/controllers.md.
+
+A controller belongs to whoever uploaded it: only they (and instructors) see, use or
+delete it. A file that cannot be read stores nothing.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import binascii
+import math
+import secrets
+import time
+from typing import Any
+
+from starlette.requests import HTTPConnection, Request
+from starlette.responses import Response
+
+from elab import controllers as ctl
+from elab.access import Identity, display_name, may_control
+from elab.api import convert
+from elab.api import schemas as s
+from elab.api.auth import identity
+from elab.api.http import Param, endpoint, ok, query, read_model
+from elab.errors import InvalidInput, NotFound, TooMany
+from elab.laws import ControlLaw
+from elab.plants import PLANTS, get_plant
+from elab.store.base import ControllerStore, StoredController
+
+CONTROLLER_ID = Param(
+    "controller_id", "path", "controller id (from POST /controllers)", required=True
+)
+MEDIA = {
+    "toml": "application/toml",
+    "json": "application/json",
+    "mat": "application/x-matlab-data",
+    "npz": "application/zip",
+}
+
+
+def store(conn: HTTPConnection) -> ControllerStore:
+    return conn.app.state.controllers  # type: ignore[no-any-return]
+
+
+@endpoint(
+    "GET",
+    "/plants/{plant_id}/controller-template",
+    "A controller file to edit: the plant's predefined controller, every field explained",
+    response="file",
+    params=(
+        Param("plant_id", "path", "plant id", required=True),
+        Param(
+            "format",
+            "query",
+            "toml (default, with comments), json, mat or npz",
+            {"type": "string", "enum": list(ctl.FORMATS)},
+        ),
+    ),
+    errors=(404, 422),
+)
+async def controller_template(request: Request) -> Response:
+    plant = get_plant(request.path_params["plant_id"])
+    fmt = query(request, "format")
+    fmt = "toml" if fmt is None else fmt
+    data = ctl.template(plant, fmt)
+    return Response(
+        data,
+        media_type=MEDIA[fmt],
+        headers={"content-disposition": f'attachment; filename="{plant.id}-controller.{fmt}"'},
+    )
+
+
+@endpoint(
+    "POST",
+    "/controllers",
+    "Upload a controller file: read, checked on the plant's model, kept with its report",
+    body=s.ControllerUpload,
+    response=s.ControllerOut,
+    status=201,
+    errors=(404, 413, 415, 422, 429),
+    links=(("get_controller", "controller_id"), ("delete_controller", "controller_id")),
+)
+async def upload_controller(request: Request) -> Response:
+    """The file is at most 64 KiB (base64 for .mat and .npz). The answer has the law read
+    from it and its report: closed-loop poles, margins, peak control voltage, problems
+    (which keep it off the real rig) and warnings. A file that cannot be read gets 422
+    naming the line and column or the field, and nothing is stored. At most
+    ``ELAB_MAX_CONTROLLERS_PER_IDENTITY`` (100) per identity."""
+    req = await read_model(request, s.ControllerUpload)
+    if req.plant not in PLANTS:
+        raise InvalidInput("plant", req.plant, "one of " + ", ".join(PLANTS))
+    plant = get_plant(req.plant)
+    data = _content(req)
+    who = identity(request)
+    limit = request.app.state.settings.max_controllers_per_identity
+    have = await asyncio.to_thread(store(request).count_controllers, who.id)
+    if have >= limit:
+        raise TooMany(
+            f"you keep {have} controllers, the limit per identity "
+            f"(ELAB_MAX_CONTROLLERS_PER_IDENTITY = {limit}); delete one first",
+            retry_after=60.0,
+        )
+    parsed, report = await asyncio.to_thread(_read_and_check, data, req.format, plant)
+    stored = StoredController(
+        id="c-" + secrets.token_hex(6),
+        owner=who.id,
+        plant=plant.id,
+        name=req.name or parsed.name or f"{plant.id} {req.format} controller",
+        format=req.format,
+        law=ctl.law_fields(parsed.law),
+        report=_report_json(report),
+        created_at=time.time(),
+        source=data,
+    )
+    await asyncio.to_thread(store(request).add_controller, stored)
+    return ok(controller_out(stored, who), status=201)
+
+
+def _content(req: s.ControllerUpload) -> bytes:
+    if req.format in ("toml", "json"):
+        return req.content.encode("utf-8")
+    try:
+        return base64.b64decode(req.content, validate=True)
+    except (binascii.Error, ValueError):
+        raise InvalidInput(
+            "content", req.content[:20], f"the .{req.format} file in base64"
+        ) from None
+
+
+def _read_and_check(data: bytes, fmt: str, plant: Any) -> tuple[ctl.Controller, ctl.Report]:
+    parsed = ctl.read_controller(data, fmt, plant)
+    return parsed, ctl.check(plant, parsed.law)
+
+
+@endpoint(
+    "GET",
+    "/controllers",
+    "The caller's uploaded controllers, newest first (an instructor's: everyone's)",
+    response=s.ControllerList,
+    params=(
+        Param(
+            "plant", "query", "only those of this plant", {"type": "string", "enum": list(PLANTS)}
+        ),
+    ),
+    errors=(422,),
+)
+async def list_controllers(request: Request) -> Response:
+    plant = query(request, "plant")
+    if plant is not None and plant not in PLANTS:
+        raise InvalidInput("plant", plant, "one of " + ", ".join(PLANTS))
+    who = identity(request)
+    owner = None if who.instructor else who.id
+    found = await asyncio.to_thread(store(request).list_controllers, owner, plant)
+    return ok(s.ControllerList(controllers=[controller_out(c, who) for c in found]))
+
+
+@endpoint(
+    "GET",
+    "/controllers/{controller_id}",
+    "An uploaded controller: its law and report",
+    response=s.ControllerOut,
+    params=(CONTROLLER_ID,),
+    errors=(404,),
+)
+async def get_controller(request: Request) -> Response:
+    who = identity(request)
+    return ok(
+        controller_out(await visible(request, request.path_params["controller_id"], who), who)
+    )
+
+
+@endpoint(
+    "DELETE",
+    "/controllers/{controller_id}",
+    "Delete an uploaded controller (runs made with it keep their record of it)",
+    params=(CONTROLLER_ID,),
+    status=204,
+    errors=(404,),
+)
+async def delete_controller(request: Request) -> Response:
+    c = await visible(request, request.path_params["controller_id"], identity(request))
+    await asyncio.to_thread(store(request).delete_controller, c.id)
+    return Response(status_code=204)
+
+
+async def visible(conn: HTTPConnection, controller_id: str, who: Identity) -> StoredController:
+    """The controller if ``who`` may use it (its owner, an instructor), else 404: someone
+    else's controller does not exist for them."""
+    c = await asyncio.to_thread(store(conn).get_controller, controller_id)
+    if not may_control(who, c.owner):
+        raise NotFound("controller", controller_id)
+    return c
+
+
+async def law_of(conn: HTTPConnection, controller_id: str, plant_id: str) -> ControlLaw:
+    """The law of an uploaded controller for a run of ``plant_id``, as the caller."""
+    c = await visible(conn, controller_id, identity(conn))
+    if c.plant != plant_id:
+        raise InvalidInput(
+            "controller_id",
+            controller_id,
+            f"a controller for {plant_id} (this one is for {c.plant})",
+        )
+    return ctl.law_from_fields(c.law, get_plant(c.plant))
+
+
+def controller_out(c: StoredController, who: Identity) -> s.ControllerOut:
+    plant = get_plant(c.plant)
+    return s.ControllerOut(
+        id=c.id,
+        plant=c.plant,
+        name=c.name,
+        format=c.format,
+        owner=display_name(c.owner),
+        mine=bool(who.id) and c.owner == who.id,
+        created_at=c.created_at,
+        controller=convert.law_model(ctl.law_from_fields(c.law, plant)),
+        report=s.ControllerReportOut.model_validate(c.report),
+        url=f"/api/v1/controllers/{c.id}",
+    )
+
+
+def _report_json(r: ctl.Report) -> dict[str, Any]:
+    def finite(x: float | None) -> float | None:
+        return x if x is not None and math.isfinite(x) else None
+
+    return {
+        "stable": r.stable,
+        "domain": r.domain,
+        "poles": [{"re": p.real, "im": p.imag} for p in r.poles],
+        "gain_margin_db": finite(r.gain_margin_db),
+        "phase_margin_deg": finite(r.phase_margin_deg),
+        "peak_u": finite(r.peak_u),
+        "u_max": r.u_max,
+        "step_amplitude": r.step_amplitude,
+        "rig_ready": r.rig_ready,
+        "problems": list(r.problems),
+        "warnings": list(r.warnings),
+    }

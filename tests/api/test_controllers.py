@@ -1,0 +1,159 @@
+"""Uploaded controllers against a real server: templates, uploads in every format with
+their report, runs made with them equal to runs with the same law given inline, owners,
+and random and mutated files (hypothesis): no 500, nothing stored for a refused file."""
+
+from __future__ import annotations
+
+import base64
+import io
+import random
+
+import numpy as np
+import pytest
+import scipy.io
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from elab.controllers import read_controller
+from elab.plants import PLANTS, get_plant
+from tests.api.server import Server, until
+
+SEED_LQR = [20, -93.5614, 3.3621, 0.9623]
+TOML = f'version = 1\nname = "seed LQR"\nkind = "state_feedback"\nK = {SEED_LQR}\n'
+
+
+def upload(c: object, plant: str, fmt: str, content: str, **extra: object) -> object:
+    return c.post(  # type: ignore[attr-defined]
+        "/controllers", json={"plant": plant, "format": fmt, "content": content, **extra}
+    )
+
+
+def b64(data: bytes) -> str:
+    return base64.b64encode(data).decode()
+
+
+@pytest.mark.parametrize("fmt", ["toml", "json", "mat", "npz"])
+@pytest.mark.parametrize("plant_id", list(PLANTS))
+def test_each_template_downloads_and_reads_back_as_the_predefined_controller(
+    server: Server, plant_id: str, fmt: str
+) -> None:
+    with server.client() as c:
+        r = c.get(f"/plants/{plant_id}/controller-template", params={"format": fmt})
+        assert r.status_code == 200, r.text
+        assert f"{plant_id}-controller.{fmt}" in r.headers["content-disposition"]
+        plant = get_plant(plant_id)
+        assert read_controller(r.content, fmt, plant).law == plant.predefined
+
+
+def test_an_uploaded_controller_runs_as_the_same_law_given_inline(server: Server) -> None:
+    with server.client() as c:
+        r = upload(c, "flexible_link", "toml", TOML)
+        assert r.status_code == 201, r.text
+        up = r.json()
+        assert up["name"] == "seed LQR" and up["mine"] is True
+        assert up["controller"] == {
+            "kind": "state_feedback",
+            "K": SEED_LQR,
+            "estimate": "velocity_filters",
+        }
+        rep = up["report"]
+        assert rep["stable"] and rep["rig_ready"] and rep["domain"] == "s"
+        assert rep["peak_u"] == pytest.approx(20 * np.radians(30), rel=1e-6)
+        assert any("saturates" in w for w in rep["warnings"])
+        assert c.get(f"/controllers/{up['id']}").json() == up
+        assert up["url"] == f"/api/v1/controllers/{up['id']}"
+        assert c.get("/controllers").json()["controllers"][0]["id"] == up["id"]
+
+        common = {"plant": "flexible_link", "pace": "fast", "duration": 3, "seed": 7}
+        by_id = c.post("/runs", json={**common, "controller_id": up["id"]}).json()
+        inline = c.post("/runs", json={**common, "controller": up["controller"]}).json()
+        assert by_id["request"]["controller"] == up["controller"]  # recorded as it ran
+        assert by_id["request"]["controller_id"] == up["id"]
+        for run in (by_id, inline):
+            until(lambda run=run: c.get(f"/runs/{run['id']}").json()["finished_at"], 30)
+        a = c.get(f"/runs/{by_id['id']}/data", params={"format": "json"}).json()["data"]
+        b = c.get(f"/runs/{inline['id']}/data", params={"format": "json"}).json()["data"]
+        assert a == b and len(a["u"]) == 3000  # the same bits, sample for sample
+
+
+def test_matlab_and_numpy_files_upload_as_base64(server: Server) -> None:
+    buf = io.BytesIO()
+    scipy.io.savemat(buf, {"Kp": 12.0, "Ki": 0.49, "Kd": 0.5})
+    npz = io.BytesIO()
+    np.savez(npz, K=np.array([SEED_LQR]))
+    with server.client() as c:
+        r = upload(c, "belt_conveyor", "mat", b64(buf.getvalue()), name="seed PID")
+        assert r.status_code == 201, r.text
+        assert r.json()["controller"] == {
+            "kind": "pid",
+            "Kp": 12.0,
+            "Ki": 0.49,
+            "Kd": 0.5,
+            "N": 10.0,
+            "Tt": None,
+        }
+        r = upload(c, "flexible_link", "npz", b64(npz.getvalue()))
+        assert r.status_code == 201 and r.json()["controller"]["K"] == SEED_LQR
+        r = upload(c, "flexible_link", "mat", "not base64!")
+        assert r.status_code == 422 and r.json()["error"]["field"] == "content"
+
+
+def test_a_controller_is_its_owners_and_for_its_plant(server: Server) -> None:
+    with server.client() as owner, server.stranger() as other:
+        cid = upload(owner, "flexible_link", "toml", TOML).json()["id"]
+        assert other.get(f"/controllers/{cid}").status_code == 404
+        assert other.get("/controllers").json()["controllers"] == []
+        r = other.post("/runs", json={"plant": "flexible_link", "controller_id": cid})
+        assert r.status_code == 404
+        assert other.delete(f"/controllers/{cid}").status_code == 404
+        r = owner.post("/runs", json={"plant": "belt_conveyor", "controller_id": cid})
+        assert r.status_code == 422 and "for flexible_link" in r.json()["error"]["message"]
+        assert owner.delete(f"/controllers/{cid}").status_code == 204
+        assert owner.get(f"/controllers/{cid}").status_code == 404
+
+
+def test_a_refused_file_says_where_and_stores_nothing(server: Server) -> None:
+    with server.stranger() as c:
+        r = upload(c, "flexible_link", "toml", 'version = 1\nkind = = "pid"\n')
+        assert r.status_code == 422, r.text
+        assert "line 2, column 8" in r.json()["error"]["message"]
+        r = upload(c, "flexible_link", "toml", 'version = 1\nkind = "state_feedback"\nK = [1]')
+        assert r.status_code == 422 and r.json()["error"]["field"] == "K"
+        assert c.get("/controllers").json()["controllers"] == []
+
+
+def mutated(seed: int) -> str:
+    """The TOML template with a few random edits: dropped, repeated or swapped bytes."""
+    text = bytearray(TOML.encode())
+    rng = random.Random(seed)
+    for _ in range(rng.randint(1, 6)):
+        i = rng.randrange(len(text))
+        op = rng.choice(["drop", "dup", "byte"])
+        if op == "drop":
+            del text[i]
+        elif op == "dup":
+            text[i:i] = text[i : i + rng.randint(1, 8)]
+        else:
+            text[i] = rng.randrange(32, 127)
+    return text.decode("ascii", "replace")
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    content=st.one_of(
+        st.integers(0, 10**6).map(mutated),
+        st.text(min_size=1, max_size=300),
+        st.binary(min_size=1, max_size=300).map(b64),
+    ),
+    fmt=st.sampled_from(["toml", "json", "mat", "npz"]),
+)
+def test_random_and_mutated_files_never_crash_and_refused_ones_are_not_kept(
+    server: Server, content: str, fmt: str
+) -> None:
+    with server.stranger() as c:
+        r = upload(c, "flexible_link", fmt, content)
+        assert r.status_code in (201, 422), r.text[:300]
+        kept = c.get("/controllers").json()["controllers"]
+        assert len(kept) == (r.status_code == 201)

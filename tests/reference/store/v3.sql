@@ -1,0 +1,34 @@
+-- A store written by E-Lab's schema version 3 (commit faf05f6), as sqlite3 .dump
+PRAGMA user_version = 3;
+BEGIN TRANSACTION;
+CREATE TABLE chunks (
+            run_id TEXT NOT NULL REFERENCES runs (id), k0 INTEGER NOT NULL,
+            n INTEGER NOT NULL, data BLOB NOT NULL, PRIMARY KEY (run_id, k0));
+INSERT INTO "chunks" VALUES('r-0000000000c3',0,12,X'160B8167CD530040AA330882007204C0AFAE4BAA21C2DA3FAC6E3F2A2B2BE2BFAB008BBC34F8DCBFAE5B4A16B098CBBF157DD87CEE2800C0A7C26ECCF5AFCDBF88845555D3AFEBBF9CE844C580950A409621D86393E6CC3F2C9E50C08091D6BFFA1F6FF19C00D2BFF20118BBA260E5BF96845C8BE5E1F0BF83EE1D1AE202D9BFE70E867831D8DE3FB1A849B1EC88CEBF767D5594F5A5EE3F8B8D01BD1D93C9BF46537ADA7FD7983F4BF116A5AEBBF83F57FF19238171E13FBDC50E74D52AE0BFD46C2A7C4467C7BFE6B1715CFB4BE13F3B5ED5DE1EF6FE3F234D119E7541D1BF8C9EA648EE2CCFBF8F0A9DFC7909F03FF6D6223EE15DECBF78497A568BABD2BF867A555CC23DEC3F45BC78323A92E23F19ACA27FA36DB73FEDA71CB07E71E53F');
+CREATE TABLE param_changes (
+            run_id TEXT NOT NULL REFERENCES runs (id), k INTEGER NOT NULL,
+            at REAL NOT NULL, params TEXT NOT NULL);
+CREATE TABLE pins (
+            name TEXT PRIMARY KEY, run_id TEXT NOT NULL REFERENCES runs (id),
+            owner TEXT NOT NULL, at REAL NOT NULL);
+INSERT INTO "pins" VALUES('demo','r-0000000000c3','i-prof',1760000001.0);
+CREATE TABLE probe (id INTEGER PRIMARY KEY CHECK (id = 1), at REAL NOT NULL);
+CREATE TABLE runs (
+            id TEXT PRIMARY KEY, plant TEXT NOT NULL, mode TEXT NOT NULL,
+            experiment TEXT NOT NULL, spec TEXT NOT NULL, status TEXT NOT NULL,
+            Ts REAL NOT NULL, channels TEXT NOT NULL, n_planned INTEGER NOT NULL,
+            n_stored INTEGER NOT NULL, created_at REAL NOT NULL, started_at REAL,
+            finished_at REAL, error TEXT, engine TEXT, owner TEXT, private INTEGER NOT NULL DEFAULT 0);
+INSERT INTO "runs" VALUES('r-0000000000c3','belt_conveyor','simulation','design','{"plant": "belt_conveyor"}','finished',0.001,'[["r", "m"], ["u", "V"], ["x", "m"]]',30,12,1760000000.0,1760000000.0,1760000000.03,NULL,'sim-0','a-00c3',1);
+CREATE TABLE tokens (
+            id TEXT PRIMARY KEY, hash TEXT NOT NULL UNIQUE, owner TEXT NOT NULL,
+            name TEXT NOT NULL, created_at REAL NOT NULL, last_used REAL);
+INSERT INTO "tokens" VALUES('t-0000c3','eeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeeee','a-00c3','grader',1760000000.0,NULL);
+CREATE INDEX runs_by_created ON runs (created_at);
+CREATE INDEX runs_by_plant ON runs (plant, created_at);
+CREATE INDEX param_changes_by_run ON param_changes (run_id, k);
+CREATE INDEX runs_by_engine ON runs (engine, status);
+CREATE INDEX runs_by_owner ON runs (owner, created_at);
+CREATE INDEX runs_by_finished ON runs (finished_at);
+CREATE INDEX tokens_by_owner ON tokens (owner, created_at);
+COMMIT;
