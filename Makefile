@@ -33,9 +33,10 @@ $(LINT_STAMP): frontend/lint/package.json frontend/lint/package-lock.json
 $(APP): $(NODE_STAMP) $(APP_SRC)
 	cd frontend && npm run build --silent
 
-# Debian packages the tests use: Chromium (end-to-end tests) and GNU Octave's control
-# package (an independent identification cross-check). Installed once, if missing.
-TEST_DEBS := chromium octave octave-control
+# Debian packages the tests use: Chromium (end-to-end tests), GNU Octave's control
+# package (an independent identification cross-check) and bubblewrap (the controller
+# sandbox). Installed once, if missing.
+TEST_DEBS := chromium octave octave-control bubblewrap
 test-debs:
 	@missing=$$(for p in $(TEST_DEBS); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then apt-get update -qq && DEBIAN_FRONTEND=noninteractive \

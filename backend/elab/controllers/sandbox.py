@@ -1,0 +1,277 @@
+"""Python controllers in a sandbox: one process per run, stepped over a pipe with a
+deadline per step (docs/controllers.md).
+
+The process is a fresh interpreter running :mod:`elab.controllers._inside`:
+
+- **bubblewrap** gives it every namespace of its own (no network, its own PID and IPC
+  namespaces), a read-only view of the interpreter and numpy and nothing else of the
+  file system, and ``--die-with-parent``;
+- **rlimits**: address space, CPU seconds, open files, file size 0;
+- **seccomp**: once the code is compiled and numpy loaded, only reading and writing its
+  pipes, memory, clocks and exiting are allowed; anything else (open, socket, fork,
+  kill, exec) kills it;
+- an import hook keeps everything but numpy and a few pure modules out of reach (a
+  convenience for clear errors: the boundary is the kernel's).
+
+Each step has a deadline (``deadline`` s, measured with ``select()``, which does not
+round up to milliseconds as ``poll`` does). A late step holds the last u; ``max_misses``
+late steps in a row end the controller with the reason, as does an exception, a
+non-finite u, or the process dying.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import select
+import shutil
+import struct
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+
+from elab.errors import ElabError, InvalidInput, Unavailable
+
+INSIDE = Path(__file__).with_name("_inside.py")
+MAX_CODE = 64 * 1024
+
+
+class ControllerFailed(ElabError):
+    """The controller's code failed: it raised, returned no finite number, missed its
+    deadline too often, or its process died (the reason says which)."""
+
+
+@dataclass
+class StepTimes:
+    """Compute time per step as the parent sees it (request written to answer read), s."""
+
+    times: list[float] = field(default_factory=list)
+    misses: int = 0
+
+    def summary(self) -> dict[str, float | int]:
+        t = np.asarray(self.times) * 1e6
+        if not t.size:
+            return {"steps": 0, "median_us": 0.0, "p99_us": 0.0, "max_us": 0.0, "misses": 0}
+        return {
+            "steps": int(t.size),
+            "median_us": float(np.median(t)),
+            "p99_us": float(np.percentile(t, 99)),
+            "max_us": float(t.max()),
+            "misses": self.misses,
+        }
+
+
+def available() -> str | None:
+    """``None`` if code controllers can run here, else why not."""
+    if shutil.which("bwrap") is None:
+        return "bubblewrap (bwrap) is not installed: apt-get install bubblewrap"
+    try:
+        import pyseccomp  # noqa: F401
+    except ImportError:
+        return "pyseccomp is not installed"
+    return None
+
+
+class Sandboxed:
+    """A controller's code in its own sandboxed process: :meth:`step` per sample."""
+
+    def __init__(
+        self,
+        code: str,
+        *,
+        ny: int,
+        params: dict[str, Any] | None = None,
+        deadline: float = 0.5e-3,
+        max_misses: int = 10,
+        start_timeout: float = 10.0,
+        memory: int = 1 << 30,
+        cpu_seconds: int = 3600,
+        filename: str = "controller.py",
+    ) -> None:
+        why = available()
+        if why is not None:
+            raise Unavailable(f"code controllers cannot run on this server: {why}")
+        if len(code.encode()) > MAX_CODE:
+            raise InvalidInput("code", f"{len(code.encode())} bytes", f"at most {MAX_CODE} bytes")
+        self.ny = ny
+        self.deadline = deadline
+        self.max_misses = max_misses
+        self.times = StepTimes()
+        self._k = 0
+        self._u = 0.0
+        self._misses = 0
+        self._request = struct.Struct("<q" + "d" * (2 + ny))
+        self._proc = subprocess.Popen(
+            _command(),
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            preexec_fn=lambda: _limits(memory, cpu_seconds),
+            env={"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "PYTHONHASHSEED": "0"},
+        )
+        assert self._proc.stdin is not None and self._proc.stdout is not None
+        self._in, self._out = self._proc.stdin, self._proc.stdout.fileno()
+        setup = json.dumps(
+            {
+                "code": code,
+                "filename": filename,
+                "params": params or {},
+                "ny": ny,
+                "paths": _paths(),
+            }
+        ).encode()
+        try:
+            self._in.write(struct.pack("<I", len(setup)) + setup)
+            self._in.flush()
+        except BrokenPipeError:
+            pass
+        first = self._answer(start_timeout, starting=True)
+        if first is None or first[0] != 0:
+            raise ControllerFailed("the controller did not start")
+
+    def step(self, t: float, y: Sequence[float], r: float) -> float:
+        """u for sample ``k`` (counted here); the last u if the answer is late."""
+        self._k += 1
+        k = self._k
+        start = time.perf_counter()
+        try:
+            os.write(self._in.fileno(), self._request.pack(k, t, r, *y))
+        except BrokenPipeError:
+            self._died()
+        while True:
+            left = self.deadline - (time.perf_counter() - start)
+            got = self._answer(max(left, 0.0))
+            if got is None:  # late: hold u; its answer is read (and dropped) later
+                self.times.misses += 1
+                self._misses += 1
+                if self._misses >= self.max_misses:
+                    self.close()
+                    raise ControllerFailed(
+                        f"the controller missed its deadline of {self.deadline * 1e3:g} ms "
+                        f"{self._misses} times in a row (at t = {t:g} s)"
+                    )
+                return self._u
+            if got[0] == k:
+                break  # an older, late answer is dropped
+        self.times.times.append(time.perf_counter() - start)
+        self._misses = 0
+        self._u = got[1]
+        return self._u
+
+    def _answer(self, timeout: float, starting: bool = False) -> tuple[int, float] | None:
+        ready, _, _ = select.select([self._out], [], [], timeout)
+        if not ready:
+            if starting:
+                self.close()
+                raise ControllerFailed(f"the controller did not start within {timeout:g} s")
+            return None
+        head = _read(self._out, 16, 1.0)
+        if head is None:
+            self._died()
+        k, u = struct.unpack("<qd", head)
+        if k == -1:
+            size = _read(self._out, 4, 1.0)
+            n = int(struct.unpack("<I", size)[0]) if size is not None else 0
+            text = _read(self._out, n, 1.0) if n <= 4000 else None
+            self.close()
+            if text is None:
+                raise ControllerFailed("the controller broke the step protocol")
+            raise ControllerFailed(f"the controller failed: {text.decode('utf-8', 'replace')}")
+        if not 0 <= k <= self._k:  # not an answer to any step: it wrote to the pipe itself
+            self.close()
+            raise ControllerFailed("the controller broke the step protocol (it wrote to stdout)")
+        return k, u
+
+    def _died(self) -> NoReturn:
+        try:
+            code = self._proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            code = None
+        self.close()
+        # bubblewrap passes a signal that ended the process on as 128 + its number
+        why = {
+            128 + 31: "it made a system call the sandbox forbids (SIGSYS)",
+            128 + 9: "it was killed (a memory or CPU limit)",
+            128 + 24: "it used up its CPU time",
+            None: "it stopped answering",
+        }.get(code, f"exit status {code}")
+        raise ControllerFailed(f"the controller's process ended: {why}")
+
+    def close(self) -> None:
+        if self._proc.poll() is None:
+            self._proc.kill()
+        self._proc.wait()
+        for f in (self._proc.stdin, self._proc.stdout):
+            if f is not None:
+                f.close()
+
+    def __enter__(self) -> Sandboxed:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _read(fd: int, n: int, timeout: float) -> bytes | None:
+    """``n`` bytes, or ``None`` if the pipe closes or they do not all come in time."""
+    data = b""
+    end = time.perf_counter() + timeout
+    while len(data) < n:
+        if not select.select([fd], [], [], max(0.0, end - time.perf_counter()))[0]:
+            return None
+        part = os.read(fd, n - len(data))
+        if not part:
+            return None
+        data += part
+    return data
+
+
+def _paths() -> list[str]:
+    """Where numpy and pyseccomp are (the only packages the process needs)."""
+    import numpy
+    import pyseccomp
+
+    assert numpy.__file__ is not None
+    return sorted({str(Path(numpy.__file__).parents[1]), str(Path(pyseccomp.__file__).parent)})
+
+
+def _command() -> list[str]:
+    binds: list[str] = []
+    for path in sorted(
+        {"/usr", "/lib", "/lib64", "/bin", "/etc/ld.so.cache", sys.prefix, sys.base_prefix}
+        | set(_paths())
+    ):
+        if os.path.exists(path):
+            binds += ["--ro-bind", path, path]
+    return [
+        "bwrap",
+        "--unshare-all",
+        "--die-with-parent",
+        "--new-session",
+        *binds,
+        "--ro-bind",
+        str(INSIDE),
+        "/inside.py",
+        "--chdir",
+        "/",
+        sys.executable,
+        "-I",
+        "-S",
+        "-B",
+        "/inside.py",
+    ]
+
+
+def _limits(memory: int, cpu_seconds: int) -> None:
+    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+    resource.setrlimit(resource.RLIMIT_CPU, (cpu_seconds, cpu_seconds))
+    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
+    resource.setrlimit(resource.RLIMIT_NOFILE, (16, 16))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
