@@ -3,6 +3,7 @@
 import type {
   AnalysisInfo,
   BodeList,
+  ControllerUpload,
   DemoInfo,
   DesignOut,
   ErrorDetail,
@@ -23,10 +24,15 @@ import type {
   StepRequest,
   TokenCreated,
   TokenInfo,
+  UploadedController,
+  UploadedControllerList,
 } from "./protocol.gen";
+
+export type { UploadedController } from "./protocol.gen";
 import { identLine } from "./wire";
 
 export const API = "/api/v1";
+
 
 export class ApiError extends Error {
   constructor(
@@ -95,6 +101,11 @@ export const api = {
   /** the answer's `token` is shown this once: the server keeps only its hash */
   createToken: (name: string) => call<TokenCreated>("POST", "/tokens", { name }),
   revokeToken: (id: string) => call<null>("DELETE", `/tokens/${encodeURIComponent(id)}`),
+  /** the caller's uploaded controllers, newest first (an instructor's: everyone's) */
+  controllers: (plant?: string) => call<UploadedControllerList>("GET", `/controllers${queryString({ plant })}`),
+  /** 422 naming the line and column or the field when the file cannot be read; nothing is stored then */
+  uploadController: (req: ControllerUpload) => call<UploadedController>("POST", "/controllers", req),
+  deleteController: (id: string) => call<null>("DELETE", `/controllers/${encodeURIComponent(id)}`),
   demo: () => call<DemoInfo>("GET", "/demo"),
   pinDemo: (runId: string) => call<DemoInfo>("PUT", "/demo", { run_id: runId }),
   unpinDemo: () => call<null>("DELETE", "/demo"),
@@ -154,6 +165,11 @@ export async function identify(req: IdentRequest, onProgress: (stage: string, do
     }
     if (done) throw new ApiError(0, { code: "unavailable", message: "the identification stream ended without a result", field: null, errors: [] });
   }
+}
+
+/** The download address of a plant's controller template (its predefined controller). */
+export function templateUrl(plant: string, format: ControllerUpload["format"]): string {
+  return `${API}/plants/${encodeURIComponent(plant)}/controller-template?format=${format}`;
 }
 
 /** The download address of a run's recording. */

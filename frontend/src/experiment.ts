@@ -84,13 +84,17 @@ export class SignalForm {
     siUnit: string,
     readonly initial: SignalOut | null,
     private readonly onChange?: () => void,
+    /** element id prefix, for a page with two signal forms (ids "own-signal-kind",
+     * "own-signal-amplitude"; default "signal-kind", "f-signal-amplitude") */
+    private readonly idPrefix?: string,
   ) {
     const d = display(siUnit);
     this.scale = d.scale;
     this.unit = d.unit;
-    this.kind = h("select", { id: `${prefix}-kind`, name: `${prefix}.kind`, onchange: () => this.build() }, ...kinds.map((k) => h("option", { value: k }, SIGNAL_LABEL[k])));
+    const kindId = idPrefix ? `${idPrefix}-${prefix}-kind` : `${prefix}-kind`;
+    this.kind = h("select", { id: kindId, name: `${prefix}.kind`, onchange: () => this.build() }, ...kinds.map((k) => h("option", { value: k }, SIGNAL_LABEL[k])));
     if (initial && (kinds as string[]).includes(initial.kind)) this.kind.value = initial.kind;
-    this.root = h("fieldset.signal", h("legend", legend), h("div.field", h("label", { for: `${prefix}-kind` }, "Signal"), this.kind), this.body);
+    this.root = h("fieldset.signal", h("legend", legend), h("div.field", h("label", { for: kindId }, "Signal"), this.kind), this.body);
     this.build();
   }
 
@@ -104,7 +108,7 @@ export class SignalForm {
     const kind = this.kind.value as SignalKind;
     const init = this.initial && this.initial.kind === kind ? this.initial : null;
     const p = this.prefix;
-    const add = (spec: NumberSpec) => this.body.append(this.fields.add(new NumberField(spec, this.onChange)).root);
+    const add = (spec: NumberSpec) => this.body.append(this.fields.add(new NumberField({ idPrefix: this.idPrefix, ...spec }, this.onChange)).root);
     const amp = init && "amplitude" in init ? init.amplitude * this.scale : this.unit === "°" ? 30 : 1;
     const lim = this.amplitudeLimit();
     add({ field: `${p}.amplitude`, label: "Amplitude", unit: this.unit, value: Number(amp.toPrecision(6)), min: -lim, max: lim });
@@ -137,8 +141,8 @@ export class SignalForm {
 }
 
 /** The run length field. */
-export function durationField(value: number, onChange?: () => void): NumberField {
-  return new NumberField({ field: "duration", label: "Duration", unit: "s", value, min: 0, minExclusive: true, max: MAX_DURATION }, onChange);
+export function durationField(value: number, onChange?: () => void, idPrefix?: string): NumberField {
+  return new NumberField({ field: "duration", label: "Duration", unit: "s", value, min: 0, minExclusive: true, max: MAX_DURATION, idPrefix }, onChange);
 }
 
 /** "Private run" and "Keep my previous run going": how the next run starts. */
@@ -161,9 +165,9 @@ export class StartOptions {
     return this.privateBox.checked;
   }
 
-  /** Stop the page's previous run once a new one has started: if it is yours, still live,
-   * and not to be kept going. */
-  async retire(previous: RunPanel | null): Promise<void> {
+  /** Stop the page's previous run (or the run drawn over it) once a new one has started:
+   * if it is yours, still live, and not to be kept going. */
+  async retire(previous: Pick<RunPanel, "live" | "run"> | null): Promise<void> {
     if (!previous || this.keepBox.checked || !previous.live || !previous.run.mine) return;
     try {
       await api.stop(previous.run.id);

@@ -46,6 +46,9 @@ export interface LiveTrace {
   /** displayed = scale · value */
   scale: number;
   dash?: "solid" | "dash" | "dot";
+  /** the ring holding the channel when it is not the plot's: another run drawn over this
+   * one, sample k over sample k (same Ts) */
+  ring?: SampleRing;
 }
 
 export interface LivePlotOptions {
@@ -118,15 +121,17 @@ export class LivePlot {
 
   draw(): void {
     const { Ts, window } = this.options;
-    const end = this.ring.end;
-    const span = window === null ? this.ring.size : Math.round(window / Ts);
-    const k0 = Math.max(this.ring.start, end - span);
+    const rings = [this.ring, ...this.traces.flatMap((tr) => (tr.ring ? [tr.ring] : []))];
+    const end = Math.max(...rings.map((r) => r.end));
+    const start = Math.min(...rings.map((r) => r.start));
+    const span = window === null ? end - start : Math.round(window / Ts);
+    const k0 = Math.max(start, end - span);
     // min/max per 2-pixel column: ≤ 1 point per pixel per trace, drawn as SVG (no WebGL
     // needed, so it also runs in software-rendered browsers and on old projector PCs)
     const columns = plotSettings.decimate ? Math.max(50, Math.floor((this.div.clientWidth - 80) / 2)) : Infinity;
     const bounds = [new Bounds(), new Bounds()];
     const series = this.traces.map((tr) => {
-      const d = decimate(this.ring, tr.channel, k0, end, columns);
+      const d = decimate(tr.ring ?? this.ring, tr.channel, k0, end, columns);
       const x = new Float64Array(d.length);
       const y = new Float32Array(d.length);
       const b = bounds[tr.axis - 1];
@@ -146,8 +151,9 @@ export class LivePlot {
     const yRanges = bounds.map((b, i) => (this.yRanges[i] = b.range(this.yRanges[i])));
     this.draws++;
     // a full plot when anything but the data changed (plotly leaves empty traces out of the
-    // legend, so the first draw with samples is a full one too)
-    const key = JSON.stringify([this.traces, this.marks, this.options, this.div.clientWidth, this.div.clientHeight, fontSize(), end > 0]);
+    // legend, so the first draw with samples of each ring is a full one too)
+    const shown = this.traces.map(({ ring, ...tr }) => ({ ...tr, overlay: ring !== undefined, empty: (ring ?? this.ring).end === 0 }));
+    const key = JSON.stringify([shown, this.marks, this.options, this.div.clientWidth, this.div.clientHeight, fontSize()]);
     if (key === this.layoutKey) {
       // the fast path: new points and ranges, no full replot (axes, legend, shapes stay)
       void Plotly.animate(
@@ -164,7 +170,7 @@ export class LivePlot {
       name: tr.label,
       ...series[i],
       yaxis: tr.axis === 1 ? "y" : "y2",
-      line: { color: COLORS[i % COLORS.length], width: 1.5, dash: tr.dash ?? "solid" },
+      line: { color: this.color(i), width: 1.5, dash: tr.dash ?? "solid" },
     }));
     const layout: Partial<Plotly.Layout> = {
       ...baseLayout(),
@@ -190,6 +196,14 @@ export class LivePlot {
     const config = window === null ? CONFIG : { ...CONFIG, displayModeBar: false };
     if (window !== null) Object.assign(layout, { hovermode: false, dragmode: false });
     void Plotly.react(this.div, data as Plotly.Data[], layout, config).then(() => this.div.dispatchEvent(new Event("elab:draw")));
+  }
+
+  /** A trace's colour: a trace of another run takes the colour of this run's trace of the
+   * same channel (θ solid and θ dotted, side by side). */
+  private color(i: number): string {
+    const tr = this.traces[i];
+    const same = tr.ring ? this.traces.findIndex((t) => !t.ring && t.channel === tr.channel) : -1;
+    return COLORS[(same >= 0 ? same : i) % COLORS.length];
   }
 
   destroy(): void {

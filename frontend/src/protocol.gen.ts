@@ -71,8 +71,6 @@ export interface ElabProtocol {
   ContinuousOut?: ContinuousOut;
   "Controller-Input"?: Controller;
   "Controller-Output"?: ControllerOut;
-  ControllerList?: ControllerList;
-  ControllerOut?: ControllerOut1;
   ControllerReportOut?: ControllerReportOut;
   ControllerUpload?: ControllerUpload;
   CorrelationOut?: CorrelationOut;
@@ -154,6 +152,8 @@ export interface ElabProtocol {
   TokenInfo?: TokenInfo;
   TransferFunctionInfo?: TransferFunctionInfo;
   TransferFunctionOut?: TransferFunctionOut;
+  UploadedController?: UploadedController;
+  UploadedControllerList?: UploadedControllerList;
 }
 /**
  * Those asked for (and possible: the first four need one input and one output).
@@ -620,37 +620,6 @@ export interface LTIControllerModelOut {
   dt: number | null;
 }
 /**
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "ControllerList".
- */
-export interface ControllerList {
-  controllers: ControllerOut1[];
-}
-/**
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "ControllerOut".
- */
-export interface ControllerOut1 {
-  id: string;
-  plant: string;
-  name: string;
-  format: string;
-  owner: string;
-  mine: boolean;
-  created_at: number;
-  /**
-   * the law read from the file
-   */
-  controller:
-    | PredefinedController
-    | StateFeedbackControllerOut
-    | PIDControllerOut
-    | LTIControllerModelOut
-    | OpenLoopController;
-  report: ControllerReportOut;
-  url: string;
-}
-/**
  * The report on the plant's linear model (docs/controllers.md).
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -689,7 +658,7 @@ export interface ControllerUpload {
    */
   content: string;
   /**
-   * default: the file's own name
+   * default: the `name` in the file, else '<plant> <format> controller'
    */
   name?: string | null;
 }
@@ -1524,4 +1493,37 @@ export interface TokenInfo {
   name: string;
   created_at: number;
   last_used: number | null;
+}
+/**
+ * A controller a user uploaded, with the law read from it and its report.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "UploadedController".
+ */
+export interface UploadedController {
+  id: string;
+  plant: string;
+  name: string;
+  format: string;
+  owner: string;
+  mine: boolean;
+  created_at: number;
+  /**
+   * the law read from the file
+   */
+  controller:
+    | PredefinedController
+    | StateFeedbackControllerOut
+    | PIDControllerOut
+    | LTIControllerModelOut
+    | OpenLoopController;
+  report: ControllerReportOut;
+  url: string;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "UploadedControllerList".
+ */
+export interface UploadedControllerList {
+  controllers: UploadedController[];
 }

@@ -3,6 +3,7 @@
 // (spectators, replays). Pause, resume and stop are there only for whoever may use them.
 import { controlLabel, ENDED, reasonTone } from "./access";
 import { api, ApiError, dataUrl } from "./api";
+import { CompanionRun } from "./companion";
 import { copyText, csv, h, fill, saveText } from "./dom";
 import { identity } from "./identity";
 import { LivePlot, type LiveTrace } from "./plot";
@@ -14,6 +15,10 @@ import { display, fmt } from "./units";
 /** Samples kept per channel in the page (10 min at 1 kHz); older ones scroll out. */
 const MAX_RING = 600_000;
 const WINDOW_S = 10;
+
+function ringCapacity(run: RunInfo): number {
+  return Math.max(1, Math.min(run.n_planned || 1, MAX_RING));
+}
 
 export interface RunPanelOptions {
   /** outputs to plot (default: every output of the plant) */
@@ -38,18 +43,22 @@ export class RunPanel {
   private readonly demoSlot = h("span.group");
   private readonly buttons: Record<"pause" | "resume" | "stop", HTMLButtonElement>;
   private readonly windowSel: HTMLSelectElement;
+  private readonly plotDiv = h("div.live-plot", { "data-testid": "live-plot", "aria-label": "live plot of the run" });
   private marks: number[] = [];
+  private outputs: string[];
+  /** another run drawn over this one (overlay) */
+  private companion: CompanionRun | null = null;
 
   constructor(
     public run: RunInfo,
-    plant: PlantDetail,
+    private readonly plant: PlantDetail,
     private readonly options: RunPanelOptions = {},
   ) {
     this.state = run.status;
     const names = run.channels.map((c) => c.name);
-    this.ring = new SampleRing(names, Math.max(1, Math.min(run.n_planned || 1, MAX_RING)));
-    const plotDiv = h("div.live-plot", { "data-testid": "live-plot", "aria-label": "live plot of the run" });
-    this.plot = new LivePlot(plotDiv, this.ring, this.traces(plant, options.outputs), {
+    this.ring = new SampleRing(names, ringCapacity(run));
+    this.outputs = options.outputs?.length ? options.outputs : plant.outputs.map((o) => o.name);
+    this.plot = new LivePlot(this.plotDiv, this.ring, this.traces(), {
       Ts: run.Ts,
       window: ENDED.has(run.status) ? null : WINDOW_S,
       yTitles: this.yTitles(plant),
@@ -85,7 +94,7 @@ export class RunPanel {
         h("span.owner", { "data-testid": "run-owner" }, controlLabel(run)),
         run.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null,
       ),
-      plotDiv,
+      this.plotDiv,
       h(
         "div.toolbar",
         options.controls !== false && run.can_control ? h("span.group", this.buttons.pause, this.buttons.resume, this.buttons.stop) : null,
@@ -149,8 +158,10 @@ export class RunPanel {
     return Math.floor(Math.max(0, run.n_samples - back) / run.frame_samples);
   }
 
-  private traces(plant: PlantDetail, outputs?: string[]): LiveTrace[] {
-    const chosen = outputs?.length ? outputs : plant.outputs.map((o) => o.name);
+  /** This run's traces, then those of the run drawn over it. */
+  private traces(): LiveTrace[] {
+    const plant = this.plant;
+    const chosen = this.outputs;
     const have = new Set(this.run.channels.map((c) => c.name));
     const unit = (name: string) => this.run.channels.find((c) => c.name === name)?.unit ?? "";
     const traces: LiveTrace[] = [];
@@ -158,7 +169,7 @@ export class RunPanel {
     for (const o of plant.outputs)
       if (chosen.includes(o.name) && have.has(o.name)) traces.push({ channel: o.name, label: o.label, axis: 1, scale: display(o.unit).scale });
     if (have.has("u")) traces.push({ channel: "u", label: "control u", axis: 2, scale: 1 });
-    return traces;
+    return [...traces, ...(this.companion?.traces(plant, chosen) ?? [])];
   }
 
   private yTitles(plant: PlantDetail): [string, string] {
@@ -166,11 +177,29 @@ export class RunPanel {
     return [`outputs (${units.join(", ")})`, `u (${plant.inputs[0]?.unit ?? "V"})`];
   }
 
-  setOutputs(plant: PlantDetail, outputs: string[]): void {
-    this.plot.setTraces(this.traces(plant, outputs));
+  setOutputs(outputs: string[]): void {
+    this.outputs = outputs.length ? outputs : this.plant.outputs.map((o) => o.name);
+    this.plot.setTraces(this.traces());
+  }
+
+  /**
+   * Draw `run` (same plant and Ts) over this one, dotted and labelled `label`, sample k over
+   * sample k; it is paused, resumed and stopped with this run. The panel owns it from now.
+   */
+  overlay(run: RunInfo, label: string): CompanionRun {
+    this.companion?.destroy();
+    this.companion = new CompanionRun(run, label, ringCapacity(run), () => this.plot.dirty());
+    this.plotDiv.before(this.companion.root);
+    this.plot.setTraces(this.traces());
+    return this.companion;
+  }
+
+  get overlaid(): CompanionRun | null {
+    return this.companion;
   }
 
   private setState(state: string): void {
+    if (state !== this.state) void this.companion?.follow(state);
     this.state = state;
     fill(this.statusEl, state);
     this.statusEl.dataset.state = state;
@@ -242,6 +271,7 @@ export class RunPanel {
 
   destroy(): void {
     this.stream.close();
+    this.companion?.destroy();
     this.plot.destroy();
   }
 }

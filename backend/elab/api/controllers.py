@@ -77,7 +77,7 @@ async def controller_template(request: Request) -> Response:
     "/controllers",
     "Upload a controller file: read, checked on the plant's model, kept with its report",
     body=s.ControllerUpload,
-    response=s.ControllerOut,
+    response=s.UploadedController,
     status=201,
     errors=(404, 413, 415, 422, 429),
     links=(("get_controller", "controller_id"), ("delete_controller", "controller_id")),
@@ -138,7 +138,7 @@ def _read_and_check(data: bytes, fmt: str, plant: Any) -> tuple[ctl.Controller, 
     "GET",
     "/controllers",
     "The caller's uploaded controllers, newest first (an instructor's: everyone's)",
-    response=s.ControllerList,
+    response=s.UploadedControllerList,
     params=(
         Param(
             "plant", "query", "only those of this plant", {"type": "string", "enum": list(PLANTS)}
@@ -153,14 +153,14 @@ async def list_controllers(request: Request) -> Response:
     who = identity(request)
     owner = None if who.instructor else who.id
     found = await asyncio.to_thread(store(request).list_controllers, owner, plant)
-    return ok(s.ControllerList(controllers=[controller_out(c, who) for c in found]))
+    return ok(s.UploadedControllerList(controllers=[controller_out(c, who) for c in found]))
 
 
 @endpoint(
     "GET",
     "/controllers/{controller_id}",
     "An uploaded controller: its law and report",
-    response=s.ControllerOut,
+    response=s.UploadedController,
     params=(CONTROLLER_ID,),
     errors=(404,),
 )
@@ -206,9 +206,9 @@ async def law_of(conn: HTTPConnection, controller_id: str, plant_id: str) -> Con
     return ctl.law_from_fields(c.law, get_plant(c.plant))
 
 
-def controller_out(c: StoredController, who: Identity) -> s.ControllerOut:
+def controller_out(c: StoredController, who: Identity) -> s.UploadedController:
     plant = get_plant(c.plant)
-    return s.ControllerOut(
+    return s.UploadedController(
         id=c.id,
         plant=c.plant,
         name=c.name,

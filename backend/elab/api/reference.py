@@ -207,8 +207,8 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.DemoPin, "validation"),
     (s.DemoInfo, "serialization"),
     (s.ControllerUpload, "validation"),
-    (s.ControllerOut, "serialization"),
-    (s.ControllerList, "serialization"),
+    (s.UploadedController, "serialization"),
+    (s.UploadedControllerList, "serialization"),
     # the unions by name, as clients build them and as the server describes them
     (s.Controller, "validation"),
     (s.Controller, "serialization"),

@@ -404,7 +404,11 @@ class ControllerUpload(Model):
     content: str = Field(
         min_length=1, max_length=90_000, description="the file: text, or base64 for mat/npz"
     )
-    name: str | None = Field(None, max_length=80, description="default: the file's own name")
+    name: str | None = Field(
+        None,
+        max_length=80,
+        description="default: the `name` in the file, else '<plant> <format> controller'",
+    )
 
 
 class ControllerReportOut(Model):
@@ -423,7 +427,9 @@ class ControllerReportOut(Model):
     warnings: list[str]
 
 
-class ControllerOut(Model):
+class UploadedController(Model):
+    """A controller a user uploaded, with the law read from it and its report."""
+
     id: str
     plant: str
     name: str
@@ -436,8 +442,8 @@ class ControllerOut(Model):
     url: str
 
 
-class ControllerList(Model):
-    controllers: list[ControllerOut]
+class UploadedControllerList(Model):
+    controllers: list[UploadedController]
 
 
 class PlantSummary(Model):

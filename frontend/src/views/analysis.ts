@@ -46,7 +46,7 @@ class AnalysisView {
     this.duration = this.runFields.add(durationField(plant.default_duration));
     this.outputs = h(
       "select",
-      { id: "outputs", onchange: () => this.run?.setOutputs(plant, this.chosenOutputs()) },
+      { id: "outputs", onchange: () => this.run?.setOutputs(this.chosenOutputs()) },
       h("option", { value: "" }, "all outputs"),
       ...plant.outputs.map((o) => h("option", { value: o.name }, `${o.label} only`)),
     );

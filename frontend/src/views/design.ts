@@ -1,5 +1,6 @@
 // Controller design: state feedback by LQR or pole placement, compared with the
-// predefined controller on the closed-loop step, then run live.
+// predefined controller on the closed-loop step, then run live; or a controller file of
+// the student's own (views/owncontroller.ts).
 import { api, ApiError } from "../api";
 import { fill, h } from "../dom";
 import { durationField, SignalForm, StartOptions } from "../experiment";
@@ -11,6 +12,7 @@ import type { DesignOut, LQRRequest, PlaceRequest, PlantDetail, StepOut } from "
 import { RunPanel } from "../runpanel";
 import { display, fmt } from "../units";
 import { downloadButton, errorText, experimentPage, failure, loading, showApiError } from "./common";
+import { OwnControllerView } from "./owncontroller";
 
 export function designPage(root: HTMLElement, params: Record<string, string>): Promise<() => void> {
   return experimentPage(root, params.id, "design", (plant) => {
@@ -34,6 +36,7 @@ class DesignView {
   private design: DesignOut | null = null;
   private run: RunPanel | null = null;
   private readonly startOptions = new StartOptions();
+  private readonly own: OwnControllerView;
 
   constructor(
     readonly plant: PlantDetail,
@@ -64,7 +67,8 @@ class DesignView {
       this.msg,
     );
     const modelBox = identified ? this.identifiedPanel(identified) : null;
-    this.root = h("div", modelBox, form, this.result, this.runBox);
+    this.own = new OwnControllerView(plant);
+    this.root = h("div", modelBox, form, this.result, this.runBox, this.own.root);
   }
 
   /** The model handed over by the identification view, checked against the physics model. */
@@ -222,6 +226,7 @@ class DesignView {
 
   destroy(): void {
     this.run?.destroy();
+    this.own.destroy();
     purge(this.chartDiv);
     purge(this.modelDiv);
   }
