@@ -115,11 +115,7 @@ def check(plant: Plant, law: ControlLaw) -> Report:
         T = min(max(plant.signal.duration, 5.0 / slowest), 600.0)
         u = step_response(loop, T, 4001, amplitude, u_output=-1).u
         peak = float(np.max(np.abs(u)))
-        if peak > plant.u_max:
-            warnings.append(
-                f"a step of {amplitude:g} asks for {peak:.3g} V against ±{plant.u_max:g} V: "
-                "the input saturates, and the run will not follow the linear prediction"
-            )
+        warnings += _saturation(plant, amplitude, peak)
     return Report(
         plant=plant.id,
         kind=type(law).__name__,
@@ -164,11 +160,7 @@ def _discrete(plant: Plant, law: LTIController, problems: list[str], warnings: l
         n = int(min(max(plant.signal.duration, 1.0), 600.0) / law.dt) + 1
         u = ct.forced_response(ct.feedback(C, P), np.arange(n) * law.dt, np.full(n, amplitude))
         peak = float(np.max(np.abs(np.asarray(u.outputs))))
-        if peak > plant.u_max:
-            warnings.append(
-                f"a step of {amplitude:g} asks for {peak:.3g} V against ±{plant.u_max:g} V: "
-                "the input saturates, and the run will not follow the linear prediction"
-            )
+        warnings += _saturation(plant, amplitude, peak)
     return Report(
         plant=plant.id,
         kind="LTIController",
@@ -183,6 +175,15 @@ def _discrete(plant: Plant, law: LTIController, problems: list[str], warnings: l
         warnings=tuple(warnings),
         domain="z",
     )
+
+
+def _saturation(plant: Plant, amplitude: float, peak: float) -> list[str]:
+    if peak <= plant.u_max:
+        return []
+    return [
+        f"a step of {amplitude:g} asks for {peak:.3g} V against ±{plant.u_max:g} V: "
+        "the input saturates, and the run will not follow the linear prediction"
+    ]
 
 
 def _pole(p: complex) -> str:
