@@ -172,7 +172,7 @@ class Sandboxed:
                 self.close()
                 raise ControllerFailed(f"the controller did not start within {timeout:g} s")
             return None
-        head = _read(self._out, 16, 1.0)
+        head = _read(self._out, 16, 1.0, ready=True)
         if head is None:
             self._died()
         k, u = struct.unpack("<qd", head)
@@ -219,13 +219,15 @@ class Sandboxed:
         self.close()
 
 
-def _read(fd: int, n: int, timeout: float) -> bytes | None:
-    """``n`` bytes, or ``None`` if the pipe closes or they do not all come in time."""
+def _read(fd: int, n: int, timeout: float, ready: bool = False) -> bytes | None:
+    """``n`` bytes, or ``None`` if the pipe closes or they do not all come in time
+    (``ready``: the pipe was just seen readable, so the first read does not wait)."""
     data = b""
     end = time.perf_counter() + timeout
     while len(data) < n:
-        if not select.select([fd], [], [], max(0.0, end - time.perf_counter()))[0]:
+        if not ready and not select.select([fd], [], [], max(0.0, end - time.perf_counter()))[0]:
             return None
+        ready = False
         part = os.read(fd, n - len(data))
         if not part:
             return None
