@@ -403,6 +403,10 @@ export interface SetParams {
     | PIDController
     | LTIControllerModel
     | OpenLoopController;
+  /**
+   * an uploaded controller (POST /controllers) instead of `controller`
+   */
+  controller_id?: string;
   signal?: StepSignal | SquareSignal | SineSignal | ChirpSignal | PRBSSignal | SamplesSignal;
   type: "set_params";
 }
@@ -1203,6 +1207,10 @@ export interface ParamsUpdate {
     | PIDController
     | LTIControllerModel
     | OpenLoopController;
+  /**
+   * an uploaded controller (POST /controllers) instead of `controller`
+   */
+  controller_id?: string;
   signal?: StepSignal | SquareSignal | SineSignal | ChirpSignal | PRBSSignal | SamplesSignal;
 }
 /**

@@ -4,8 +4,10 @@ and random and mutated files (hypothesis): no 500, nothing stored for a refused 
 
 from __future__ import annotations
 
+import asyncio
 import base64
 import io
+import json
 import random
 
 import numpy as np
@@ -16,7 +18,7 @@ from hypothesis import strategies as st
 
 from elab.controllers import read_controller
 from elab.plants import PLANTS, get_plant
-from tests.api.server import Server, until
+from tests.api.server import Server, Watcher, until
 
 SEED_LQR = [20, -93.5614, 3.3621, 0.9623]
 TOML = f'version = 1\nname = "seed LQR"\nkind = "state_feedback"\nK = {SEED_LQR}\n'
@@ -110,6 +112,35 @@ def test_a_controller_is_its_owners_and_for_its_plant(server: Server) -> None:
         assert r.status_code == 422 and "for flexible_link" in r.json()["error"]["message"]
         assert owner.delete(f"/controllers/{cid}").status_code == 204
         assert owner.get(f"/controllers/{cid}").status_code == 404
+
+
+def test_a_live_run_switches_to_an_uploaded_controller(server: Server) -> None:
+    with server.client() as c, server.stranger() as other:
+        cid = upload(c, "flexible_link", "toml", TOML.replace("20,", "15,")).json()["id"]
+        theirs = upload(other, "flexible_link", "toml", TOML).json()["id"]
+        rid = c.post("/runs", json={"plant": "flexible_link", "duration": 30}).json()["id"]
+        r = c.post(f"/runs/{rid}/params", json={"controller_id": cid})
+        assert r.status_code == 200, r.text
+        change = c.get(f"/runs/{rid}").json()["param_changes"][-1]
+        assert change["params"]["controller_id"] == cid
+        assert change["params"]["controller"]["K"][0] == 15
+        r = c.post(f"/runs/{rid}/params", json={"controller_id": theirs})
+        assert r.status_code == 404  # someone else's controller does not exist for us
+        both = {"controller_id": cid, "controller": {"kind": "predefined"}}
+        r = c.post(f"/runs/{rid}/params", json=both)
+        assert r.status_code == 422 and r.json()["error"]["field"] == "controller_id"
+
+        async def over_the_websocket() -> dict[str, object]:
+            w = await Watcher.open(server.ws_url, rid, as_=c)
+            await w.conn.send(json.dumps({"type": "set_params", "controller_id": cid}))
+            while (m := await w.next())["type"] != "params":
+                pass
+            await w.conn.close()
+            return m
+
+        notice = asyncio.run(over_the_websocket())
+        assert notice["params"]["controller_id"] == cid  # type: ignore[index]
+        c.post(f"/runs/{rid}/stop")
 
 
 def test_a_refused_file_says_where_and_stores_nothing(server: Server) -> None:

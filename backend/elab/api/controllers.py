@@ -88,7 +88,9 @@ async def upload_controller(request: Request) -> Response:
     (which keep it off the real rig) and warnings. A file that cannot be read gets 422
     naming the line and column or the field, and nothing is stored. At most
     ``ELAB_MAX_CONTROLLERS_PER_IDENTITY`` (100) per identity."""
-    req = await read_model(request, s.ControllerUpload)
+    # an upload: within ELAB_MAX_UPLOAD, not the 1 MiB of other bodies (90,000 characters
+    # of content may take 12 bytes each as JSON escapes)
+    req = await read_model(request, s.ControllerUpload, upload=True)
     if req.plant not in PLANTS:
         raise InvalidInput("plant", req.plant, "one of " + ", ".join(PLANTS))
     plant = get_plant(req.plant)

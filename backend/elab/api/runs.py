@@ -13,7 +13,7 @@ from starlette.concurrency import iterate_in_threadpool
 from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response, StreamingResponse
 
-from elab.access import Identity, display_name, may_control
+from elab.access import Identity, display_name, may_control, require_control
 from elab.api import controllers, convert
 from elab.api import schemas as s
 from elab.api.auth import identity
@@ -360,28 +360,38 @@ async def set_params(request: Request) -> Response:
     req = await read_model(request, s.ParamsUpdate)
     run_id = request.path_params["run_id"]
     who = identity(request)
-    k = await apply_params(manager(request), run_id, req.controller, req.signal, who)
+    k = await apply_params(request, run_id, req, who)
     record = await manager(request).get(run_id, who)
     return ok(s.ParamsApplied(k=k, t=k * record.Ts))
 
 
-async def apply_params(
-    m: RunManager, run_id: str, controller: Any, signal: Any, who: Identity
-) -> int:
-    """Shared by REST and the websocket's ``set_params``."""
-    if controller is None and signal is None:
-        raise InvalidInput("body", {}, "controller and/or signal")
+async def apply_params(conn: HTTPConnection, run_id: str, change: Any, who: Identity) -> int:
+    """Shared by REST and the websocket's ``set_params``: ``change`` has a controller (or
+    an uploaded one's ``controller_id``) and/or a signal."""
+    controller, cid, signal = change.controller, change.controller_id, change.signal
+    if controller is None and cid is None and signal is None:
+        raise InvalidInput("body", {}, "controller, controller_id and/or signal")
+    if controller is not None and cid is not None:
+        raise InvalidInput("controller_id", cid, "either controller or controller_id, not both")
+    m = manager(conn)
     record = await m.get(run_id, who)
+    require_control(who, record.owner, f"run {run_id}", "change")  # before its controller
     plant = get_plant(record.plant)
-    params = {
-        k: v.model_dump(mode="json")
-        for k, v in (("controller", controller), ("signal", signal))
-        if v is not None
-    }
+    law = None
+    params: dict[str, Any] = {}
+    if cid is not None:
+        law = await controllers.law_of(conn, cid, plant.id)
+        params["controller"] = convert.law_model(law).model_dump(mode="json")
+        params["controller_id"] = cid
+    elif controller is not None:
+        law = convert.law(controller, plant)
+        params["controller"] = controller.model_dump(mode="json")
+    if signal is not None:
+        params["signal"] = signal.model_dump(mode="json")
     return await m.set_params(
         run_id,
-        law=convert.law(controller, plant) if controller else None,
-        reference=convert.signal(signal) if signal else None,
+        law=law,
+        reference=convert.signal(signal) if signal is not None else None,
         params=params,
         who=who,
     )

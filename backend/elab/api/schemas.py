@@ -367,9 +367,14 @@ class _Change(Model):
     (``null`` is not a value here: the schema and the server both refuse it)."""
 
     controller: Controller | SkipJsonSchema[None] = None
+    controller_id: Annotated[str, Field(min_length=1, max_length=64)] | SkipJsonSchema[None] = (
+        Field(
+            None, description="an uploaded controller (POST /controllers) instead of `controller`"
+        )
+    )
     signal: Signal | SkipJsonSchema[None] = None
 
-    @field_validator("controller", "signal", mode="before")
+    @field_validator("controller", "controller_id", "signal", mode="before")
     @classmethod
     def _given(cls, value: Any) -> Any:
         if value is None:

@@ -168,7 +168,7 @@ async def stream(
             channel.tell(watcher, m.codec.status(record.status, record.n_stored, record.error))
         async with anyio.create_task_group() as tg:
             tg.start_soon(_send, channel, watcher, tg.cancel_scope)
-            await _receive(ws, m, record.id, channel, watcher, who)
+            await _receive(ws, record.id, channel, watcher, who)
             tg.cancel_scope.cancel()
     except (WebSocketDisconnect, anyio.ClosedResourceError):
         pass
@@ -185,14 +185,14 @@ async def _send(channel: Any, watcher: Watcher, scope: anyio.CancelScope) -> Non
 
 
 async def _receive(
-    ws: WebSocket, m: Any, run_id: str, channel: Any, watcher: Watcher, who: Identity
+    ws: WebSocket, run_id: str, channel: Any, watcher: Watcher, who: Identity
 ) -> None:
     while True:
         message = await ws.receive()
         if message["type"] == "websocket.disconnect":
             return
         try:
-            await _handle(_message(message), m, run_id, channel, watcher, who)
+            await _handle(ws, _message(message), run_id, channel, watcher, who)
         except (ValidationError, ElabError, ValueError) as exc:
             channel.tell(watcher, pack(_error(exc)))
 
@@ -208,14 +208,14 @@ def _message(message: Mapping[str, Any]) -> Any:
 
 
 async def _handle(
-    msg: Any, m: Any, run_id: str, channel: Any, watcher: Watcher, who: Identity
+    ws: WebSocket, msg: Any, run_id: str, channel: Any, watcher: Watcher, who: Identity
 ) -> None:
     if isinstance(msg, s.ResumeFrom):
         channel.resume_from(watcher, msg.seq)
     elif isinstance(msg, s.SetParams):
-        await apply_params(m, run_id, msg.controller, msg.signal, who)
+        await apply_params(ws, run_id, msg, who)
     else:
-        await m.control(run_id, msg.type, who)
+        await ws.app.state.manager.control(run_id, msg.type, who)
 
 
 def _error(exc: Exception) -> s.ErrorMessage:
