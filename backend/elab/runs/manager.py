@@ -50,6 +50,7 @@ class _Run:
     engine: str
     channel: RunChannel
     state: RunState = RunState.RUNNING
+    final_k: int = 0  # a finished or stopped run's samples (the last may be on their way)
     seen: float = field(default_factory=time.monotonic)  # its owner was last connected
     idle_paused: bool = False  # paused because nobody watched it
     error: str | None = None
@@ -67,7 +68,7 @@ class _Run:
         return replace(
             self.record,
             status=self.state.value,
-            n_stored=self.next_k,
+            n_stored=max(self.next_k, self.final_k),  # an ended run: all its samples
             error=self.error or self.record.error,
         )
 
@@ -427,6 +428,8 @@ class RunManager:
             return
         run.state = change.state
         run.error = change.error  # while paused: who paused it or why, for late joiners
+        if change.state in (RunState.FINISHED, RunState.STOPPED):  # every sample recorded
+            run.final_k = change.k
         status = self.codec.status(change.state.value, run.next_k, change.error)
         if change.state.live:
             run.channel.control(status)
