@@ -15,9 +15,9 @@ from starlette.responses import Response
 from elab.access import Identity, display_name
 from elab.api import schemas as s
 from elab.api.auth import Authority, identity, me_fields, session_cookie_value
-from elab.api.http import Param, endpoint, ok, read_model
+from elab.api.http import Param, endpoint, ok, read_model, within_budget
 from elab.api.runs import manager, run_summary
-from elab.errors import Forbidden, NotFound, TooMany
+from elab.errors import Forbidden, NotFound
 from elab.store.base import Pin
 
 DEMO = "demo"
@@ -116,12 +116,7 @@ async def create_token(request: Request) -> Response:
     auth = authority(request)
     have = await asyncio.to_thread(auth.store.tokens, who.id)
     limit = request.app.state.settings.max_tokens_per_identity
-    if len(have) >= limit:
-        raise TooMany(
-            f"you have {len(have)} API tokens, the limit per identity "
-            f"(ELAB_MAX_TOKENS_PER_IDENTITY = {limit}); revoke one first",
-            retry_after=60.0,
-        )
+    within_budget(len(have), limit, "API tokens", "ELAB_MAX_TOKENS_PER_IDENTITY")
     token, raw = await asyncio.to_thread(auth.make_token, who, req.name)
     return ok(
         s.TokenCreated(

@@ -23,8 +23,8 @@ from elab.access import Identity, display_name, may_control
 from elab.api import convert
 from elab.api import schemas as s
 from elab.api.auth import identity
-from elab.api.http import Param, endpoint, ok, query, read_model
-from elab.errors import InvalidInput, NotFound, TooMany
+from elab.api.http import Param, endpoint, ok, query, read_model, within_budget
+from elab.errors import InvalidInput, NotFound
 from elab.laws import ControlLaw
 from elab.plants import PLANTS, get_plant
 from elab.store.base import ControllerStore, StoredController
@@ -98,12 +98,7 @@ async def upload_controller(request: Request) -> Response:
     who = identity(request)
     limit = request.app.state.settings.max_controllers_per_identity
     have = await asyncio.to_thread(store(request).count_controllers, who.id)
-    if have >= limit:
-        raise TooMany(
-            f"you keep {have} controllers, the limit per identity "
-            f"(ELAB_MAX_CONTROLLERS_PER_IDENTITY = {limit}); delete one first",
-            retry_after=60.0,
-        )
+    within_budget(have, limit, "controllers", "ELAB_MAX_CONTROLLERS_PER_IDENTITY")
     parsed, report = await asyncio.to_thread(_read_and_check, data, req.format, plant)
     stored = StoredController(
         id="c-" + secrets.token_hex(6),

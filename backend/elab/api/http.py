@@ -153,6 +153,17 @@ async def read_body(request: Request, upload: bool = False) -> bytes:
     return bytes(body)
 
 
+def within_budget(have: int, limit: int, what: str, setting: str) -> None:
+    """:class:`TooMany` once an identity keeps ``limit`` of something (``what``: "API
+    tokens"), naming the setting; it gains room by deleting one."""
+    if have >= limit:
+        raise TooMany(
+            f"you have {have} {what}, the limit per identity ({setting} = {limit}); "
+            "delete one first",
+            retry_after=60.0,
+        )
+
+
 def ok(model: BaseModel | list[Any], status: int = 200) -> JSONResponse:
     if isinstance(model, list):
         return JSONResponse([m.model_dump(mode="json") for m in model], status_code=status)

@@ -13,7 +13,7 @@ from starlette.concurrency import iterate_in_threadpool
 from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response, StreamingResponse
 
-from elab.access import Identity, display_name, may_control, require_control
+from elab.access import Identity, display_name, may_control, may_view, require_control
 from elab.api import controllers, convert
 from elab.api import schemas as s
 from elab.api.auth import identity
@@ -189,7 +189,7 @@ async def list_runs(request: Request) -> Response:
             for r in m.live_runs()[::-1]
             if (plant is None or r.plant == plant)
             and (mine is None or r.owner == mine)
-            and (not r.private or may_control(who, r.owner))
+            and may_view(who, r.owner, r.private)
         ]
         records, total = list(every[offset : offset + limit]), len(every)
     else:

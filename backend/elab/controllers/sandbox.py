@@ -21,6 +21,7 @@ non-finite u, or the process dying.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import resource
@@ -235,6 +236,7 @@ def _read(fd: int, n: int, timeout: float, ready: bool = False) -> bytes | None:
     return data
 
 
+@functools.cache
 def _paths() -> list[str]:
     """Where numpy and pyseccomp are (the only packages the process needs)."""
     import numpy
