@@ -9,7 +9,9 @@ import base64
 import io
 import json
 import random
+from pathlib import Path
 
+import httpx
 import numpy as np
 import pytest
 import scipy.io
@@ -141,6 +143,24 @@ def test_a_live_run_switches_to_an_uploaded_controller(server: Server) -> None:
         notice = asyncio.run(over_the_websocket())
         assert notice["params"]["controller_id"] == cid  # type: ignore[index]
         c.post(f"/runs/{rid}/stop")
+
+
+def test_uploads_at_once_cannot_pass_the_budget_together(tmp_path: Path) -> None:
+    srv = Server(tmp_path / "data", ELAB_MAX_CONTROLLERS_PER_IDENTITY="3").start()
+
+    async def six_at_once() -> list[int]:
+        async with httpx.AsyncClient(base_url=srv.url + "/api/v1", timeout=60) as c:
+            await c.get("/me")  # one identity for all six
+            body = {"plant": "flexible_link", "format": "toml", "content": TOML}
+            rs = await asyncio.gather(*(c.post("/controllers", json=body) for _ in range(6)))
+            kept = (await c.get("/controllers")).json()["controllers"]
+            assert len(kept) == 3, len(kept)
+            return sorted(r.status_code for r in rs)
+
+    try:
+        assert asyncio.run(six_at_once()) == [201, 201, 201, 429, 429, 429]
+    finally:
+        srv.stop()
 
 
 def test_a_refused_file_says_where_and_stores_nothing(server: Server) -> None:

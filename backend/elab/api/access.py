@@ -114,10 +114,11 @@ async def create_token(request: Request) -> Response:
     req = await read_model(request, s.TokenCreate)
     who = _token_owner(request)
     auth = authority(request)
-    have = await asyncio.to_thread(auth.store.tokens, who.id)
     limit = request.app.state.settings.max_tokens_per_identity
-    within_budget(len(have), limit, "API tokens", "ELAB_MAX_TOKENS_PER_IDENTITY")
-    token, raw = await asyncio.to_thread(auth.make_token, who, req.name)
+    with request.app.state.pending.hold("tokens", who.id) as others:
+        have = await asyncio.to_thread(auth.store.tokens, who.id)
+        within_budget(len(have) + others, limit, "API tokens", "ELAB_MAX_TOKENS_PER_IDENTITY")
+        token, raw = await asyncio.to_thread(auth.make_token, who, req.name)
     return ok(
         s.TokenCreated(
             id=token.id, name=token.name, created_at=token.created_at, last_used=None, token=raw

@@ -28,7 +28,7 @@ from elab.api import (  # noqa: F401  (registers their endpoints)
 from elab.api.auth import Authority, Identify, load_secret, read_instructors
 from elab.api.frames import MsgpackCodec
 from elab.api.guard import Guard
-from elab.api.http import ENDPOINTS, Handler, Uploads, error_response
+from elab.api.http import ENDPOINTS, Handler, Pending, Uploads, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
 from elab.api.stream import RawSend, Stream
@@ -75,6 +75,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
         )
         app.state.jobs = jobs
         app.state.ident_slots = ident.IdentSlots(settings.max_ident_per_identity)
+        app.state.pending = Pending()
         app.state.uploads = Uploads(settings.max_uploads, settings.max_uploads_per_identity)
         # Everything imported so far (numpy, scipy, control, numba: ~160,000 objects) lives
         # as long as the process. Frozen, the collector stops scanning it: a full collection

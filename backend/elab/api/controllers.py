@@ -97,21 +97,22 @@ async def upload_controller(request: Request) -> Response:
     data = _content(req)
     who = identity(request)
     limit = request.app.state.settings.max_controllers_per_identity
-    have = await asyncio.to_thread(store(request).count_controllers, who.id)
-    within_budget(have, limit, "controllers", "ELAB_MAX_CONTROLLERS_PER_IDENTITY")
-    parsed, report = await asyncio.to_thread(_read_and_check, data, req.format, plant)
-    stored = StoredController(
-        id="c-" + secrets.token_hex(6),
-        owner=who.id,
-        plant=plant.id,
-        name=req.name or parsed.name or f"{plant.id} {req.format} controller",
-        format=req.format,
-        law=ctl.law_fields(parsed.law),
-        report=_report_json(report),
-        created_at=time.time(),
-        source=data,
-    )
-    await asyncio.to_thread(store(request).add_controller, stored)
+    with request.app.state.pending.hold("controllers", who.id) as others:
+        have = await asyncio.to_thread(store(request).count_controllers, who.id)
+        within_budget(have + others, limit, "controllers", "ELAB_MAX_CONTROLLERS_PER_IDENTITY")
+        parsed, report = await asyncio.to_thread(_read_and_check, data, req.format, plant)
+        stored = StoredController(
+            id="c-" + secrets.token_hex(6),
+            owner=who.id,
+            plant=plant.id,
+            name=req.name or parsed.name or f"{plant.id} {req.format} controller",
+            format=req.format,
+            law=ctl.law_fields(parsed.law),
+            report=_report_json(report),
+            created_at=time.time(),
+            source=data,
+        )
+        await asyncio.to_thread(store(request).add_controller, stored)
     return ok(controller_out(stored, who), status=201)
 
 

@@ -153,6 +153,26 @@ async def read_body(request: Request, upload: bool = False) -> bytes:
     return bytes(body)
 
 
+class Pending:
+    """Creations under way per (kind, identity): a budget counts them with what is stored,
+    so requests at once cannot all pass the check before any of them has stored."""
+
+    def __init__(self) -> None:
+        self.n: Counter[tuple[str, str]] = Counter()
+
+    @contextmanager
+    def hold(self, kind: str, who: str) -> Iterator[int]:
+        """While one is being made; yields how many others of ``who`` are."""
+        key = (kind, who)
+        self.n[key] += 1
+        try:
+            yield self.n[key] - 1
+        finally:
+            self.n[key] -= 1
+            if not self.n[key]:
+                del self.n[key]
+
+
 def within_budget(have: int, limit: int, what: str, setting: str) -> None:
     """:class:`TooMany` once an identity keeps ``limit`` of something (``what``: "API
     tokens"), naming the setting; it gains room by deleting one."""
