@@ -18,7 +18,7 @@ import numpy as np
 
 from elab import design
 from elab.errors import ElabError, InvalidInput
-from elab.laws import PID, ControlLaw, OpenLoop, StateFeedback
+from elab.laws import PID, CodeController, ControlLaw, OpenLoop, StateFeedback
 from elab.plants import PLANTS, Plant, get_plant
 from elab.runs.export import describe, to_csv
 from elab.sim import RunSpec, make_signal, simulate
@@ -59,8 +59,27 @@ def parse_complex_vector(text: str, field: str) -> tuple[complex, ...]:
     return values
 
 
+def read_file_law(path: Path, plant: Plant) -> ControlLaw:
+    """The law of a controller file (any format of ``elab template``)."""
+    from elab import controllers
+
+    fmt = controllers.format_of(path.name)
+    try:
+        with path.open("rb") as f:
+            data = f.read(controllers.files.MAX_BYTES + 1)
+    except OSError as exc:
+        raise InvalidInput("file", str(path), f"a readable file ({exc.strerror})") from None
+    law = controllers.read_controller(data, fmt, plant).law
+    if isinstance(law, CodeController):
+        law = CodeController(law.source, path.name)
+    return law
+
+
 def parse_law(text: str, plant: Plant, estimate: str) -> ControlLaw:
-    """``predefined`` | ``open`` | ``K:k1,k2,...`` | ``pid:Kp,Ki,Kd`` | ``lqr:Q1,..,Qn;R``."""
+    """``predefined`` | ``open`` | ``K:k1,k2,...`` | ``pid:Kp,Ki,Kd`` | ``lqr:Q1,..,Qn;R``
+    | a controller file (``my.py``, ``my.toml``, ...)."""
+    if text.rsplit(".", 1)[-1].lower() in ("toml", "json", "mat", "npz", "py"):
+        return read_file_law(Path(text), plant)
     kind, _, arg = text.partition(":")
     if kind == "predefined":
         return plant.predefined
@@ -78,7 +97,10 @@ def parse_law(text: str, plant: Plant, estimate: str) -> ControlLaw:
         K = design.design_lqr(plant, parse_vector(q, "Q"), parse_quantity(r or "1", "R")).K
         return StateFeedback(tuple(float(k) for k in np.ravel(K)), estimate)  # type: ignore[arg-type]
     raise InvalidInput(
-        "controller", text, "predefined, open, K:k1,..,kn, pid:Kp,Ki,Kd or lqr:q1,..,qn;R"
+        "controller",
+        text,
+        "predefined, open, K:k1,..,kn, pid:Kp,Ki,Kd, lqr:q1,..,qn;R or a controller file "
+        "(.toml, .json, .mat, .npz, .py)",
     )
 
 
@@ -227,7 +249,7 @@ def cmd_simulate(args: argparse.Namespace) -> str:
         noise_seed=args.noise_seed,
         quantize=args.quantize,
     )
-    res = simulate(spec)
+    res = simulate(spec) if not isinstance(law, CodeController) else _simulate_code(spec, args)
     header = {
         "plant": f"{plant.id} ({plant.name})",
         "controller": describe(law),
@@ -237,6 +259,34 @@ def cmd_simulate(args: argparse.Namespace) -> str:
     if args.out:
         Path(args.out).write_text(to_csv(res, header), encoding="utf-8")
     return _simulate_summary(plant, spec, res, args.out)
+
+
+def _simulate_code(spec: RunSpec, args: argparse.Namespace) -> Any:
+    """A run of a Python controller, in its sandbox, as the server steps it."""
+    from elab.engines import coded
+    from elab.sim.result import Samples
+    from elab.sim.spec import compile_run
+
+    run = compile_run(spec)
+    out = coded.run_through(run, coded.CodeSettings(deadline=args.deadline))
+    p, rows = spec.plant, out.rows
+    t = out.times
+    print(
+        f"controller compute time per step: median {t['median_us']:.3g} µs, p99 "
+        f"{t['p99_us']:.3g} µs; {t['misses']} late of {t['steps']}",
+        file=sys.stderr,
+    )
+    if out.failed is not None and not out.failed.startswith("diverged"):
+        print(f"FAILED: {out.failed}", file=sys.stderr)
+    return Samples(
+        p,
+        run.Ts,
+        0,
+        rows[:, 0].copy(),
+        rows[:, 1].copy(),
+        rows[:, 2 : 2 + p.ny].copy(),
+        rows[:, 2 + p.ny :].copy(),
+    )
 
 
 def _simulate_summary(plant: Plant, spec: RunSpec, res: Any, out: str | None) -> str:
@@ -319,13 +369,16 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "check", help="read a controller file and print its report on a plant's model"
     )
-    p.add_argument("file", help="a .toml, .json, .mat or .npz controller (elab template)")
+    p.add_argument("file", help="a .toml, .json, .mat, .npz or .py controller (elab template)")
     p.add_argument("--plant", required=True, choices=list(PLANTS))
     p.add_argument("--json", action="store_true")
+    p.add_argument(
+        "--deadline", type=float, default=0.5e-3, help="s a Python controller's step may take"
+    )
     p.set_defaults(func=cmd_check)
     p = sub.add_parser("template", help="write a plant's controller template")
     p.add_argument("plant", choices=list(PLANTS))
-    p.add_argument("--format", default="toml", choices=["toml", "json", "mat", "npz"])
+    p.add_argument("--format", default="toml", choices=["toml", "json", "mat", "npz", "py"])
     p.add_argument("-o", "--output", help="file to write (default: standard output, text only)")
     p.set_defaults(func=cmd_template)
     p = sub.add_parser(
@@ -342,6 +395,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def cmd_check(args: argparse.Namespace) -> str:
     from elab import controllers
+    from elab.engines import coded
 
     plant = get_plant(args.plant)
     path = Path(args.file)
@@ -352,7 +406,7 @@ def cmd_check(args: argparse.Namespace) -> str:
     except OSError as exc:
         raise InvalidInput("file", str(path), f"a readable file ({exc.strerror})") from None
     ctrl = controllers.read_controller(data, fmt, plant)
-    report = controllers.check(plant, ctrl.law)
+    report = coded.report(plant, ctrl.law, coded.CodeSettings(deadline=args.deadline))
     if args.json:
         return _json(
             {
@@ -372,6 +426,8 @@ def cmd_check(args: argparse.Namespace) -> str:
                 "rig_ready": report.rig_ready,
                 "problems": list(report.problems),
                 "warnings": list(report.warnings),
+                "compute": report.compute,
+                "trial": report.trial,
             }
         )
     return report.text()
@@ -443,7 +499,14 @@ def _add_simulate(sub: Any) -> None:
     p.add_argument(
         "--controller",
         default="predefined",
-        help="predefined | open | K:k1,..,kn | pid:Kp,Ki,Kd | lqr:q1,..,qn;R",
+        help="predefined | open | K:k1,..,kn | pid:Kp,Ki,Kd | lqr:q1,..,qn;R | a controller "
+        "file (my.toml, my.py: Python runs in the same sandbox as on the server)",
+    )
+    p.add_argument(
+        "--deadline",
+        type=float,
+        default=0.5e-3,
+        help="s a Python controller's step may take before the last u is held",
     )
     p.add_argument(
         "--estimate",

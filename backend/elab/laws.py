@@ -14,7 +14,7 @@ Sign convention (as python-control's ``lqr``): state feedback is
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 
@@ -76,4 +76,16 @@ class OpenLoop:
     """No feedback: the signal is the plant input, :math:`u = r`."""
 
 
-ControlLaw = StateFeedback | PID | LTIController | OpenLoop
+@dataclass(frozen=True)
+class CodeController:
+    """A controller written in Python: ``source`` defines ``class Controller`` with
+    ``reset(params)`` and ``step(t, y, r) -> u`` (docs/controllers.md). It runs in a
+    sandboxed process (:mod:`elab.controllers.sandbox`), called once per sample with the
+    measured outputs ``y`` in absolute units (as the rig gives them) and the reference
+    ``r``; the plant's actuator limit applies to its ``u``. ``name``: the file's name."""
+
+    source: str = field(repr=False)
+    name: str = "controller.py"
+
+
+ControlLaw = StateFeedback | PID | LTIController | OpenLoop | CodeController

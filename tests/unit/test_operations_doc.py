@@ -63,3 +63,6 @@ def test_documented_defaults_are_the_code_defaults() -> None:
     assert num("ELAB_ENGINE_STALL") == s.engine_stall
     assert num("ELAB_STORE_RETRY") == s.engine.retry_for
     assert num("ELAB_STORE_PENDING") * (1 << 20) == s.engine.max_pending
+    assert num("ELAB_MAX_CODE_RUNS") == s.engine.max_code_runs
+    assert num("ELAB_CODE_DEADLINE") == s.engine.code_deadline
+    assert num("ELAB_CODE_MISSES") == s.engine.code_misses

@@ -24,8 +24,10 @@ from elab.api import convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, read_model, within_budget
+from elab.engines import coded
+from elab.engines.coded import CodeSettings
 from elab.errors import InvalidInput, NotFound
-from elab.laws import ControlLaw
+from elab.laws import CodeController, ControlLaw
 from elab.plants import PLANTS, get_plant
 from elab.store.base import ControllerStore, StoredController
 
@@ -37,6 +39,7 @@ MEDIA = {
     "json": "application/json",
     "mat": "application/x-matlab-data",
     "npz": "application/zip",
+    "py": "text/x-python",
 }
 
 
@@ -54,7 +57,7 @@ def store(conn: HTTPConnection) -> ControllerStore:
         Param(
             "format",
             "query",
-            "toml (default, with comments), json, mat or npz",
+            "toml (default, with comments), json, mat, npz, or py (a Python controller)",
             {"type": "string", "enum": list(ctl.FORMATS)},
         ),
     ),
@@ -85,7 +88,9 @@ async def controller_template(request: Request) -> Response:
 async def upload_controller(request: Request) -> Response:
     """The file is at most 64 KiB (base64 for .mat and .npz). The answer has the law read
     from it and its report: closed-loop poles, margins, peak control voltage, problems
-    (which keep it off the real rig) and warnings. A file that cannot be read gets 422
+    (which keep it off the real rig) and warnings. A Python controller (``py``) is checked
+    by trial runs on the model in its sandbox (a step and a square wave, about a second),
+    and its report has its compute time per step. A file that cannot be read gets 422
     naming the line and column or the field, and nothing is stored. At most
     ``ELAB_MAX_CONTROLLERS_PER_IDENTITY`` (100) per identity."""
     # an upload: within ELAB_MAX_UPLOAD, not the 1 MiB of other bodies (90,000 characters
@@ -100,7 +105,14 @@ async def upload_controller(request: Request) -> Response:
     with request.app.state.pending.hold("controllers", who.id) as others:
         have = await asyncio.to_thread(store(request).count_controllers, who.id)
         within_budget(have + others, limit, "controllers", "ELAB_MAX_CONTROLLERS_PER_IDENTITY")
-        parsed, report = await asyncio.to_thread(_read_and_check, data, req.format, plant)
+        code = request.app.state.settings.engine
+        parsed, report = await asyncio.to_thread(
+            _read_and_check,
+            data,
+            req.format,
+            plant,
+            CodeSettings(code.code_deadline, code.code_misses),
+        )
         stored = StoredController(
             id="c-" + secrets.token_hex(6),
             owner=who.id,
@@ -117,7 +129,7 @@ async def upload_controller(request: Request) -> Response:
 
 
 def _content(req: s.ControllerUpload) -> bytes:
-    if req.format in ("toml", "json"):
+    if req.format in ("toml", "json", "py"):
         return req.content.encode("utf-8")
     try:
         return base64.b64decode(req.content, validate=True)
@@ -127,9 +139,11 @@ def _content(req: s.ControllerUpload) -> bytes:
         ) from None
 
 
-def _read_and_check(data: bytes, fmt: str, plant: Any) -> tuple[ctl.Controller, ctl.Report]:
+def _read_and_check(
+    data: bytes, fmt: str, plant: Any, settings: CodeSettings
+) -> tuple[ctl.Controller, ctl.Report]:
     parsed = ctl.read_controller(data, fmt, plant)
-    return parsed, ctl.check(plant, parsed.law)
+    return parsed, coded.report(plant, parsed.law, settings)
 
 
 @endpoint(
@@ -201,11 +215,19 @@ async def law_of(conn: HTTPConnection, controller_id: str, plant_id: str) -> Con
             controller_id,
             f"a controller for {plant_id} (this one is for {c.plant})",
         )
+    return stored_law(c)
+
+
+def stored_law(c: StoredController) -> ControlLaw:
+    """The law of a stored controller (a Python one's is its source)."""
+    if c.format == "py":
+        return CodeController(c.source.decode("utf-8"), str(c.law.get("file", "controller.py")))
     return ctl.law_from_fields(c.law, get_plant(c.plant))
 
 
 def controller_out(c: StoredController, who: Identity) -> s.UploadedController:
-    plant = get_plant(c.plant)
+    law = stored_law(c)
+    code = isinstance(law, CodeController)
     return s.UploadedController(
         id=c.id,
         plant=c.plant,
@@ -214,7 +236,8 @@ def controller_out(c: StoredController, who: Identity) -> s.UploadedController:
         owner=display_name(c.owner),
         mine=bool(who.id) and c.owner == who.id,
         created_at=c.created_at,
-        controller=convert.law_model(ctl.law_from_fields(c.law, plant)),
+        controller=None if code else convert.law_model(law),
+        code=law.source if isinstance(law, CodeController) else None,
         report=s.ControllerReportOut.model_validate(c.report),
         url=f"/api/v1/controllers/{c.id}",
     )
@@ -236,4 +259,6 @@ def _report_json(r: ctl.Report) -> dict[str, Any]:
         "rig_ready": r.rig_ready,
         "problems": list(r.problems),
         "warnings": list(r.warnings),
+        "compute": r.compute,
+        "trial": r.trial,
     }

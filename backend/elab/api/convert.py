@@ -10,7 +10,7 @@ from elab.api import schemas as s
 from elab.errors import InvalidInput
 from elab.ident import IdData
 from elab.ident import workflow as wf
-from elab.laws import PID, ControlLaw, LTIController, OpenLoop, StateFeedback
+from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, StateFeedback
 from elab.plants.base import Plant
 from elab.sim import signals as sig
 from elab.sim.spec import RunSpec
@@ -49,6 +49,8 @@ def law_model(law_: ControlLaw) -> Any:
         return s.PIDController(kind="pid", Kp=law_.Kp, Ki=law_.Ki, Kd=law_.Kd, N=law_.N, Tt=law_.Tt)
     if isinstance(law_, OpenLoop):
         return s.OpenLoopController(kind="open_loop")
+    if isinstance(law_, CodeController):
+        raise InvalidInput("controller", law_.name, "a declarative law (this one is code)")
     matrices = {
         k: [list(r) for r in getattr(law_, k)]
         for k in ("A", "B", "C", "D")

@@ -20,6 +20,7 @@ from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_float, query_int, read_model
 from elab.engines.base import Action, EngineStatus, StoreHealth
 from elab.errors import InvalidInput
+from elab.laws import CodeController
 from elab.plants import PLANTS, get_plant
 from elab.runs import export
 from elab.runs.fanout import frame_samples
@@ -57,6 +58,7 @@ def _summary_fields(record: RunSummary, who: Identity) -> dict[str, Any]:
         "started_at": record.started_at,
         "finished_at": record.finished_at,
         "error": record.error,
+        "compute": record.compute,
         "url": f"/api/v1/runs/{record.id}",
         "owner": display_name(record.owner),
         "private": record.private,
@@ -119,7 +121,11 @@ async def create_run(request: Request) -> Response:
             "signal": req.signal or convert.default_signal(plant),
             "duration": req.duration if req.duration is not None else plant.signal.duration,
         }
-        | ({"controller": convert.law_model(uploaded)} if uploaded is not None else {})
+        | (
+            {"controller": convert.law_model(uploaded)}
+            if uploaded is not None and not isinstance(uploaded, CodeController)
+            else {}
+        )
     )
     spec = convert.run_spec(req, plant, uploaded)
     record = await manager(request).create(
@@ -381,6 +387,13 @@ async def apply_params(conn: HTTPConnection, run_id: str, change: Any, who: Iden
     params: dict[str, Any] = {}
     if cid is not None:
         law = await controllers.law_of(conn, cid, plant.id)
+        if isinstance(law, CodeController):
+            raise InvalidInput(
+                "controller_id",
+                cid,
+                "a declarative controller: a Python controller runs from the start of a "
+                "run (POST /runs with its controller_id), not swapped into a live one",
+            )
         params["controller"] = convert.law_model(law).model_dump(mode="json")
         params["controller_id"] = cid
     elif controller is not None:

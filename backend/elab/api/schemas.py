@@ -227,6 +227,9 @@ class RunSummaryInfo(Model):
         description="why it failed, stopped early (who stopped it) or was interrupted; "
         "while it is paused, who paused it or why"
     )
+    compute: ComputeTimes | None = Field(
+        None, description="a Python controller's time per step over the run, once it ended"
+    )
     url: str
     owner: str = Field(description="who started it, as others see them (guest 3f2a, a name)")
     private: bool
@@ -402,10 +405,11 @@ class Complex(Model):
 
 # -- uploaded controllers ----------------------------------------------------------------
 class ControllerUpload(Model):
-    """A controller file (docs/controllers.md): TOML or JSON as text, .mat or .npz as base64."""
+    """A controller file (docs/controllers.md): TOML, JSON or Python as text, .mat or .npz as
+    base64."""
 
     plant: str = Field(min_length=1, max_length=64)
-    format: Literal["toml", "json", "mat", "npz"]
+    format: Literal["toml", "json", "mat", "npz", "py"]
     content: str = Field(
         min_length=1, max_length=90_000, description="the file: text, or base64 for mat/npz"
     )
@@ -416,11 +420,29 @@ class ControllerUpload(Model):
     )
 
 
+class ComputeTimes(Model):
+    """A Python controller's time per step: its own compute time inside the sandbox
+    (median, p99, max) and the round trip a run waits for, in µs; ``misses``: steps
+    later than the deadline (the last u was held)."""
+
+    steps: int
+    median_us: float
+    p99_us: float
+    max_us: float
+    round_trip_median_us: float
+    round_trip_p99_us: float
+    misses: int
+
+
 class ControllerReportOut(Model):
-    """The report on the plant's linear model (docs/controllers.md)."""
+    """The report on the plant's linear model, or for a Python controller on trial runs in
+    its sandbox (docs/controllers.md)."""
 
     stable: bool
-    domain: Literal["s", "z"] = Field(description="z: a discrete controller, poles in z")
+    domain: Literal["s", "z", "trial"] = Field(
+        description="z: a discrete controller, poles in z; trial: a Python controller, "
+        "checked by trial runs on the model (no poles or margins)"
+    )
     poles: list[Complex]
     gain_margin_db: float | None
     phase_margin_deg: float | None
@@ -430,6 +452,8 @@ class ControllerReportOut(Model):
     rig_ready: bool
     problems: list[str]
     warnings: list[str]
+    compute: ComputeTimes | None = Field(None, description="a Python controller's, in its trial")
+    trial: str | None = Field(None, description="what the trial ran (a Python controller)")
 
 
 class UploadedController(Model):
@@ -442,7 +466,10 @@ class UploadedController(Model):
     owner: str
     mine: bool
     created_at: float
-    controller: Controller = Field(description="the law read from the file")
+    controller: Controller | None = Field(
+        description="the law read from the file (none for a Python controller: its code is it)"
+    )
+    code: str | None = Field(None, description="a Python controller's source")
     report: ControllerReportOut
     url: str
 

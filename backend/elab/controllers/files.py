@@ -10,7 +10,10 @@ Every format says the same thing (docs/controllers.md):
 - ``kind = "lti"``: a transfer function ``num``, ``den`` or a state space ``A``, ``B``,
   ``C``, ``D`` on the error r − y, continuous (Tustin at the run's sample time) or
   discrete with its sample time ``dt`` (MATLAB's ``Ts``; 0 means continuous);
-- ``kind = "open_loop"``: u = r.
+- ``kind = "open_loop"``: u = r;
+- a Python file (``.py``) defining ``class Controller`` with ``reset(params)`` and
+  ``step(t, y, r) -> u``: read here only as far as its syntax; it runs only in the
+  sandbox (:mod:`elab.controllers.sandbox`).
 
 A ``.mat`` or ``.npz`` file holds plain matrices named as above; the kind follows from
 which are there. Nothing is ever unpickled, and every size is bounded before data are
@@ -20,6 +23,7 @@ coefficients, a ``.npz`` whose members together expand to at most :data:`MAX_EXP
 
 from __future__ import annotations
 
+import ast
 import io
 import json
 import math
@@ -33,10 +37,10 @@ from typing import Any
 import numpy as np
 
 from elab.errors import InvalidInput
-from elab.laws import PID, ControlLaw, LTIController, OpenLoop, StateFeedback
+from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, StateFeedback
 from elab.plants import Plant
 
-FORMATS = ("toml", "json", "mat", "npz")
+FORMATS = ("toml", "json", "mat", "npz", "py")
 VERSION = 1
 MAX_BYTES = 64 * 1024
 MAX_ORDER = 20  # controller states, or polynomial coefficients
@@ -71,6 +75,8 @@ def read_controller(data: bytes, fmt: str, plant: Plant) -> Controller:
         raise InvalidInput("file", f"{len(data)} bytes", f"a file of at most {MAX_BYTES} bytes")
     if not data:
         raise InvalidInput("file", "an empty file", f"a {fmt} controller file")
+    if fmt == "py":
+        return _python(data)
     if fmt in ("toml", "json"):
         fields = _text_fields(data, fmt)
     elif fmt == "mat":
@@ -96,14 +102,52 @@ def format_of(filename: str) -> str:
     return ext
 
 
-# -- text formats ---------------------------------------------------------------------
-def _text_fields(data: bytes, fmt: str) -> dict[str, Any]:
+# -- Python ---------------------------------------------------------------------------
+def _python(data: bytes, filename: str = "controller.py") -> Controller:
+    """A Python controller's source, parsed (never run here): its syntax, with line and
+    column, and a top-level ``class Controller`` with a ``step`` method."""
+    text = _utf8(data)
+    if "\0" in text:
+        raise InvalidInput("file", f"a NUL character at offset {text.index(chr(0))}", "text")
     try:
-        text = data.decode("utf-8")
+        tree = ast.parse(text, filename)
+    except SyntaxError as exc:
+        raise InvalidInput(
+            "file",
+            f"line {exc.lineno}, column {exc.offset}: {exc.msg}",
+            "valid Python 3 source",
+        ) from None
+    except (RecursionError, MemoryError):
+        raise InvalidInput("file", "nested too deeply", "plain Python source") from None
+    classes = [n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "Controller"]
+    if not classes:
+        raise InvalidInput(
+            "file", "no top-level class Controller", "a module defining class Controller"
+        )
+    methods = {n.name for n in classes[-1].body if isinstance(n, ast.FunctionDef)}
+    if "step" not in methods:
+        raise InvalidInput(
+            "Controller",
+            f"methods {', '.join(sorted(methods)) or 'none'}",
+            "a class with step(self, t, y, r) (and optionally reset(self, params))",
+        )
+    doc = ast.get_docstring(tree) or ""
+    name = doc.strip().splitlines()[0][:80] if doc.strip() else ""
+    return Controller(CodeController(text, filename), "py", name)
+
+
+def _utf8(data: bytes) -> str:
+    try:
+        return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise InvalidInput(
             "file", f"byte {exc.start}: {data[exc.start : exc.start + 4]!r}", "UTF-8 text"
         ) from None
+
+
+# -- text formats ---------------------------------------------------------------------
+def _text_fields(data: bytes, fmt: str) -> dict[str, Any]:
+    text = _utf8(data)
     try:
         parsed = tomllib.loads(text) if fmt == "toml" else json.loads(text, parse_constant=_no_nan)
     except tomllib.TOMLDecodeError as exc:

@@ -43,7 +43,10 @@ class Report:
     step_amplitude: float  # of the reference, in the reference output's unit
     problems: tuple[str, ...] = field(default=())  # stop it on the rig
     warnings: tuple[str, ...] = field(default=())
-    domain: str = "s"  # "z": a discrete controller, checked on the ZOH model at its dt
+    domain: str = "s"  # "z": a discrete controller, checked on the ZOH model at its dt;
+    # "trial": code, checked by trial runs on the model in its sandbox
+    compute: dict[str, float | int] | None = None  # code: compute time per step in the trial
+    trial: str | None = None  # code: what the trial ran
 
     @property
     def rig_ready(self) -> bool:
@@ -52,9 +55,13 @@ class Report:
     def text(self) -> str:
         """The report as lines for a terminal."""
         rows = [f"controller: {self.kind} on {self.plant}"]
-        rows.append("closed loop: " + ("stable" if self.stable else "UNSTABLE"))
-        where = "poles" if self.domain == "s" else "poles (z, stable inside |z| < 1)"
-        rows.append(f"  {where}: " + ", ".join(_pole(p) for p in self.poles))
+        if self.domain == "trial":
+            rows.append(f"trial in the sandbox: {self.trial}")
+            rows.append("closed loop: " + ("bounded" if self.stable else "FAILED or diverged"))
+        else:
+            rows.append("closed loop: " + ("stable" if self.stable else "UNSTABLE"))
+            where = "poles" if self.domain == "s" else "poles (z, stable inside |z| < 1)"
+            rows.append(f"  {where}: " + ", ".join(_pole(p) for p in self.poles))
         if self.gain_margin_db is not None and self.phase_margin_deg is not None:
             rows.append(
                 f"  margins: gain {_db(self.gain_margin_db)}, phase {self.phase_margin_deg:.1f}°"
@@ -63,6 +70,13 @@ class Report:
             rows.append(
                 f"  peak |u| for a {self.step_amplitude:g} step of r: {self.peak_u:.3g} V"
                 f" (limit ±{self.u_max:g} V)"
+            )
+        if self.compute and self.compute["steps"]:
+            c = self.compute
+            rows.append(
+                f"  compute time per step: median {c['median_us']:.3g} µs, p99 "
+                f"{c['p99_us']:.3g} µs, max {c['max_us']:.3g} µs; round trip median "
+                f"{c['round_trip_median_us']:.3g} µs; {c['misses']} late of {c['steps']}"
             )
         for p in self.problems:
             rows.append("problem: " + p)

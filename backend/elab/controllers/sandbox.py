@@ -32,7 +32,6 @@ import subprocess
 import sys
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -42,6 +41,8 @@ from elab.errors import ElabError, InvalidInput, Unavailable
 
 INSIDE = Path(__file__).with_name("_inside.py")
 MAX_CODE = 64 * 1024
+ANSWER = struct.Struct("<qdd")  # k, u, the step's compute time inside (s)
+SPIN = 50e-6  # s an answer is polled for before the process sleeps in select()
 
 
 class ControllerFailed(ElabError):
@@ -49,24 +50,61 @@ class ControllerFailed(ElabError):
     deadline too often, or its process died (the reason says which)."""
 
 
-@dataclass
 class StepTimes:
-    """Compute time per step as the parent sees it (request written to answer read), s."""
+    """Time per step, in constant memory (an hour at 1 kHz is 3.6 million steps): the
+    controller's own compute time (measured inside its process around ``step``) and the
+    round trip the run waits for (request written to answer read), each kept as a
+    histogram of 100 bins per decade (percentiles to within 2.3 %), with the exact
+    maximum; ``misses``: steps whose answer came after the deadline."""
 
-    times: list[float] = field(default_factory=list)
-    misses: int = 0
+    EDGES = np.logspace(-7, 1, 801)  # s: 0.1 µs .. 10 s
+
+    def __init__(self) -> None:
+        self.misses = 0
+        self.steps = 0
+        self._buf = np.zeros((2, 4096))
+        self._n = 0
+        self._counts = np.zeros((2, self.EDGES.size + 1), np.int64)
+        self._max = np.zeros(2)
+
+    def add(self, compute: float, round_trip: float) -> None:
+        buf, n = self._buf, self._n
+        buf[0, n], buf[1, n] = compute, round_trip
+        self._n = n + 1
+        if self._n == buf.shape[1]:
+            self._fold()
+
+    def _fold(self) -> None:
+        part = self._buf[:, : self._n]
+        for i in (0, 1):
+            self._counts[i] += np.bincount(
+                np.searchsorted(self.EDGES, part[i]), minlength=self._counts.shape[1]
+            )
+        if self._n:
+            self._max = np.maximum(self._max, part.max(axis=1))
+        self.steps += self._n
+        self._n = 0
 
     def summary(self) -> dict[str, float | int]:
-        t = np.asarray(self.times) * 1e6
-        if not t.size:
-            return {"steps": 0, "median_us": 0.0, "p99_us": 0.0, "max_us": 0.0, "misses": 0}
-        return {
-            "steps": int(t.size),
-            "median_us": float(np.median(t)),
-            "p99_us": float(np.percentile(t, 99)),
-            "max_us": float(t.max()),
-            "misses": self.misses,
-        }
+        """``steps``; the compute time's ``median_us``, ``p99_us``, ``max_us``; the round
+        trip's ``round_trip_median_us``, ``round_trip_p99_us``; ``misses``."""
+        self._fold()
+        out: dict[str, float | int] = {"steps": self.steps, "misses": self.misses}
+        for i, prefix in ((0, ""), (1, "round_trip_")):
+            out[prefix + "median_us"] = self._percentile(i, 0.5)
+            out[prefix + "p99_us"] = self._percentile(i, 0.99)
+        out["max_us"] = float(self._max[0] * 1e6)
+        return out
+
+    def _percentile(self, i: int, q: float) -> float:
+        """The geometric middle of the bin holding the ``q`` quantile, in µs."""
+        counts = self._counts[i]
+        if not self.steps:
+            return 0.0
+        b = int(np.searchsorted(np.cumsum(counts), q * self.steps))
+        lo = self.EDGES[max(b - 1, 0)]
+        hi = self.EDGES[min(b, self.EDGES.size - 1)]
+        return float(min(np.sqrt(lo * hi), self._max[i]) * 1e6)
 
 
 def available() -> str | None:
@@ -119,6 +157,8 @@ class Sandboxed:
         )
         assert self._proc.stdin is not None and self._proc.stdout is not None
         self._in, self._out = self._proc.stdin, self._proc.stdout.fileno()
+        self._fd_in, self._watch = self._in.fileno(), [self._out]
+        os.set_blocking(self._out, False)  # polled first (see _answer)
         setup = json.dumps(
             {
                 "code": code,
@@ -143,7 +183,7 @@ class Sandboxed:
         k = self._k
         start = time.perf_counter()
         try:
-            os.write(self._in.fileno(), self._request.pack(k, t, r, *y))
+            os.write(self._fd_in, self._request.pack(k, t, r, *y))
         except BrokenPipeError:
             self._died()
         while True:
@@ -161,22 +201,40 @@ class Sandboxed:
                 return self._u
             if got[0] == k:
                 break  # an older, late answer is dropped
-        self.times.times.append(time.perf_counter() - start)
+        self.times.add(got[2], time.perf_counter() - start)
         self._misses = 0
         self._u = got[1]
         return self._u
 
-    def _answer(self, timeout: float, starting: bool = False) -> tuple[int, float] | None:
-        ready, _, _ = select.select([self._out], [], [], timeout)
-        if not ready:
-            if starting:
-                self.close()
-                raise ControllerFailed(f"the controller did not start within {timeout:g} s")
-            return None
-        head = _read(self._out, 16, 1.0, ready=True)
-        if head is None:
-            self._died()
-        k, u = struct.unpack("<qd", head)
+    def _answer(self, timeout: float, starting: bool = False) -> tuple[int, float, float] | None:
+        """The next answer ``(k, u, compute seconds)``, or ``None`` after ``timeout`` s.
+
+        It first asks for it without waiting for up to :data:`SPIN` s (most steps answer
+        within that: sleeping in ``select`` and being woken costs several µs each way),
+        then waits in ``select``."""
+        head = b""
+        spin_until = time.perf_counter() + min(SPIN, timeout)
+        while not starting:
+            try:
+                head = os.read(self._out, ANSWER.size)
+                break
+            except BlockingIOError:
+                if time.perf_counter() >= spin_until:
+                    break
+        if not head:
+            ready, _, _ = select.select(self._watch, [], [], timeout)
+            if not ready:
+                if starting:
+                    self.close()
+                    raise ControllerFailed(f"the controller did not start within {timeout:g} s")
+                return None
+            head = os.read(self._out, ANSWER.size)  # an answer is one write: it comes whole
+        if len(head) < ANSWER.size:
+            rest = _read(self._out, ANSWER.size - len(head), 1.0) if head else None
+            if rest is None:
+                self._died()
+            head += rest
+        k, u, spent = ANSWER.unpack(head)
         if k == -1:
             size = _read(self._out, 4, 1.0)
             n = int(struct.unpack("<I", size)[0]) if size is not None else 0
@@ -188,7 +246,7 @@ class Sandboxed:
         if not 0 <= k <= self._k:  # not an answer to any step: it wrote to the pipe itself
             self.close()
             raise ControllerFailed("the controller broke the step protocol (it wrote to stdout)")
-        return k, u
+        return k, u, spent
 
     def _died(self) -> NoReturn:
         try:

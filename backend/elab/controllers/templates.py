@@ -1,5 +1,5 @@
 """A controller template per plant and format: the plant's predefined controller, filled
-in, every field explained (TOML; the other formats hold the same values)."""
+in, every field explained (TOML and Python; the other formats hold the same values)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ from typing import Any
 import numpy as np
 
 from elab.controllers.files import FORMATS, VERSION
+from elab.design.realise import pid_filter_time, pid_tracking_time
 from elab.errors import InvalidInput
-from elab.laws import PID, ControlLaw, LTIController, OpenLoop, StateFeedback
+from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, StateFeedback
 from elab.plants import Plant
 
 
@@ -19,6 +20,8 @@ def template(plant: Plant, fmt: str) -> bytes:
     """The template of ``plant``'s controller in ``fmt`` (toml, json, mat or npz)."""
     if fmt not in FORMATS:
         raise InvalidInput("format", fmt, ", ".join(FORMATS))
+    if fmt == "py":
+        return python_source(plant, plant.predefined).encode()
     fields = law_fields(plant.predefined)
     if fmt == "toml":
         return _toml(plant, fields).encode()
@@ -43,7 +46,10 @@ def template(plant: Plant, fmt: str) -> bytes:
 
 
 def law_fields(law: ControlLaw) -> dict[str, Any]:
-    """A law as the fields of a controller file (the inverse of reading one)."""
+    """A law as the fields of a controller file (the inverse of reading one; a Python
+    controller's fields say only its file name: its source is the file)."""
+    if isinstance(law, CodeController):
+        return {"kind": "python", "file": law.name}
     if isinstance(law, StateFeedback):
         return {"kind": "state_feedback", "K": list(law.K), "estimate": law.estimate}
     if isinstance(law, PID):
@@ -121,3 +127,150 @@ def _toml(plant: Plant, f: dict[str, Any]) -> str:
 
 def _num(x: float) -> str:
     return repr(float(x)) if x != int(x) or abs(x) >= 1e15 else str(int(x))
+
+
+# -- Python ---------------------------------------------------------------------------
+_PY_HEAD = '''"""{title}
+
+E-Lab runs this file in a sandbox: reset(params) once before the run, then
+step(t, y, r) once per sample (every {Ts:g} s), which returns u in volts.
+
+- t: the sample's time (s); r: the reference of {ref} ({ref_unit});
+- y: the measured outputs in absolute units, as the rig gives them:
+  {outputs};
+- params: "Ts" (s), "u_max" (V; the actuator limit, applied to your u after
+  step), "outputs", "units", "y_op" (the outputs at the operating point),
+  "reference_output" (the index of {ref} in y), "plant".
+
+Only numpy, math, cmath, collections, dataclasses, functools and itertools can
+be imported; nothing can reach files, the network or other processes. A step
+has 0.5 ms: a late answer holds the last u, and 10 late in a row end the run.
+Check it offline: elab check this.py --plant {plant}; elab simulate {plant}
+--controller this.py.
+"""
+
+import numpy as np
+'''
+
+
+def python_source(plant: Plant, law: ControlLaw) -> str:
+    """``law`` for ``plant`` written as a Python controller: the same arithmetic as the
+    declarative law's discrete controller (Tustin at the run's sample time, the PID's
+    back-calculation anti-windup), so a run of either gives the same samples up to
+    rounding. State feedback and PID are written so; state feedback on the true state
+    becomes state feedback on velocity filters (code sees only the measured outputs)."""
+    out = plant.outputs[plant.reference_output]
+    title = f"E-Lab controller for the {plant.name.lower()} ({plant.id}): {_describe(plant, law)}"
+    head = _PY_HEAD.format(
+        title=title,
+        Ts=plant.Ts,
+        ref=out.name,
+        ref_unit=out.unit,
+        outputs=", ".join(f"{i}: {o.name} ({o.unit})" for i, o in enumerate(plant.outputs)),
+        plant=plant.id,
+    )
+    if isinstance(law, StateFeedback) and plant.velocity_filters:
+        return head + _py_state_feedback(plant, law)
+    if isinstance(law, PID):
+        return head + _py_pid(plant, law)
+    raise InvalidInput(
+        "law",
+        type(law).__name__,
+        "state feedback on velocity filters or a PID (the laws written as Python templates)",
+    )
+
+
+def _describe(plant: Plant, law: ControlLaw) -> str:
+    if law == plant.predefined:
+        on = "" if getattr(law, "estimate", "") != "true_state" else ", on velocity filters"
+        return f"the predefined controller ({plant.predefined_design}{on})"
+    return "state feedback" if isinstance(law, StateFeedback) else "a PID"
+
+
+def _py_state_feedback(plant: Plant, law: StateFeedback) -> str:
+    filters = {f.state: f for f in plant.velocity_filters}
+    measured = {}
+    for j in range(plant.nx):
+        if j in filters:
+            continue
+        unit = np.eye(plant.nx)[j]
+        found = [o for o in range(plant.ny) if np.array_equal(plant.C[o], unit)]
+        if not found:
+            raise InvalidInput("law", "velocity_filters", f"state {j} measured by an output")
+        measured[j] = found[0]
+    states = ", ".join(f"{i}: {st.name}" for i, st in enumerate(plant.states))
+    rows = ",\n".join(
+        f"    ({f.state}, {f.output}, {_num(f.omega_c)})" for f in plant.velocity_filters
+    )
+    return f"""
+# u = K (x_ref − x̂), x_ref = r on state {plant.reference_state}; states: {states}
+K = np.array([{", ".join(_num(k) for k in law.K)}])
+REFERENCE_STATE = {plant.reference_state}
+# states measured directly: state -> output
+MEASURED = {{{", ".join(f"{j}: {o}" for j, o in measured.items())}}}
+# velocities from band-limited differentiators wc s / (s + wc) of an output:
+# (state, output, wc in rad/s)
+FILTERS = [
+{rows},
+]
+
+
+class Controller:
+    def reset(self, params):
+        self.Ts = params["Ts"]
+        self.y_op = np.array(params["y_op"])
+        self.low = np.zeros(len(FILTERS))  # each filter's low-passed output
+        self.last = np.zeros(len(FILTERS))  # and its input at the last sample
+
+    def step(self, t, y, r):
+        dy = y - self.y_op  # deviations from the operating point
+        x = np.zeros(len(K))
+        for state, output in MEASURED.items():
+            x[state] = dy[output]
+        for i, (state, output, wc) in enumerate(FILTERS):
+            # Tustin: low = wc / (s + wc) dy, velocity = wc (dy - low)
+            a = wc * self.Ts / 2
+            self.low[i] = ((1 - a) * self.low[i] + a * (dy[output] + self.last[i])) / (1 + a)
+            self.last[i] = dy[output]
+            x[state] = wc * (dy[output] - self.low[i])
+        x_ref = np.zeros(len(K))
+        x_ref[REFERENCE_STATE] = r
+        return float(K @ (x_ref - x))
+"""
+
+
+def _py_pid(plant: Plant, law: PID) -> str:
+    out = plant.outputs[plant.reference_output]
+    return f"""
+# u = Kp e + Ki ∫e + Kd s / (Tf s + 1) e on e = r − {out.name}, Tustin at Ts
+Kp = {_num(law.Kp)}  # V per {out.unit}
+Ki = {_num(law.Ki)}  # V per {out.unit}·s
+Kd = {_num(law.Kd)}  # V·s per {out.unit}
+Tf = {_num(pid_filter_time(law))}  # s, the derivative's filter (Kd / (N Kp), N = {_num(law.N)})
+Tt = {_num(pid_tracking_time(law))}  # s, anti-windup tracking time
+REFERENCE_OUTPUT = {plant.reference_output}
+
+
+class Controller:
+    def reset(self, params):
+        self.Ts = params["Ts"]
+        self.u_max = params["u_max"] or float("inf")
+        self.y_op = params["y_op"][REFERENCE_OUTPUT]
+        self.integral = 0.0  # Ts times the errors so far (trapezoid: + Ts/2 e now)
+        self.derivative = 0.0
+        self.last_e = 0.0
+
+    def step(self, t, y, r):
+        Ts = self.Ts
+        e = r - (y[REFERENCE_OUTPUT] - self.y_op)
+        self.derivative = (
+            (2 * Tf - Ts) * self.derivative + 2 * Kd * (e - self.last_e)
+        ) / (2 * Tf + Ts)
+        self.last_e = e
+        v = Kp * e + Ki * (self.integral + Ts / 2 * e) + self.derivative
+        u = min(max(v, -self.u_max), self.u_max)  # what the actuator applies
+        # back-calculation anti-windup: the integral follows what was applied
+        if Ki != 0:
+            self.integral += Ts * e + Ts / (Ki * Tt) * (u - v)
+        return v
+"""

@@ -24,7 +24,7 @@ import numpy as np
 from elab.design import _polynomials
 from elab.design._checks import Matrix, columns, rows, shaped, square
 from elab.errors import DimensionError, InvalidInput
-from elab.laws import PID, ControlLaw, LTIController, OpenLoop, StateFeedback
+from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, StateFeedback
 from elab.plants import Plant
 from elab.validate import finite_array, finite_float
 
@@ -87,6 +87,18 @@ def pid_tf(law: PID) -> ct.TransferFunction:
     return C
 
 
+def pid_tracking_time(law: PID) -> float:
+    """Back-calculation tracking time :math:`T_t`: given, else :math:`\\sqrt{T_i T_d}`
+    (:math:`T_i` without derivative action, 1 s without proportional action);
+    Åström & Hägglund, *Advanced PID Control*, 2006, §3.5."""
+    if law.Tt is not None:
+        return finite_float("controller.Tt", law.Tt, 0.0, lo_open=True)
+    if law.Kp > 0 and law.Ki > 0:
+        Ti = law.Kp / law.Ki
+        return math.sqrt(Ti * law.Kd / law.Kp) if law.Kd > 0 else Ti
+    return 1.0
+
+
 MIN_TF, MAX_TF = 1e-9, 1e9  # s: a derivative filter outside is a typo, not a design
 
 
@@ -139,6 +151,13 @@ def realise(plant: Plant, law: ControlLaw, *, all_pid_states: bool = False) -> R
         return _error_feedback(plant, lti_ss(law))
     if isinstance(law, OpenLoop):
         return Realisation.static(np.ones((1, 1)), np.zeros((1, plant.ny)), False)
+    if isinstance(law, CodeController):
+        raise InvalidInput(
+            "controller",
+            law.name,
+            "a linear controller: a Python controller has no model to analyse; its report "
+            "comes from a trial run in the sandbox",
+        )
     raise InvalidInput("law", law, "StateFeedback, PID, LTIController or OpenLoop")
 
 

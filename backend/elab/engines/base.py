@@ -57,12 +57,14 @@ class RunOrder:
 class Changed:
     """Run ``run_id`` entered ``state`` at sample ``k`` (``error``: why it failed, stopped
     early or was interrupted; why it paused, for a pause with a reason; only an ended
-    run's is recorded)."""
+    run's is recorded). ``compute``: an ended code-controller run's compute time per step
+    (:meth:`elab.controllers.sandbox.StepTimes.summary`)."""
 
     run_id: str
     state: RunState
     k: int
     error: str | None = None
+    compute: dict[str, float | int] | None = None
 
 
 @dataclass(frozen=True)

@@ -56,6 +56,7 @@ class _Status:
     state: RunState
     error: str | None
     final: bool
+    compute: dict[str, float | int] | None = None
 
 
 @dataclass(frozen=True)
@@ -129,11 +130,17 @@ class Recorder:
             if not self.failed:
                 self._blocks.append(block)
 
-    def status(self, run_id: str, state: RunState, error: str | None = None) -> None:
-        """Record a change of state; ``state`` final: the run's last write (its samples
-        not yet committed go first)."""
+    def status(
+        self,
+        run_id: str,
+        state: RunState,
+        error: str | None = None,
+        compute: dict[str, float | int] | None = None,
+    ) -> None:
+        """Record a change of state (``compute``: a code controller's times, with its end);
+        ``state`` final: the run's last write (its samples not yet committed go first)."""
         with self._lock:
-            self._ops.append(_Status(run_id, state, error, final=not state.live))
+            self._ops.append(_Status(run_id, state, error, final=not state.live, compute=compute))
             if self.failed and not state.live:
                 self._sort_blocks()
                 tail = self._tails.get(run_id)
@@ -210,6 +217,7 @@ class Recorder:
                         op.state.value,
                         error=op.error if op.final else None,  # a pause's reason is news only
                         finished_at=time.time() if op.final else None,
+                        compute=op.compute,
                     )
             except StoreError:
                 raise

@@ -21,11 +21,13 @@ from typing import Any
 
 import numpy as np
 
+from elab.controllers.sandbox import ControllerFailed
 from elab.engines.base import Action, Block, Changed, EngineEvents, Health, RunOrder, StoreHealth
+from elab.engines.coded import CodedRun, CodeSettings
 from elab.engines.recorder import Recorder
 from elab.engines.stepper import Stepper
-from elab.errors import Conflict, InvalidInput, Unavailable
-from elab.laws import ControlLaw
+from elab.errors import Conflict, InvalidInput, TooMany, Unavailable
+from elab.laws import CodeController, ControlLaw
 from elab.lifecycle import RunState
 from elab.plants import get_plant
 from elab.sim.batch import Batch
@@ -46,13 +48,18 @@ class EngineSettings:
     ``flush_interval``: how often samples are committed (what a crash may lose);
     ``retry_for``: how long a busy store is retried before its runs fail;
     ``max_pending``: bytes of samples that may wait for a busy store; ``realtime``: the
-    stepping thread's real-time priority (SCHED_FIFO; 0: none)."""
+    stepping thread's real-time priority (SCHED_FIFO; 0: none). Code controllers:
+    ``max_code_runs`` live at once, ``code_deadline`` s per step before the last u is held,
+    ``code_misses`` late steps in a row that fail the run."""
 
     tick: float = 0.02
     flush_interval: float = 0.25
     retry_for: float = 30.0
     max_pending: int = 256 << 20
     realtime: int = 0  # SCHED_FIFO priority of the stepping thread (0: an ordinary thread)
+    max_code_runs: int = 8
+    code_deadline: float = 0.5e-3
+    code_misses: int = 10
 
 
 def channels_of(run: CompiledRun) -> tuple[tuple[str, str], ...]:
@@ -94,6 +101,8 @@ class SimulationEngine:
         )
         self._runs: dict[str, CompiledRun] = {}  # live runs as last changed
         self._changing = threading.Lock()
+        self._code_runs = 0  # live runs with a code controller, and those starting
+        self._counting = threading.Lock()
 
     # -- lifecycle -----------------------------------------------------------------
     def start(self) -> list[str]:
@@ -123,6 +132,16 @@ class SimulationEngine:
                 f"new runs are refused while the run store fails: {h.error}", retry_after=5.0
             )
         run = compile_run(order.spec)
+        coded = self._start_coded(run) if isinstance(run.spec.law, CodeController) else None
+        try:
+            return self._add(order, run, coded)
+        except BaseException:
+            if coded is not None:
+                coded.close()
+                self._ended_coded()
+            raise
+
+    def _add(self, order: RunOrder, run: CompiledRun, coded: CodedRun | None) -> RunRecord:
         mono = time.monotonic()
         # sample 0 just after the stepper's next tick, so each tick completes a frame;
         # started_at: the wall time of sample 0
@@ -148,8 +167,37 @@ class SimulationEngine:
         self.recorder.open(record.id, len(record.channels))
         self._runs[record.id] = run
         self._events.started(self.id, record)
-        self.stepper.add(record.id, run, order.pace, t_origin=origin)
+        self.stepper.add(record.id, run, order.pace, t_origin=origin, coded=coded)
         return record
+
+    def _start_coded(self, run: CompiledRun) -> CodedRun:
+        """Start a code controller's process (at most ``max_code_runs`` at once)."""
+        limit = self.settings.max_code_runs
+        with self._counting:
+            if self._code_runs >= limit:
+                raise TooMany(
+                    f"{limit} runs with Python controllers are live on this engine, its "
+                    f"limit (ELAB_MAX_CODE_RUNS); try again when one has ended",
+                    retry_after=10.0,
+                )
+            self._code_runs += 1
+        try:
+            return CodedRun(
+                run,
+                CodeSettings(self.settings.code_deadline, self.settings.code_misses),
+            )
+        except ControllerFailed as exc:
+            self._ended_coded()
+            law = run.spec.law
+            assert isinstance(law, CodeController)
+            raise InvalidInput("controller", law.name, f"a controller that starts: {exc}") from None
+        except BaseException:
+            self._ended_coded()
+            raise
+
+    def _ended_coded(self) -> None:
+        with self._counting:
+            self._code_runs -= 1
 
     def control(self, run_id: str, action: Action, reason: str | None = None) -> Future[int]:
         return self.stepper.control(run_id, action, reason)
@@ -168,6 +216,13 @@ class SimulationEngine:
             old = self._runs.get(run_id)
             if old is None:
                 raise Conflict(f"run {run_id} has ended: it no longer steps")
+            if law is not None and CodeController in (type(law), type(old.spec.law)):
+                raise InvalidInput(
+                    "controller",
+                    params.get("controller", params.get("controller_id")),
+                    "a declarative law on a run with one: a Python controller cannot be "
+                    "swapped in or out mid-run; start a new run",
+                )
             spec = replace(
                 old.spec, law=law or old.spec.law, reference=reference or old.spec.reference
             )
@@ -221,9 +276,11 @@ class SimulationEngine:
         if blocks:
             self._events.blocks(self.id, blocks)
         for c in changes:
-            self.recorder.status(c.run_id, c.state, c.error)
+            self.recorder.status(c.run_id, c.state, c.error, c.compute)
             if not c.state.live:
-                self._runs.pop(c.run_id, None)
+                run = self._runs.pop(c.run_id, None)
+                if run is not None and isinstance(run.spec.law, CodeController):
+                    self._ended_coded()
             self._events.changed(self.id, c)
 
     def _on_fault(self, health: StoreHealth) -> None:

@@ -8,6 +8,11 @@ samples due at the tick's scheduled time (sample ``k`` is due at
 not change which samples a tick holds) and each fast run by a block, then hands
 the new samples and the runs that ended to ``on_tick`` in one call.
 
+A run whose controller is code (:mod:`elab.engines.coded`) keeps a slot of the batch (its
+place in the timetable) but is stepped by itself, sample by sample, asking its sandboxed
+controller for each u; a fast one by at most ``code_block`` samples a pass, so it cannot
+hold the real-time runs back.
+
 It is where every command on a run is decided: the run's state lives here, and
 commands are applied one at a time in arrival order, so of two simultaneous
 stops exactly one succeeds and the other gets :class:`~elab.errors.Conflict`, as
@@ -33,8 +38,9 @@ import scipy.stats
 from numpy.typing import NDArray
 
 from elab.engines.base import Block, Changed, Pace
+from elab.engines.coded import CodedRun
 from elab.engines.timetable import Timetable
-from elab.errors import Conflict
+from elab.errors import Conflict, InvalidInput
 from elab.lifecycle import RunState, transition
 from elab.sim.batch import Batch
 from elab.sim.engine import DIVERGENCE_LIMIT, first_divergence
@@ -56,6 +62,7 @@ class _Live:
     slot: int
     state: RunState = RunState.RUNNING
     paused_at: float | None = None
+    coded: CodedRun | None = None  # a code controller's run, stepped outside the batch
 
 
 Command = Callable[[], None]
@@ -78,8 +85,10 @@ class Stepper:
         clock: Callable[[], float] = time.monotonic,
         backlog: Callable[[], bool] = lambda: False,
         realtime: int = 0,
+        code_block: int = 64,
     ) -> None:
         self._on_tick = on_tick
+        self._code_block = code_block
         self.tick = tick
         self._fast_block = fast_block
         self._clock = clock
@@ -115,10 +124,18 @@ class Stepper:
         return self._thread.is_alive()
 
     # -- commands (any thread) -------------------------------------------------
-    def add(self, run_id: str, run: CompiledRun, pace: Pace, t_origin: float | None = None) -> None:
+    def add(
+        self,
+        run_id: str,
+        run: CompiledRun,
+        pace: Pace,
+        t_origin: float | None = None,
+        coded: CodedRun | None = None,
+    ) -> None:
         """Step ``run`` from the next tick; sample 0 is due at ``t_origin`` (on this stepper's
-        clock; default: when the command is applied)."""
-        self._commands.put(lambda: self._add(run_id, run, pace, t_origin))
+        clock; default: when the command is applied). ``coded``: its code controller,
+        started; closed when the run ends."""
+        self._commands.put(lambda: self._add(run_id, run, pace, t_origin, coded))
 
     def control(self, run_id: str, action: str, reason: str | None = None) -> Future[int]:
         """Pause, resume or stop (``reason``: who and why, carried by the change); the sample
@@ -154,12 +171,26 @@ class Stepper:
         return fut
 
     # -- in the thread ---------------------------------------------------------
-    def _add(self, run_id: str, run: CompiledRun, pace: Pace, t_origin: float | None) -> None:
+    def _add(
+        self,
+        run_id: str,
+        run: CompiledRun,
+        pace: Pace,
+        t_origin: float | None,
+        coded: CodedRun | None,
+    ) -> None:
         slot = self._batch.add(run)
         origin = self._clock() if t_origin is None else t_origin
-        self._runs[run_id] = _Live(run_id, run, pace, slot)
+        self._runs[run_id] = _Live(run_id, run, pace, slot, coded=coded)
         self._table.put(
-            slot, run_id, origin=origin, Ts=run.Ts, end=run.n_samples, fast=pace == "fast", layout=0
+            slot,
+            run_id,
+            origin=origin,
+            Ts=run.Ts,
+            end=run.n_samples,
+            fast=pace == "fast",
+            layout=0,
+            coded=coded is not None,
         )
         self._refresh_columns()
 
@@ -193,6 +224,17 @@ class Stepper:
 
     def _replace(self, run_id: str, run: CompiledRun, controller: bool, signals: bool) -> int:
         live = self._live(run_id)
+        if live.coded is not None:
+            if controller:
+                raise InvalidInput(
+                    "controller",
+                    live.run.spec.law,
+                    "the run's own Python controller (it cannot be swapped mid-run): "
+                    "start a new run",
+                )
+            live.coded.set_run(run)
+            live.run = run
+            return self._k(live)
         if controller:
             self._batch.set_controller(live.slot, run)
         if signals or not controller:  # both may change at once: each must take effect
@@ -302,6 +344,10 @@ class Stepper:
         due = table.due(now, fast, self._batch.block)
         blocks: list[Block] = []
         ended: list[Changed] = []
+        coded = np.flatnonzero(table.coded & (due > 0))
+        if coded.size:  # stepped by themselves, after the batch
+            code_due = np.where(table.fast, np.minimum(due, self._code_block), due)[coded]
+            due[coded] = 0
         stepped = np.flatnonzero(due)
         for n in np.unique(due[stepped]).tolist():
             slots = stepped[due[stepped] == n]
@@ -320,6 +366,11 @@ class Stepper:
                 if group.size:
                     blocks.append(Block(table.ids[group].tolist(), table.k[group].tolist(), data))
                     table.k[group] += n
+        if coded.size:
+            for slot, n in zip(coded.tolist(), code_due.tolist(), strict=True):
+                own = self._step_coded(self._runs[table.ids[slot]], n, ended)
+                if own is not None:
+                    blocks.append(own)
         for slot in table.finished().tolist():
             ended.append(self._end(self._runs[table.ids[slot]], RunState.FINISHED))
         return blocks, ended
@@ -336,13 +387,32 @@ class Stepper:
             ended.append(self._end(live, RunState.FAILED, msg))
         return block
 
+    def _step_coded(self, live: _Live, n: int, ended: list[Changed]) -> Block | None:
+        """``n`` samples of a code-controller run: those before its controller failed or
+        the loop diverged, and then the run fails."""
+        assert live.coded is not None
+        data, failed = live.coded.advance(n)
+        i = first_divergence(data[:, 1:])
+        k0 = self._k(live)
+        if i is not None:
+            data = data[:i]
+            failed = f"diverged at t = {(k0 + i) * live.run.Ts:.4g} s: the closed loop is unstable"
+        self._table.k[live.slot] += data.shape[0]
+        if failed is not None:
+            ended.append(self._end(live, RunState.FAILED, failed))
+        return Block([live.id], [k0], data[np.newaxis]) if data.shape[0] else None
+
     def _end(self, live: _Live, state: Final, error: str | None = None) -> Changed:
         transition(live.state, state)
         k = self._k(live)
         del self._runs[live.id]
         self._batch.remove(live.slot)
         self._table.clear(live.slot)
-        return Changed(live.id, state, k, error)
+        compute = None
+        if live.coded is not None:  # its controller's process ends with it
+            compute = live.coded.times()
+            live.coded.close()
+        return Changed(live.id, state, k, error, compute)
 
 
 def _realtime(priority: int) -> int:

@@ -13,9 +13,10 @@ Ints = NDArray[np.int64]
 
 class Timetable:
     """Slot ``s`` of a live run: sample 0 due at ``origin[s]`` (monotonic s), one every
-    ``Ts[s]``; ``k[s]`` samples stepped of ``end[s]``; ``paused``, ``fast`` (as fast as
-    possible); ``layout[s]`` the run's column layout in the batch's block (runs with the
-    same layout are cut out of a block together); ``ids[s]`` its run id."""
+        ``Ts[s]``; ``k[s]`` samples stepped of ``end[s]``; ``paused``, ``fast`` (as fast as
+        possible); ``layout[s]`` the run's column layout in the batch's block (runs with the
+        same layout are cut out of a block together); ``coded``: its controller is code, stepped
+    outside the batch; ``ids[s]`` its run id."""
 
     def __init__(self, capacity: int = 16) -> None:
         self.origin = np.zeros(capacity)
@@ -26,19 +27,29 @@ class Timetable:
         self.paused = np.zeros(capacity, bool)
         self.fast = np.zeros(capacity, bool)
         self.layout = np.zeros(capacity, np.int64)
+        self.coded = np.zeros(capacity, bool)
         self.ids = np.empty(capacity, object)
 
     def put(
-        self, slot: int, run_id: str, *, origin: float, Ts: float, end: int, fast: bool, layout: int
+        self,
+        slot: int,
+        run_id: str,
+        *,
+        origin: float,
+        Ts: float,
+        end: int,
+        fast: bool,
+        layout: int,
+        coded: bool = False,
     ) -> None:
         if slot >= self.k.size:
             self._grow(max(2 * self.k.size, slot + 1))
         self.origin[slot], self.Ts[slot], self.k[slot], self.end[slot] = origin, Ts, 0, end
         self.live[slot], self.paused[slot], self.fast[slot] = True, False, fast
-        self.layout[slot], self.ids[slot] = layout, run_id
+        self.layout[slot], self.ids[slot], self.coded[slot] = layout, run_id, coded
 
     def clear(self, slot: int) -> None:
-        self.live[slot] = False
+        self.live[slot] = self.coded[slot] = False
         self.ids[slot] = None
 
     def due(self, now: float, fast_block: int, block: int) -> Ints:
@@ -61,7 +72,18 @@ class Timetable:
         return np.flatnonzero(self.live & (self.k >= self.end))
 
     def _grow(self, capacity: int) -> None:
-        for name in ("origin", "Ts", "k", "end", "live", "paused", "fast", "layout", "ids"):
+        for name in (
+            "origin",
+            "Ts",
+            "k",
+            "end",
+            "live",
+            "paused",
+            "fast",
+            "layout",
+            "coded",
+            "ids",
+        ):
             old = getattr(self, name)
             new = (
                 np.zeros(capacity, old.dtype) if old.dtype != object else np.empty(capacity, object)

@@ -37,6 +37,7 @@ _TYPES: dict[str, type] = {
         laws.PID,
         laws.LTIController,
         laws.OpenLoop,
+        laws.CodeController,
         signals.Step,
         signals.Square,
         signals.Sine,
@@ -159,11 +160,12 @@ def changed_out(change: Changed) -> dict[str, Any]:
         "state": change.state.value,
         "k": change.k,
         "error": change.error,
+        "compute": change.compute,
     }
 
 
 def changed_in(h: dict[str, Any]) -> Changed:
-    return Changed(h["run"], RunState(h["state"]), h["k"], h["error"])
+    return Changed(h["run"], RunState(h["state"]), h["k"], h["error"], h.get("compute"))
 
 
 def health_out(health: Health) -> dict[str, Any]:

@@ -243,7 +243,7 @@ def describe(obj: Any) -> str:
     parts = []
     for f in fields(obj):
         v = getattr(obj, f.name)
-        if v is None:
+        if v is None or not f.repr:  # (a code controller's source)
             continue
         if isinstance(v, tuple) and len(v) > 8:
             v = f"<{len(v)} values>"

@@ -23,9 +23,9 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.design.realise import lti_ss, realise
+from elab.design.realise import lti_ss, pid_tracking_time, realise
 from elab.errors import InvalidInput
-from elab.laws import PID, ControlLaw, LTIController
+from elab.laws import PID, CodeController, ControlLaw, LTIController
 from elab.plants.base import Plant
 from elab.validate import finite_float
 
@@ -50,14 +50,20 @@ class DiscreteController:
 
 def controller_poles(law: ControlLaw, plant: Plant) -> NDArray[np.complex128]:
     """Poles of the continuous law (none for static gains and discrete laws)."""
-    if isinstance(law, LTIController) and law.dt is not None:
+    if isinstance(law, CodeController) or (isinstance(law, LTIController) and law.dt is not None):
         return np.zeros(0, dtype=np.complex128)
     A = realise(plant, law, all_pid_states=True).A
     return np.asarray(np.linalg.eigvals(A) if A.size else np.zeros(0), dtype=np.complex128)
 
 
 def discretise(law: ControlLaw, plant: Plant, Ts: float) -> DiscreteController:
-    """Realise ``law`` for ``plant`` at sample time ``Ts`` (s)."""
+    """Realise ``law`` for ``plant`` at sample time ``Ts`` (s). A code controller is
+    stepped outside the loop (:mod:`elab.engines.coded`): its stand-in here gives u = 0."""
+    if isinstance(law, CodeController):
+        zeros = np.zeros(1 + plant.ny)
+        return DiscreteController(
+            np.zeros((0, 0)), np.zeros((0, zeros.size)), np.zeros(0), zeros, np.zeros(0), "output"
+        )
     if isinstance(law, LTIController) and law.dt is not None:
         return _discrete_lti(law, plant, Ts)
     real = realise(plant, law, all_pid_states=True)
@@ -73,18 +79,6 @@ def discretise(law: ControlLaw, plant: Plant, Ts: float) -> DiscreteController:
     if isinstance(law, PID) and real.integrator is not None and law.Ki != 0:
         Lw[real.integrator] = Ts / (law.Ki * pid_tracking_time(law))
     return DiscreteController(*_arrays(d), Lw, feedback)
-
-
-def pid_tracking_time(law: PID) -> float:
-    """Back-calculation tracking time :math:`T_t`: given, else :math:`\\sqrt{T_i T_d}`
-    (:math:`T_i` without derivative action, 1 s without proportional action);
-    Åström & Hägglund, *Advanced PID Control*, 2006, §3.5."""
-    if law.Tt is not None:
-        return finite_float("controller.Tt", law.Tt, 0.0, lo_open=True)
-    if law.Kp > 0 and law.Ki > 0:
-        Ti = law.Kp / law.Ki
-        return math.sqrt(Ti * law.Kd / law.Kp) if law.Kd > 0 else Ti
-    return 1.0
 
 
 def _arrays(d: ct.StateSpace) -> tuple[Array, Array, Array, Array]:

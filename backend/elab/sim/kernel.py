@@ -100,6 +100,31 @@ def plant_step(s: int, Ad: Any, Bd: Any, x: Any, u: float, xn: Any) -> None:  # 
 
 
 @njit(cache=True, nogil=True)
+def sense(
+    C: Any, x: Any, v: Any, quantum: Any, y_op: Any, x_op: Any, y: Any, row: Any
+) -> None:  # pragma: no cover - compiled; covered through elab.engines.coded
+    """The sensors of the single run in slot 0 for a controller stepped outside the loop:
+    writes ``y`` (absolute outputs: what the controller is given) and the ``y`` and ``x``
+    columns of its row ``row[2:]`` (absolute, as :func:`advance` writes them)."""
+    NX, NY = x.shape[1], y.shape[0]
+    measure(0, C, x, v, quantum, y)
+    for o in range(NY):
+        row[2 + o] = y[o] + y_op[0, o]
+    for c in range(NX):
+        row[2 + NY + c] = x[0, c] + x_op[0, c]
+
+
+@njit(cache=True, nogil=True)
+def actuate(
+    Ad: Any, Bd: Any, x: Any, u: float, xn: Any
+) -> None:  # pragma: no cover - compiled; covered through elab.engines.coded
+    """The plant of the single run in slot 0 over one sample with input ``u``, committed."""
+    plant_step(0, Ad, Bd, x, u, xn)
+    for c in range(x.shape[1]):
+        x[0, c] = xn[c]
+
+
+@njit(cache=True, nogil=True)
 def advance(
     slots: Any,
     n: int,

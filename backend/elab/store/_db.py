@@ -66,6 +66,9 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             report TEXT NOT NULL, source BLOB NOT NULL, created_at REAL NOT NULL)""",
         "CREATE INDEX controllers_by_owner ON controllers (owner, created_at)",
     ),
+    (  # 5: a code controller's compute time per step (JSON), kept when its run ends
+        "ALTER TABLE runs ADD COLUMN compute TEXT",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 

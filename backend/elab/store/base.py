@@ -54,6 +54,8 @@ class RunSummary:
     engine: str | None = None  # the engine that steps (or stepped) it
     owner: str | None = None  # the identity that started it (elab.access); None: before owners
     private: bool = False  # only its owner and instructors may see it
+    # a code controller's compute time per step (steps, median_us, p99_us, max_us, misses)
+    compute: dict[str, float | int] | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -175,6 +177,7 @@ class RunStore(Protocol):
         started_at: float | None = None,
         finished_at: float | None = None,
         error: str | None = None,
+        compute: dict[str, float | int] | None = None,
     ) -> None:
         """Set ``status`` and those of the other fields that are given."""
 

@@ -49,7 +49,7 @@ from elab.store.base import (
 
 _SUMMARY = (
     "id, plant, mode, experiment, status, Ts, channels, n_planned, n_stored, "
-    "created_at, started_at, finished_at, error, engine, owner, private"
+    "created_at, started_at, finished_at, error, engine, owner, private, compute"
 )
 _COLUMNS = _SUMMARY + ", spec"
 _CONTROLLER = "id, owner, plant, name, format, law, report, created_at"
@@ -125,11 +125,12 @@ class SQLiteStore:
             record.engine,
             record.owner,
             int(record.private),
+            None if record.compute is None else _json("compute", record.compute),
             _json("spec", record.spec),
         )
         with self._transaction() as conn:
             try:
-                conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 17)})", row)
+                conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 18)})", row)
             except sqlite3.IntegrityError:
                 raise Conflict(f"run {record.id!r} already exists; choose another id") from None
 
@@ -141,8 +142,14 @@ class SQLiteStore:
         started_at: float | None = None,
         finished_at: float | None = None,
         error: str | None = None,
+        compute: dict[str, float | int] | None = None,
     ) -> None:
-        given = {"started_at": started_at, "finished_at": finished_at, "error": error}
+        given = {
+            "started_at": started_at,
+            "finished_at": finished_at,
+            "error": error,
+            "compute": None if compute is None else _json("compute", compute),
+        }
         values = {"status": _status(status)} | {k: v for k, v in given.items() if v is not None}
         sets = ", ".join(f"{k} = :{k}" for k in values)
         with self._transaction() as conn:
@@ -517,6 +524,7 @@ def _summary_fields(row: tuple[Any, ...]) -> dict[str, Any]:
         engine,
         owner,
         private,
+        compute,
     ) = row
     return {
         "id": id_,
@@ -535,6 +543,7 @@ def _summary_fields(row: tuple[Any, ...]) -> dict[str, Any]:
         "engine": engine,
         "owner": owner,
         "private": bool(private),
+        "compute": None if compute is None else json.loads(compute),
     }
 
 

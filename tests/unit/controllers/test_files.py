@@ -23,7 +23,7 @@ BELT = get_plant("belt_conveyor")
 SEED_LQR = (20.0, -93.5614, 3.3621, 0.9623)  # seed eq. 4.6
 
 
-@pytest.mark.parametrize("fmt", FORMATS)
+@pytest.mark.parametrize("fmt", [f for f in FORMATS if f != "py"])
 @pytest.mark.parametrize("plant_id", list(PLANTS))
 def test_every_template_reads_back_as_the_predefined_controller(plant_id: str, fmt: str) -> None:
     plant = get_plant(plant_id)

@@ -142,3 +142,19 @@ def test_a_version_3_file_keeps_owners_tokens_and_pins_and_takes_controllers(
         store.delete_controller("c-1")
         with pytest.raises(NotFound):
             store.get_controller("c-1")
+
+
+V4 = V2.with_name("v4.sql")
+
+
+def test_a_version_4_file_keeps_runs_and_controllers_and_takes_compute_times(
+    tmp_path: Path,
+) -> None:
+    with SQLiteStore(restored(V4, tmp_path / "v4.sqlite3")) as store:
+        run = store.get_run("r-0000000000c4")
+        assert (run.owner, run.n_stored, run.compute) == ("a-00c4", 3, None)
+        assert store.read(run.id).tolist() == [[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]]
+        assert store.get_controller("c-0000000000c4").law["K"] == [20, -93.5614, 3.3621, 0.9623]
+        times = {"steps": 3, "median_us": 12.5, "p99_us": 30.0, "max_us": 31.0, "misses": 0}
+        store.set_status(run.id, "finished", compute=times)
+        assert store.get_run(run.id).compute == times
