@@ -10,9 +10,11 @@ describe("formatOf", () => {
     expect(formatOf("My Controller.JSON")).toBe("json");
     expect(formatOf("lqr.v7.mat")).toBe("mat");
     expect(formatOf("ctrl.npz")).toBe("npz");
+    expect(formatOf("softer.py")).toBe("py");
+    expect(formatOf("PI.controller.PY")).toBe("py");
   });
 
-  it.each(["ctrl", "ctrl.txt", "toml", "ctrl.toml.bak", "ctrl.npy", ".mat.zip"])("refuses %s", (name) => {
+  it.each(["ctrl", "ctrl.txt", "toml", "ctrl.toml.bak", "ctrl.npy", ".mat.zip", "ctrl.pyc", "ctrl.ipynb", "ctrl.py.txt", "py"])("refuses %s", (name) => {
     expect(formatOf(name)).toBeNull();
   });
 });
@@ -51,6 +53,12 @@ describe("uploadOf", () => {
     expect(await uploadOf(file("c.json", '{"kind": "open_loop"}'), "belt_conveyor")).toEqual({ plant: "belt_conveyor", format: "json", content: '{"kind": "open_loop"}' });
   });
 
+  it("sends Python as text, named by the file name", async () => {
+    const source = "import numpy as np\n\nclass Controller:\n    def step(self, t, y, r):\n        return 18.0 * (r - y[0])  # θ\n";
+    expect(await uploadOf(file("softer.py", source), "flexible_link")).toEqual({ plant: "flexible_link", format: "py", content: source, name: "softer.py" });
+    expect((await uploadOf(file(`${"p".repeat(90)}.py`, source), "p")).name).toHaveLength(80);
+  });
+
   it("sends .mat and .npz as base64, named by the file name", async () => {
     expect(await uploadOf(file("pid.mat", bytes(0, 1, 2, 250)), "belt_conveyor")).toEqual({ plant: "belt_conveyor", format: "mat", content: "AAEC+g==", name: "pid.mat" });
     const long = `${"x".repeat(100)}.npz`;
@@ -58,7 +66,10 @@ describe("uploadOf", () => {
   });
 
   it.each([
-    ["notes.txt", "x", /notes\.txt: not a controller file; allowed: \.toml, \.json, \.mat or \.npz/],
+    ["notes.txt", "x", /notes\.txt: not a controller file; allowed: \.toml, \.json, \.mat, \.npz or \.py/],
+    ["big.py", "#".repeat(MAX_FILE_BYTES + 1), /big\.py is 64\.1 KiB: .* at most 64 KiB\. Nothing was sent\./],
+    ["empty.py", "", /empty\.py is empty/],
+    ["latin1.py", bytes(0x23, 0x20, 0xb5, 0x73), /latin1\.py is not UTF-8 text/],
     ["big.mat", new Uint8Array(MAX_FILE_BYTES + 1), /big\.mat is 64\.1 KiB: a controller file may be at most 64 KiB\. Nothing was sent\./],
     ["big.toml", "#".repeat(70_000), /big\.toml is 68\.4 KiB: .* at most 64 KiB/],
     ["empty.toml", "", /empty\.toml is empty/],

@@ -1,11 +1,11 @@
 // A controller file as the page sends it (docs/controllers.md): the format from the file's
-// extension, TOML and JSON as UTF-8 text, .mat and .npz as base64. A file the server would
+// extension, TOML, JSON and Python as UTF-8 text, .mat and .npz as base64. A file the server would
 // refuse for its kind, size or encoding is refused here, before anything is sent.
 import type { ControllerUpload } from "./protocol.gen";
 
 export type ControllerFormat = ControllerUpload["format"];
 
-export const FORMATS: readonly ControllerFormat[] = ["toml", "json", "mat", "npz"];
+export const FORMATS: readonly ControllerFormat[] = ["toml", "json", "mat", "npz", "py"];
 /** The largest controller file the lab takes (bytes). */
 export const MAX_FILE_BYTES = 64 * 1024;
 /** The longest name the lab keeps for a controller. */
@@ -16,7 +16,7 @@ export class FileRefused extends Error {
   override name = "FileRefused";
 }
 
-/** "ctrl.TOML" → "toml"; null for a name without one of the four extensions. */
+/** "ctrl.TOML" → "toml", "pi.py" → "py"; null for a name without one of the five extensions. */
 export function formatOf(filename: string): ControllerFormat | null {
   const dot = filename.lastIndexOf(".");
   if (dot < 0) return null;
@@ -43,10 +43,12 @@ export function kib(bytes: number): string {
 /**
  * The upload of `file` for `plant`, or FileRefused. A .mat or .npz file carries no name of
  * its own, so it is sent with its file name; a TOML or JSON file's `name` field names it.
+ * A Python file is sent as text with its file name (its template's docstring, which the
+ * server would take otherwise, is the same long sentence for every copy of it).
  */
 export async function uploadOf(file: Pick<File, "name" | "size" | "arrayBuffer">, plant: string): Promise<ControllerUpload> {
   const format = formatOf(file.name);
-  if (!format) throw new FileRefused(`${file.name}: not a controller file; allowed: .toml, .json, .mat or .npz`);
+  if (!format) throw new FileRefused(`${file.name}: not a controller file; allowed: .toml, .json, .mat, .npz or .py`);
   if (file.size > MAX_FILE_BYTES) throw new FileRefused(`${file.name} is ${kib(file.size)}: a controller file may be at most ${kib(MAX_FILE_BYTES)}. Nothing was sent.`);
   if (file.size === 0) throw new FileRefused(`${file.name} is empty. Nothing was sent.`);
   const bytes = await file.arrayBuffer();
@@ -57,5 +59,5 @@ export async function uploadOf(file: Pick<File, "name" | "size" | "arrayBuffer">
   } catch {
     throw new FileRefused(`${file.name} is not UTF-8 text: save it as UTF-8 and upload it again. Nothing was sent.`);
   }
-  return { plant, format, content: text };
+  return format === "py" ? { plant, format, content: text, name: file.name.slice(0, MAX_NAME) } : { plant, format, content: text };
 }

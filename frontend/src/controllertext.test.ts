@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { amountText, complexText, lawText, marginText, peakText, poleList, verdictText } from "./controllertext";
+import { amountText, complexText, computeText, formatText, lawText, marginText, peakText, poleList, verdictText, verdictWord } from "./controllertext";
 
 describe("lawText", () => {
   it("writes state feedback as K = [...] with its estimate", () => {
@@ -54,6 +54,26 @@ describe("verdictText", () => {
     expect(verdictText({ stable: false, domain: "s" })).toMatch(/^unstable/);
     expect(verdictText({ stable: true, domain: "z" })).toMatch(/^stable: .*inside the unit circle/);
     expect(verdictText({ stable: false, domain: "z" })).toMatch(/^unstable: .*outside the unit circle/);
+  });
+
+  it("says whether a Python controller's trial runs ran through", () => {
+    expect(verdictText({ stable: true, domain: "trial" })).toMatch(/^ran through: /);
+    expect(verdictText({ stable: false, domain: "trial" })).toMatch(/^failed: .*problems below/);
+    expect([true, false].flatMap((stable) => (["s", "z", "trial"] as const).map((domain) => verdictWord({ stable, domain })))).toEqual(["stable", "stable", "ran through", "unstable", "unstable", "failed"]);
+  });
+});
+
+describe("computeText", () => {
+  it("writes a Python controller's compute time per step in µs, and how many were late", () => {
+    const c = { steps: 20000, median_us: 41.23, p99_us: 88.14, max_us: 1234.5, round_trip_median_us: 120.4, round_trip_p99_us: 250, misses: 3 };
+    expect(computeText(c)).toBe("Compute time per step: median 41.2 µs, p99 88.1 µs (max 1230 µs); round trip median 120 µs, p99 250 µs; 3 late of 20,000 steps");
+  });
+});
+
+describe("formatText", () => {
+  it("names Python; other formats by their extension", () => {
+    expect(formatText("py")).toBe("Python (py)");
+    expect(formatText("toml")).toBe("toml");
   });
 });
 

@@ -1,7 +1,8 @@
 // An uploaded controller in words: its law (K = […], Kp/Ki/Kd, num/den or A, B, C, D) and
-// its report (verdict, closed-loop poles, margins, the peak control against the actuator),
-// with the reference in display units (° for a plant whose output is in rad).
-import type { Complex, ControllerOut, ControllerReportOut } from "./protocol.gen";
+// its report (verdict, closed-loop poles, margins, the peak control against the actuator;
+// for a Python controller its trial and compute time per step), with the reference in
+// display units (° for a plant whose output is in rad).
+import type { Complex, ComputeTimes, ControllerOut, ControllerReportOut } from "./protocol.gen";
 import { display, fmt } from "./units";
 
 const vector = (xs: number[]) => `[${xs.map((x) => fmt(x, 6)).join(", ")}]`;
@@ -53,8 +54,15 @@ export function poleList(poles: Complex[]): string[] {
   return out;
 }
 
-/** Stable or not, and what that means in the report's domain. */
+/** A controller file's format as people say it: "Python (py)", "toml". */
+export function formatText(format: string): string {
+  return format === "py" ? "Python (py)" : format;
+}
+
+/** Stable or not, and what that means in the report's domain (for a Python controller,
+ * checked by trial runs: whether they ran through). */
 export function verdictText(r: Pick<ControllerReportOut, "stable" | "domain">): string {
+  if (r.domain === "trial") return r.stable ? "ran through: the trial runs stayed bounded, without an error" : "failed: a trial run raised an error, was too slow or diverged (the problems below say which)";
   if (r.domain === "z") return r.stable ? "stable: every closed-loop pole lies inside the unit circle" : "unstable: a closed-loop pole lies on or outside the unit circle";
   return r.stable ? "stable: every closed-loop pole has a negative real part" : "unstable: a closed-loop pole has a non-negative real part";
 }
@@ -81,4 +89,24 @@ export function peakText(r: Pick<ControllerReportOut, "peak_u" | "u_max" | "step
   if (r.peak_u === null) return { text: `none ${step}: the loop is unstable, u grows until it saturates at ±${fmt(r.u_max)} ${inputUnit}`, over: true };
   const over = Math.abs(r.peak_u) > r.u_max;
   return { text: `${fmt(Math.abs(r.peak_u))} ${inputUnit} ${over ? "beyond" : "within"} ±${fmt(r.u_max)} ${inputUnit} ${step}`, over };
+}
+
+/** Stable or not in a word or two (a badge): for a Python controller, its trial's outcome. */
+export function verdictWord(r: Pick<ControllerReportOut, "stable" | "domain">): string {
+  if (r.domain === "trial") return r.stable ? "ran through" : "failed";
+  return r.stable ? "stable" : "unstable";
+}
+
+/** µs to the 3 significant digits that matter at that scale: 41.23 → "41.2". */
+const us = (x: number) => fmt(x, 3);
+
+/** "Compute time per step: median 41.2 µs, p99 88.1 µs (max 310 µs); round trip median
+ * 120 µs; 0 late of 4000 steps": a Python controller's time in its sandbox, and the round
+ * trip the run waits for. */
+export function computeText(c: ComputeTimes): string {
+  return (
+    `Compute time per step: median ${us(c.median_us)} µs, p99 ${us(c.p99_us)} µs (max ${us(c.max_us)} µs); ` +
+    `round trip median ${us(c.round_trip_median_us)} µs, p99 ${us(c.round_trip_p99_us)} µs; ` +
+    `${c.misses.toLocaleString("en")} late of ${c.steps.toLocaleString("en")} steps`
+  );
 }

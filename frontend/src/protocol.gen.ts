@@ -68,6 +68,7 @@ export interface ElabProtocol {
   ClientMessage?: ClientMessage;
   CloseCode?: CloseCode;
   Complex?: Complex;
+  ComputeTimes?: ComputeTimes;
   ContinuousOut?: ContinuousOut;
   "Controller-Input"?: Controller;
   "Controller-Output"?: ControllerOut;
@@ -566,6 +567,23 @@ export interface ResumeFrom {
   seq: number;
 }
 /**
+ * A Python controller's time per step: its own compute time inside the sandbox
+ * (median, p99, max) and the round trip a run waits for, in µs; ``misses``: steps
+ * later than the deadline (the last u was held).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ComputeTimes".
+ */
+export interface ComputeTimes {
+  steps: number;
+  median_us: number;
+  p99_us: number;
+  max_us: number;
+  round_trip_median_us: number;
+  round_trip_p99_us: number;
+  misses: number;
+}
+/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ContinuousOut".
  */
@@ -624,7 +642,8 @@ export interface LTIControllerModelOut {
   dt: number | null;
 }
 /**
- * The report on the plant's linear model (docs/controllers.md).
+ * The report on the plant's linear model, or for a Python controller on trial runs in
+ * its sandbox (docs/controllers.md).
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ControllerReportOut".
@@ -632,9 +651,9 @@ export interface LTIControllerModelOut {
 export interface ControllerReportOut {
   stable: boolean;
   /**
-   * z: a discrete controller, poles in z
+   * z: a discrete controller, poles in z; trial: a Python controller, checked by trial runs on the model (no poles or margins)
    */
-  domain: "s" | "z";
+  domain: "s" | "z" | "trial";
   poles: Complex[];
   gain_margin_db: number | null;
   phase_margin_deg: number | null;
@@ -647,16 +666,25 @@ export interface ControllerReportOut {
   rig_ready: boolean;
   problems: string[];
   warnings: string[];
+  /**
+   * a Python controller's, in its trial
+   */
+  compute: ComputeTimes | null;
+  /**
+   * what the trial ran (a Python controller)
+   */
+  trial: string | null;
 }
 /**
- * A controller file (docs/controllers.md): TOML or JSON as text, .mat or .npz as base64.
+ * A controller file (docs/controllers.md): TOML, JSON or Python as text, .mat or .npz as
+ * base64.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ControllerUpload".
  */
 export interface ControllerUpload {
   plant: string;
-  format: "toml" | "json" | "mat" | "npz";
+  format: "toml" | "json" | "mat" | "npz" | "py";
   /**
    * the file: text, or base64 for mat/npz
    */
@@ -701,6 +729,10 @@ export interface RunSummaryInfo {
    * why it failed, stopped early (who stopped it) or was interrupted; while it is paused, who paused it or why
    */
   error: string | null;
+  /**
+   * a Python controller's time per step over the run, once it ended
+   */
+  compute: ComputeTimes | null;
   url: string;
   /**
    * who started it, as others see them (guest 3f2a, a name)
@@ -871,6 +903,10 @@ export interface RunInfo {
    * why it failed, stopped early (who stopped it) or was interrupted; while it is paused, who paused it or why
    */
   error: string | null;
+  /**
+   * a Python controller's time per step over the run, once it ended
+   */
+  compute: ComputeTimes | null;
   url: string;
   /**
    * who started it, as others see them (guest 3f2a, a name)
@@ -1517,14 +1553,21 @@ export interface UploadedController {
   mine: boolean;
   created_at: number;
   /**
-   * the law read from the file
+   * the law read from the file (none for a Python controller: its code is it)
    */
   controller:
-    | PredefinedController
-    | StateFeedbackControllerOut
-    | PIDControllerOut
-    | LTIControllerModelOut
-    | OpenLoopController;
+    | (
+        | PredefinedController
+        | StateFeedbackControllerOut
+        | PIDControllerOut
+        | LTIControllerModelOut
+        | OpenLoopController
+      )
+    | null;
+  /**
+   * a Python controller's source (not in the list: GET it by id)
+   */
+  code: string | null;
   report: ControllerReportOut;
   url: string;
 }

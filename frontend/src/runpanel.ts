@@ -4,10 +4,11 @@
 import { controlLabel, ENDED, reasonTone } from "./access";
 import { api, ApiError, dataUrl } from "./api";
 import { CompanionRun } from "./companion";
+import { computeText } from "./controllertext";
 import { copyText, csv, h, fill, saveText } from "./dom";
 import { identity } from "./identity";
 import { LivePlot, type LiveTrace } from "./plot";
-import type { PlantDetail, RunInfo } from "./protocol.gen";
+import type { ComputeTimes, PlantDetail, RunInfo } from "./protocol.gen";
 import { SampleRing } from "./series";
 import { RunStream } from "./stream";
 import { display, fmt } from "./units";
@@ -26,7 +27,14 @@ export interface RunPanelOptions {
   /** show pause / resume / stop (to those who may use them; default true) */
   controls?: boolean;
   onState?(state: string): void;
+  /** a Python controller's run: once it ends, fetch its record for the controller's
+   * compute time per step (the record has it a moment after the end) */
+  awaitCompute?: boolean;
 }
+
+/** How often, and how long, an ended run's record is asked for its compute times. */
+const COMPUTE_POLL_MS = 300;
+const COMPUTE_POLL_TRIES = 40;
 
 export class RunPanel {
   readonly root: HTMLElement;
@@ -40,6 +48,10 @@ export class RunPanel {
   private readonly messageEl = h("p.error", { role: "alert" });
   /** why a run was paused or stopped: what people do with runs, not a failure */
   private readonly noticeEl = h("p.notice", { "aria-live": "polite", "data-testid": "run-notice" });
+  /** a Python controller's compute time per step over the run, once it ended */
+  private readonly computeEl = h("p.compute", { "data-testid": "run-compute-time", hidden: true });
+  private computeAsked = false;
+  private closed = false;
   private readonly demoSlot = h("span.group");
   private readonly buttons: Record<"pause" | "resume" | "stop", HTMLButtonElement>;
   private readonly windowSel: HTMLSelectElement;
@@ -110,6 +122,7 @@ export class RunPanel {
         h("button", { type: "button", class: "link", onclick: (ev: Event) => void copyText(share, ev.currentTarget as HTMLButtonElement, "Link copied"), title: share }, "Copy share link"),
         this.demoSlot,
       ),
+      this.computeEl,
       this.noticeEl,
       this.messageEl,
     );
@@ -144,6 +157,7 @@ export class RunPanel {
     }, { fromSeq: this.firstSeq(run) }).open();
     this.setState(run.status);
     this.setReason(run.status, run.error);
+    this.setCompute(run.compute);
     void this.offerPin();
   }
 
@@ -209,6 +223,38 @@ export class RunPanel {
     this.buttons.stop.disabled = ended;
     this.options.onState?.(state);
     this.progress();
+    if (ended && this.options.awaitCompute && !this.computeAsked && !this.run.compute) {
+      this.computeAsked = true;
+      void this.fetchCompute();
+    }
+  }
+
+  /** A Python controller's compute time per step, and the round trip the run waited for. */
+  private setCompute(c: ComputeTimes | null): void {
+    this.computeEl.hidden = !c;
+    fill(this.computeEl, c ? computeText(c) : null);
+  }
+
+  /** The ended run's record, asked until it has the compute times (written with the end,
+   * a moment after the stream says it ended). A failure the stream did not explain is
+   * shown as the record says it. */
+  private async fetchCompute(): Promise<void> {
+    for (let i = 0; i < COMPUTE_POLL_TRIES && !this.closed; i++) {
+      if (i) await new Promise((resolve) => setTimeout(resolve, COMPUTE_POLL_MS));
+      let info: RunInfo;
+      try {
+        info = await api.run(this.run.id);
+      } catch {
+        continue; // asked again: the run's plot and status stand without it
+      }
+      if (this.closed) return;
+      if (ENDED.has(info.status) && info.error && !this.messageEl.textContent) this.setReason(info.status, info.error);
+      if (info.compute) {
+        this.run = { ...this.run, compute: info.compute };
+        this.setCompute(info.compute);
+        return;
+      }
+    }
   }
 
   /** Why the run is in `state` (paused by someone, stopped, failed), from the server. */
@@ -270,6 +316,7 @@ export class RunPanel {
   }
 
   destroy(): void {
+    this.closed = true;
     this.stream.close();
     this.companion?.destroy();
     this.plot.destroy();

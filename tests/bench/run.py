@@ -155,6 +155,12 @@ def ident_section() -> str:
     return "## Identification (issue 5)\n\n" + bench_ident()
 
 
+def controllers_section() -> str:
+    from tests.bench.controllers import bench_controllers
+
+    return bench_controllers()
+
+
 #: name → function returning the section's markdown, in document order
 SECTIONS: dict[str, Callable[[], str]] = {
     "engine": engine_section,
@@ -162,6 +168,7 @@ SECTIONS: dict[str, Callable[[], str]] = {
     "load": load_section,
     "liveplot": live_plot_section,
     "ident": ident_section,
+    "controllers": controllers_section,
 }
 OUT = ROOT / "docs" / "benchmarks.md"
 

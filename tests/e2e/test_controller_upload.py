@@ -276,3 +276,63 @@ def test_templates_in_every_format_and_a_dropped_file(page: Page) -> None:
         "K = [18, -93.5614, 3.3621, 0.9623]"
     )
     expect(own(page)).not_to_have_class(re.compile("dragover"))
+
+
+def test_python_template_edited_uploaded_tried_and_run_with_its_compute_time(
+    page: Page, shots: Path
+) -> None:
+    page.goto("/plants/flexible_link/design")
+    name, data = download(page, "Python (.py)")
+    assert name == "flexible_link-controller.py"
+    text = data.decode()
+    assert "class Controller" in text
+    assert re.search(r"^K = np\.array\(\[20, ", text, re.MULTILINE), text
+    edited = text.replace("K = np.array([20,", "K = np.array([18,", 1)
+    upload(page, "softer.py", edited.encode(), "text/x-python")
+
+    # checked by trial runs in the sandbox (a second or two): no poles, no margins
+    report = page.get_by_test_id("controller-report")
+    expect(report.get_by_role("heading", name="softer.py")).to_be_visible(timeout=60_000)
+    expect(page.get_by_test_id("upload-status")).to_contain_text("trial runs ran through")
+    expect(report).to_contain_text("Python file")
+    expect(report.get_by_test_id("trial")).to_contain_text("a step and a square wave")
+    expect(report.get_by_test_id("verdict")).to_contain_text("ran through")
+    compute = report.get_by_test_id("compute-time")
+    expect(compute).to_contain_text("µs")
+    expect(compute).to_contain_text(re.compile(r"Compute time per step: median \S+ µs"))
+    expect(report.get_by_test_id("peak-u")).to_contain_text("V")
+    expect(report.get_by_test_id("poles")).to_have_count(0)
+    expect(report).not_to_contain_text("margin")
+    [stored] = mine(page.request, "flexible_link")
+    assert stored["format"] == "py" and stored["controller"] is None
+    one = page.request.get(f"/api/v1/controllers/{stored['id']}").json()
+    assert "K = np.array([18," in one["code"]
+    assert stored["report"]["domain"] == "trial" and stored["report"]["compute"]["steps"] > 0
+    expect(report.get_by_test_id("controller-code")).to_contain_text("K = np.array([18,")
+
+    # in "Your controllers" as Python, with Run (a Python controller is never swapped
+    # into a live run)
+    row = page.locator(f"tr[data-controller={stored['id']}]")
+    expect(row).to_contain_text("Python (py)")
+    expect(row.get_by_role("button", name="Run controller softer.py")).to_be_visible()
+    page.screenshot(path=shots / "controller-python-report.png", full_page=True)
+
+    # run it against the predefined controller: once it ended, its compute time per step
+    page.locator("#own-duration").fill("2")
+    page.get_by_role("button", name="Run it").click()
+    panel = page.locator(".run-panel")
+    expect(panel.locator(".run-bar .badge")).to_have_text("finished", timeout=60_000)
+    expect(panel.get_by_test_id("companion").locator(".badge")).to_have_text(
+        "finished", timeout=60_000
+    )
+    shown = panel.get_by_test_id("run-compute-time")
+    expect(shown).to_contain_text("µs", timeout=30_000)
+    rid = panel.get_attribute("data-run")
+    record = page.request.get(f"/api/v1/runs/{rid}").json()
+    assert record["status"] == "finished" and record["error"] is None
+    assert record["request"]["controller_id"] == stored["id"]
+    times = record["compute"]
+    assert times["steps"] > 0
+    expect(shown).to_contain_text(f"{times['misses']:,} late of {times['steps']:,} steps")
+    expect(panel.locator("p.error")).to_be_empty()
+    page.screenshot(path=shots / "controller-python-run.png", full_page=True)

@@ -237,7 +237,8 @@ def controller_out(c: StoredController, who: Identity) -> s.UploadedController:
         mine=bool(who.id) and c.owner == who.id,
         created_at=c.created_at,
         controller=None if code else convert.law_model(law),
-        code=law.source if isinstance(law, CodeController) else None,
+        # the list leaves sources out: GET /controllers/{id} has it
+        code=law.source or None if isinstance(law, CodeController) else None,
         report=s.ControllerReportOut.model_validate(c.report),
         url=f"/api/v1/controllers/{c.id}",
     )

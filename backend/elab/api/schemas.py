@@ -469,7 +469,9 @@ class UploadedController(Model):
     controller: Controller | None = Field(
         description="the law read from the file (none for a Python controller: its code is it)"
     )
-    code: str | None = Field(None, description="a Python controller's source")
+    code: str | None = Field(
+        None, description="a Python controller's source (not in the list: GET it by id)"
+    )
     report: ControllerReportOut
     url: str
 

@@ -7,6 +7,12 @@ The process is a fresh interpreter running :mod:`elab.controllers._inside`:
   namespaces), a read-only view of the interpreter and numpy and nothing else of the
   file system, and ``--die-with-parent``;
 - **rlimits**: address space, CPU seconds, open files, file size 0;
+- **ordinary scheduling**: the engine runs under SCHED_FIFO, which a child would inherit;
+  the controller's process is put back to SCHED_OTHER, so user code never runs ahead of
+  the machine (a controller starting up, importing numpy for 0.1 s at real-time priority,
+  held the other controllers on its core past their deadlines: runs failed). The
+  stepping thread sleeps while it waits for an answer, so the process still gets the CPU
+  at once. ``RLIMIT_RTTIME`` stays as a second guard;
 - **seccomp**: once the code is compiled and numpy loaded, only reading and writing its
   pipes, memory, clocks and exiting are allowed; anything else (open, socket, fork,
   kill, exec) kills it;
@@ -43,6 +49,7 @@ INSIDE = Path(__file__).with_name("_inside.py")
 MAX_CODE = 64 * 1024
 ANSWER = struct.Struct("<qdd")  # k, u, the step's compute time inside (s)
 SPIN = 50e-6  # s an answer is polled for before the process sleeps in select()
+RT_SOFT_US = 500_000  # µs a real-time controller process may run without waiting
 
 
 class ControllerFailed(ElabError):
@@ -159,6 +166,8 @@ class Sandboxed:
         self._in, self._out = self._proc.stdin, self._proc.stdout.fileno()
         self._fd_in, self._watch = self._in.fileno(), [self._out]
         os.set_blocking(self._out, False)  # polled first (see _answer)
+        # on one CPU the controller cannot answer while this thread polls: no polling
+        self._spin = SPIN if len(os.sched_getaffinity(0)) > 1 else 0.0
         setup = json.dumps(
             {
                 "code": code,
@@ -210,11 +219,11 @@ class Sandboxed:
         """The next answer ``(k, u, compute seconds)``, or ``None`` after ``timeout`` s.
 
         It first asks for it without waiting for up to :data:`SPIN` s (most steps answer
-        within that: sleeping in ``select`` and being woken costs several µs each way),
-        then waits in ``select``."""
+        within that: sleeping in ``select`` and being woken costs several µs each way;
+        not where this process has one CPU only), then waits in ``select``."""
         head = b""
-        spin_until = time.perf_counter() + min(SPIN, timeout)
-        while not starting:
+        spin_until = time.perf_counter() + min(self._spin, timeout)
+        while not starting and self._spin:
             try:
                 head = os.read(self._out, ANSWER.size)
                 break
@@ -332,8 +341,11 @@ def _command() -> list[str]:
 
 
 def _limits(memory: int, cpu_seconds: int) -> None:
+    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))  # never real-time
     resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
     resource.setrlimit(resource.RLIMIT_CPU, (cpu_seconds, cpu_seconds))
     resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
     resource.setrlimit(resource.RLIMIT_NOFILE, (16, 16))
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    # µs of CPU under a real-time policy without a blocking call: SIGXCPU, then SIGKILL
+    resource.setrlimit(resource.RLIMIT_RTTIME, (RT_SOFT_US, 2 * RT_SOFT_US))

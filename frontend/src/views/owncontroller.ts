@@ -1,6 +1,8 @@
 // "Your own controller" on a plant's design page: templates to download, a controller file
 // to upload (picked or dropped on the panel), its report, a run of it with the predefined
 // controller's run under the same reference drawn over it, and the caller's controllers.
+// A Python controller (.py) is checked by trial runs in its sandbox, and its run shows its
+// compute time per step once it ended.
 import { api, templateUrl, type UploadedController } from "../api";
 import { FileRefused, MAX_FILE_BYTES, kib, uploadOf, type ControllerFormat } from "../controllerfile";
 import { fill, h } from "../dom";
@@ -17,13 +19,14 @@ const TEMPLATES: [ControllerFormat, string][] = [
   ["json", "JSON"],
   ["mat", "MATLAB .mat"],
   ["npz", "NumPy .npz"],
+  ["py", "Python (.py)"],
 ];
 const ID = "own";
 
 export class OwnControllerView {
   readonly root: HTMLElement;
   private readonly panel: HTMLElement;
-  private readonly fileInput = h("input", { type: "file", id: `${ID}-file`, accept: ".toml,.json,.mat,.npz", "aria-describedby": `${ID}-file-hint` });
+  private readonly fileInput = h("input", { type: "file", id: `${ID}-file`, accept: ".toml,.json,.mat,.npz,.py", "aria-describedby": `${ID}-file-hint` });
   private readonly uploadMsg = h("p.error", { role: "alert", "data-testid": "upload-error" });
   private readonly status = h("p.status", { "aria-live": "polite", "data-testid": "upload-status" });
   private readonly reportBox = h("div", { hidden: true });
@@ -87,13 +90,13 @@ export class OwnControllerView {
     const p = this.plant;
     const links = TEMPLATES.map(([format, label]) => h("a", { href: templateUrl(p.id, format), download: `${p.id}-controller.${format}`, "data-format": format }, label));
     return [
-      h("p", "Bring a controller as a file: state feedback, PID, any linear controller or open loop. Start from a template: it holds this plant's predefined controller, every field explained."),
+      h("p", "Bring a controller as a file: state feedback, PID, any linear controller or open loop, or Python code (a class Controller with step(t, y, r) → u, run in a sandbox). Start from a template: it holds this plant's predefined controller, every field explained."),
       h("p.templates", "Templates: ", ...links.flatMap((a, i) => (i ? [" · ", a] : [a]))),
       h(
         "div.dropzone",
         h("label", { for: this.fileInput.id }, "Upload a controller file"),
         this.fileInput,
-        h("small.hint", { id: `${ID}-file-hint` }, `.toml, .json, .mat (v4 to v7) or .npz, at most ${kib(MAX_FILE_BYTES)}; or drop the file on this panel`),
+        h("small.hint", { id: `${ID}-file-hint` }, `.toml, .json, .mat (v4 to v7), .npz or .py, at most ${kib(MAX_FILE_BYTES)}; or drop the file on this panel`),
       ),
     ];
   }
@@ -131,7 +134,8 @@ export class OwnControllerView {
       fill(this.uploadMsg, `${file.name} was refused: ${err instanceof FileRefused ? err.message : errorText(err)}`);
       return;
     }
-    fill(this.status, `Uploaded ${file.name} as “${c.name}”: ${c.report.stable ? "stable" : "unstable"}, ${c.report.rig_ready ? "ready for the real rig" : "kept off the real rig"}.`);
+    const verdict = c.report.domain === "trial" ? (c.report.stable ? "its trial runs ran through" : "its trial runs failed") : c.report.stable ? "stable" : "unstable";
+    fill(this.status, `Uploaded ${file.name} as “${c.name}”: ${verdict}, ${c.report.rig_ready ? "ready for the real rig" : "kept off the real rig"}.`);
     this.select(c);
     await this.loadList();
   }
@@ -196,7 +200,7 @@ export class OwnControllerView {
       why = errorText(err);
     }
     previous?.destroy();
-    this.run = new RunPanel(info, this.plant);
+    this.run = new RunPanel(info, this.plant, { awaitCompute: c.format === "py" });
     if (predefined) this.run.overlay(predefined, "predefined controller");
     fill(
       this.runBox,

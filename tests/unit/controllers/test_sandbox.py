@@ -166,3 +166,32 @@ class Controller:
     assert c.times.misses >= 1
     assert us[-1] == float(len(us))  # later answers belong to their own steps
     assert np.all(np.diff(us[2:]) >= 0)
+
+
+def test_a_controller_never_runs_under_the_engines_real_time_scheduling() -> None:
+    """The engine runs under SCHED_FIFO and a child would inherit it: user code must not
+    (a controller importing numpy at real-time priority starved the others on its core)."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(5))
+    except PermissionError:
+        pytest.skip("real-time scheduling is not allowed here")
+    try:
+        with Sandboxed(GOOD, ny=2, params={"K": [2.0, -1.0]}, deadline=0.05) as c:
+            assert os.sched_getscheduler(c._proc.pid) == os.SCHED_OTHER
+            inside = _descendants(c._proc.pid)
+            assert inside and all(os.sched_getscheduler(p) == os.SCHED_OTHER for p in inside)
+            assert c.step(0.0, [0.0, 0.5], 1.0) == pytest.approx(2.0 + 0.5)
+    finally:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+
+
+def _descendants(pid: int) -> list[int]:
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        for task in os.listdir(f"/proc/{p}/task"):
+            with open(f"/proc/{p}/task/{task}/children") as f:
+                kids = [int(k) for k in f.read().split()]
+            out += kids
+            todo += kids
+    return out
