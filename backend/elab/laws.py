@@ -20,23 +20,33 @@ from typing import Literal
 
 @dataclass(frozen=True)
 class StateFeedback:
-    """State feedback :math:`u = K (x_{ref} - \\hat x)`.
+    """State feedback :math:`u = K (x_{ref} - \\hat x)`, or with a reference gain
+    :math:`u = N_r r - K \\hat x`.
 
     ``estimate="true_state"`` feeds back the simulated state itself (the
     textbook analysis); ``"velocity_filters"`` feeds back the measured outputs
     and the plant's band-limited differentiators (seed eq. 4.3–4.4), as the real
-    rig must.
+    rig must; ``"observer"`` a full-order Luenberger observer on the plant's model,
+    :math:`\\dot{\\hat x} = A \\hat x + B u + L (y - C \\hat x - D u)`, with the gain ``L``
+    (one row per state, one column per output) or placed at ``observer_poles``
+    (python-control ``place`` on the dual system). ``Nr=None``: :math:`N_r = K_i`, the
+    gain of the reference state (so that :math:`x_{ref} = r e_i`).
     """
 
     K: tuple[float, ...]
-    estimate: Literal["true_state", "velocity_filters"] = "true_state"
+    estimate: Literal["true_state", "velocity_filters", "observer"] = "true_state"
+    Nr: float | None = None
+    L: tuple[tuple[float, ...], ...] | None = None
+    observer_poles: tuple[complex, ...] | None = None
 
 
 @dataclass(frozen=True)
 class PID:
-    """PID on the error :math:`e = r - y`, parallel form with a derivative filter.
+    """PID on the error :math:`e = r - y`, parallel form with a derivative filter and
+    setpoint weights ``b`` (proportional) and ``c`` (derivative):
 
-    .. math:: C(s) = K_p + \\frac{K_i}{s} + \\frac{K_d s}{T_f s + 1},
+    .. math:: u = K_p (b r - y) + \\frac{K_i}{s} (r - y)
+              + \\frac{K_d s}{T_f s + 1} (c r - y),
               \\qquad T_f = \\frac{K_d}{N K_p}
 
     (:math:`T_f = 0.01` s when :math:`K_p = 0`), discretised by Tustin.
@@ -50,6 +60,8 @@ class PID:
     Kd: float = 0.0
     N: float = 10.0
     Tt: float | None = None
+    b: float = 1.0
+    c: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -59,7 +71,8 @@ class LTIController:
     Given as a transfer function ``num/den`` (descending powers) or as state
     space ``A, B, C, D``. ``dt=None`` means continuous (discretised by Tustin
     at the run's sample time); a number is the controller's own sample time,
-    which must equal the run's.
+    which must equal the run's. ``ff_num/ff_den``: a feed-forward transfer
+    function from the reference to u, added (in the same time domain).
     """
 
     num: tuple[float, ...] | None = None
@@ -69,6 +82,8 @@ class LTIController:
     C: tuple[tuple[float, ...], ...] | None = None
     D: tuple[tuple[float, ...], ...] | None = None
     dt: float | None = None
+    ff_num: tuple[float, ...] | None = None
+    ff_den: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)

@@ -3,23 +3,27 @@ import { amountText, complexText, computeText, formatText, lawText, marginText, 
 
 describe("lawText", () => {
   it("writes state feedback as K = [...] with its estimate", () => {
-    const t = lawText({ kind: "state_feedback", K: [15, -93.5614, 3.3621, 0.9623], estimate: "velocity_filters" });
+    const t = lawText({ kind: "state_feedback", K: [15, -93.5614, 3.3621, 0.9623], estimate: "velocity_filters", Nr: null, L: null, observer_poles: null });
     expect(t.law).toBe("K = [15, -93.5614, 3.3621, 0.9623]");
     expect(t.kind).toMatch(/^state feedback u = K \(x_ref − x̂\), x̂ from measured positions and filtered velocities$/);
-    expect(lawText({ kind: "state_feedback", K: [1], estimate: "true_state" }).kind).toMatch(/true \(simulated\) state/);
+    expect(lawText({ kind: "state_feedback", K: [1], estimate: "true_state", Nr: null, L: null, observer_poles: null }).kind).toMatch(/true \(simulated\) state/);
+    const obs = lawText({ kind: "state_feedback", K: [1, 2], estimate: "observer", Nr: 3, L: null, observer_poles: [{ re: -40, im: 5 }, { re: -40, im: -5 }] });
+    expect(obs.kind).toBe("state feedback u = Nr r − K x̂, x̂ from a Luenberger observer on the model");
+    expect(obs.law).toBe("K = [1, 2], Nr = 3, observer poles -40 ± 5j");
   });
 
   it("writes a PID as Kp, Ki, Kd and N, and Tt when it is given", () => {
-    expect(lawText({ kind: "pid", Kp: 12, Ki: 0.49, Kd: 0.5, N: 10, Tt: null }).law).toBe("Kp = 12, Ki = 0.49, Kd = 0.5, N = 10");
-    expect(lawText({ kind: "pid", Kp: 1, Ki: 0.05, Kd: 0, N: 10, Tt: 2.5 }).law).toBe("Kp = 1, Ki = 0.05, Kd = 0, N = 10, Tt = 2.5 s");
+    expect(lawText({ kind: "pid", Kp: 12, Ki: 0.49, Kd: 0.5, N: 10, Tt: null, b: 1, c: 1 }).law).toBe("Kp = 12, Ki = 0.49, Kd = 0.5, N = 10");
+    expect(lawText({ kind: "pid", Kp: 1, Ki: 0.05, Kd: 0, N: 10, Tt: 2.5, b: 1, c: 1 }).law).toBe("Kp = 1, Ki = 0.05, Kd = 0, N = 10, Tt = 2.5 s");
+    expect(lawText({ kind: "pid", Kp: 1, Ki: 0, Kd: 0, N: 10, Tt: null, b: 0.5, c: 0 }).law).toBe("Kp = 1, Ki = 0, Kd = 0, N = 10, b = 0.5, c = 0");
   });
 
   it("writes an LTI controller as num/den or A, B, C, D, continuous or discrete", () => {
-    const tf = lawText({ kind: "lti", num: [1, 2], den: [1, 0.5], A: null, B: null, C: null, D: null, dt: 0.001 });
+    const tf = lawText({ kind: "lti", num: [1, 2], den: [1, 0.5], A: null, B: null, C: null, D: null, dt: 0.001, ff_num: null, ff_den: null });
     expect(tf).toEqual({ kind: "LTI controller on e = r − y, discrete, dt = 1 ms", law: "num = [1, 2], den = [1, 0.5]" });
-    const ss = lawText({ kind: "lti", num: null, den: null, A: [[-1, 0], [0, -2]], B: [[1], [1]], C: [[3, 4]], D: [[0]], dt: null });
+    const ss = lawText({ kind: "lti", num: null, den: null, A: [[-1, 0], [0, -2]], B: [[1], [1]], C: [[3, 4]], D: [[0]], dt: null, ff_num: [1], ff_den: [0.1, 1] });
     expect(ss.kind).toMatch(/continuous/);
-    expect(ss.law).toBe("A = [-1, 0; 0, -2], B = [1; 1], C = [3, 4], D = [0]");
+    expect(ss.law).toBe("A = [-1, 0; 0, -2], B = [1; 1], C = [3, 4], D = [0]; feed-forward ff_num = [1], ff_den = [0.1, 1]");
   });
 
   it("names open loop and the predefined controller", () => {

@@ -18,14 +18,28 @@ export interface LawText {
 /** A controller's law as people read it. */
 export function lawText(c: ControllerOut): LawText {
   switch (c.kind) {
-    case "state_feedback":
-      return { kind: `state feedback u = K (x_ref − x̂), x̂ ${c.estimate === "velocity_filters" ? "from measured positions and filtered velocities" : "the true (simulated) state"}`, law: `K = ${vector(c.K)}` };
-    case "pid":
-      return { kind: "PID on e = r − y", law: `Kp = ${fmt(c.Kp, 6)}, Ki = ${fmt(c.Ki, 6)}, Kd = ${fmt(c.Kd, 6)}, N = ${fmt(c.N, 6)}${c.Tt === null ? "" : `, Tt = ${fmt(c.Tt, 6)} s`}` };
+    case "state_feedback": {
+      const estimate = {
+        velocity_filters: "from measured positions and filtered velocities",
+        true_state: "the true (simulated) state",
+        observer: "from a Luenberger observer on the model",
+      }[c.estimate];
+      const form = c.Nr === null ? "u = K (x_ref − x̂)" : "u = Nr r − K x̂";
+      const parts = [`K = ${vector(c.K)}`];
+      if (c.Nr !== null) parts.push(`Nr = ${fmt(c.Nr, 6)}`);
+      if (c.L !== null) parts.push(`L = ${matrix(c.L)}`);
+      if (c.observer_poles !== null) parts.push(`observer poles ${poleList(c.observer_poles).join(", ")}`);
+      return { kind: `state feedback ${form}, x̂ ${estimate}`, law: parts.join(", ") };
+    }
+    case "pid": {
+      const weights = c.b !== 1 || c.c !== 1 ? `, b = ${fmt(c.b, 6)}, c = ${fmt(c.c, 6)}` : "";
+      return { kind: "PID on e = r − y", law: `Kp = ${fmt(c.Kp, 6)}, Ki = ${fmt(c.Ki, 6)}, Kd = ${fmt(c.Kd, 6)}, N = ${fmt(c.N, 6)}${c.Tt === null ? "" : `, Tt = ${fmt(c.Tt, 6)} s`}${weights}` };
+    }
     case "lti": {
       const time = c.dt === null ? "continuous (Tustin at the run's sample time)" : `discrete, dt = ${fmt(c.dt * 1000)} ms`;
       const law = c.num && c.den ? `num = ${vector(c.num)}, den = ${vector(c.den)}` : `A = ${matrix(c.A ?? [])}, B = ${matrix(c.B ?? [])}, C = ${matrix(c.C ?? [])}, D = ${matrix(c.D ?? [])}`;
-      return { kind: `LTI controller on e = r − y, ${time}`, law };
+      const ff = c.ff_num && c.ff_den ? `; feed-forward ff_num = ${vector(c.ff_num)}, ff_den = ${vector(c.ff_den)}` : "";
+      return { kind: `LTI controller on e = r − y, ${time}`, law: law + ff };
     }
     case "open_loop":
       return { kind: "open loop", law: "u = r" };

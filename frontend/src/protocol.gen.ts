@@ -421,7 +421,9 @@ export interface PredefinedController {
   kind: "predefined";
 }
 /**
- * u = K (x_ref − x̂): one gain per state.
+ * u = K (x_ref − x̂): one gain per state; or u = Nr r − K x̂ with a reference gain.
+ * x̂: the true state, velocity filters, or a Luenberger observer (gain L, or placed at
+ * observer_poles).
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "StateFeedbackController-Input".
@@ -433,7 +435,19 @@ export interface StateFeedbackController {
    * @maxItems 64
    */
   K: [number, ...number[]];
-  estimate?: "true_state" | "velocity_filters";
+  estimate?: "true_state" | "velocity_filters" | "observer";
+  /**
+   * reference gain (default: the reference state's K)
+   */
+  Nr?: number | null;
+  /**
+   * observer gain: a row per state, a column per output
+   */
+  L?: number[][] | null;
+  /**
+   * where to place the observer's poles (one per state)
+   */
+  observer_poles?: Complex[] | null;
 }
 /**
  * C(s) = Kp + Ki/s + Kd s/(Tf s + 1), Tf = Kd/(N Kp), on e = r − y.
@@ -451,6 +465,14 @@ export interface PIDController {
    * anti-windup tracking time (s)
    */
   Tt?: number | null;
+  /**
+   * setpoint weight of the proportional term
+   */
+  b?: number;
+  /**
+   * setpoint weight of the derivative term
+   */
+  c?: number;
 }
 /**
  * Any SISO LTI controller on e = r − y: num/den or A, B, C, D; dt = null: continuous.
@@ -467,6 +489,14 @@ export interface LTIControllerModel {
   C?: [] | [number[]] | null;
   D?: [] | [number[]] | null;
   dt?: number | null;
+  /**
+   * feed-forward from r to u, added: numerator
+   */
+  ff_num?: number[] | null;
+  /**
+   * and denominator
+   */
+  ff_den?: number[] | null;
 }
 /**
  * No feedback: the signal is the plant input (V).
@@ -594,7 +624,9 @@ export interface ContinuousOut {
   D: number[][];
 }
 /**
- * u = K (x_ref − x̂): one gain per state.
+ * u = K (x_ref − x̂): one gain per state; or u = Nr r − K x̂ with a reference gain.
+ * x̂: the true state, velocity filters, or a Luenberger observer (gain L, or placed at
+ * observer_poles).
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "StateFeedbackController-Output".
@@ -606,7 +638,19 @@ export interface StateFeedbackControllerOut {
    * @maxItems 64
    */
   K: [number, ...number[]];
-  estimate: "true_state" | "velocity_filters";
+  estimate: "true_state" | "velocity_filters" | "observer";
+  /**
+   * reference gain (default: the reference state's K)
+   */
+  Nr: number | null;
+  /**
+   * observer gain: a row per state, a column per output
+   */
+  L: number[][] | null;
+  /**
+   * where to place the observer's poles (one per state)
+   */
+  observer_poles: Complex[] | null;
 }
 /**
  * C(s) = Kp + Ki/s + Kd s/(Tf s + 1), Tf = Kd/(N Kp), on e = r − y.
@@ -624,6 +668,14 @@ export interface PIDControllerOut {
    * anti-windup tracking time (s)
    */
   Tt: number | null;
+  /**
+   * setpoint weight of the proportional term
+   */
+  b: number;
+  /**
+   * setpoint weight of the derivative term
+   */
+  c: number;
 }
 /**
  * Any SISO LTI controller on e = r − y: num/den or A, B, C, D; dt = null: continuous.
@@ -640,6 +692,14 @@ export interface LTIControllerModelOut {
   C: [] | [number[]] | null;
   D: [] | [number[]] | null;
   dt: number | null;
+  /**
+   * feed-forward from r to u, added: numerator
+   */
+  ff_num: number[] | null;
+  /**
+   * and denominator
+   */
+  ff_den: number[] | null;
 }
 /**
  * The report on the plant's linear model, or for a Python controller on trial runs in

@@ -59,6 +59,9 @@ def test_an_uploaded_controller_runs_as_the_same_law_given_inline(server: Server
             "kind": "state_feedback",
             "K": SEED_LQR,
             "estimate": "velocity_filters",
+            "Nr": None,
+            "L": None,
+            "observer_poles": None,
         }
         rep = up["report"]
         assert rep["stable"] and rep["rig_ready"] and rep["domain"] == "s"
@@ -95,6 +98,8 @@ def test_matlab_and_numpy_files_upload_as_base64(server: Server) -> None:
             "Kd": 0.5,
             "N": 10.0,
             "Tt": None,
+            "b": 1.0,
+            "c": 1.0,
         }
         r = upload(c, "flexible_link", "npz", b64(npz.getvalue()))
         assert r.status_code == 201 and r.json()["controller"]["K"] == SEED_LQR
@@ -208,3 +213,59 @@ def test_random_and_mutated_files_never_crash_and_refused_ones_are_not_kept(
         assert r.status_code in (201, 422), r.text[:300]
         kept = c.get("/controllers").json()["controllers"]
         assert len(kept) == (r.status_code == 201)
+
+
+OBSERVER = (
+    TOML.replace('name = "seed LQR"', 'name = "observer"\nestimate = "observer"\nNr = 20')
+    + "observer_poles = [-40, -45, [-50, 8], [-50, -8]]\n"
+)
+CHAIN_FF = """version = 1
+kind = "chain"
+ff_num = [0.2]
+ff_den = [0.1, 1]
+
+[[blocks]]
+kind = "pid"
+Kp = 2.0
+Ki = 0.5
+
+[[blocks]]
+kind = "lti"
+num = [0.5, 1.0]
+den = [0.05, 1.0]
+"""
+
+
+def test_an_observer_and_a_chain_with_feedforward_upload_and_run(server: Server) -> None:
+    with server.client() as c:
+        obs = upload(c, "flexible_link", "toml", OBSERVER).json()
+        assert obs["controller"]["estimate"] == "observer" and obs["controller"]["Nr"] == 20
+        poles = {(round(p["re"], 6), round(p["im"], 6)) for p in obs["report"]["poles"]}
+        assert {(-40.0, 0.0), (-45.0, 0.0), (-50.0, 8.0), (-50.0, -8.0)} <= poles
+        chain = upload(c, "belt_conveyor", "toml", CHAIN_FF)
+        assert chain.status_code == 201, chain.text
+        law = chain.json()["controller"]
+        assert law["kind"] == "lti" and law["ff_num"] == [0.2] and len(law["A"]) == 2
+        bad = upload(c, "belt_conveyor", "toml", CHAIN_FF.replace("Ki = 0.5", "Ki = 0.5\nb = 0.5"))
+        assert bad.status_code == 422 and bad.json()["error"]["field"] == "blocks[0].b"
+        runs = [
+            c.post("/runs", json={"plant": p, "pace": "fast", "duration": 2, "controller_id": i})
+            for p, i in (("flexible_link", obs["id"]), ("belt_conveyor", chain.json()["id"]))
+        ]
+        inline = c.post(
+            "/runs",
+            json={
+                "plant": "flexible_link",
+                "pace": "fast",
+                "duration": 2,
+                "controller": obs["controller"],
+            },
+        )
+        for r in [*runs, inline]:
+            assert r.status_code == 201, r.text
+            rid = r.json()["id"]
+            done = until(lambda rid=rid: (x := c.get(f"/runs/{rid}").json())["finished_at"] and x)
+            assert done["status"] == "finished" and done["n_samples"] == 2000
+        a = c.get(f"/runs/{runs[0].json()['id']}/data", params={"format": "json"}).json()
+        b = c.get(f"/runs/{inline.json()['id']}/data", params={"format": "json"}).json()
+        assert a["data"] == b["data"]

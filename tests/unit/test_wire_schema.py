@@ -62,7 +62,9 @@ def test_requests_keep_defaults_optional_and_responses_list_every_field() -> Non
     assert defs["RunCreate"]["required"] == ["plant"]
     # a union's tag is required in requests too: the server cannot tell the kind without it
     assert defs["PIDController-Input"]["required"] == ["kind", "Kp"]
-    assert set(defs["PIDController-Output"]["required"]) == {"kind", "Kp", "Ki", "Kd", "N", "Tt"}
+    assert set(defs["PIDController-Output"]["required"]) == {
+        *("kind", "Kp", "Ki", "Kd", "N", "Tt", "b", "c")
+    }
     assert "type" in defs["Frame"]["required"]
     assert defs["Frame"]["properties"]["columns"]["additionalProperties"]["format"] == "binary"
 

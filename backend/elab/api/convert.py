@@ -21,9 +21,17 @@ def law(model: Any, plant: Plant) -> ControlLaw:
     if isinstance(model, s.PredefinedController):
         return plant.predefined
     if isinstance(model, s.StateFeedbackController):
-        return StateFeedback(tuple(model.K), model.estimate)
+        return StateFeedback(
+            tuple(model.K),
+            model.estimate,
+            model.Nr,
+            _rows(model.L),
+            None
+            if model.observer_poles is None
+            else tuple(complex(p.re, p.im) for p in model.observer_poles),
+        )
     if isinstance(model, s.PIDController):
-        return PID(model.Kp, model.Ki, model.Kd, model.N, model.Tt)
+        return PID(model.Kp, model.Ki, model.Kd, model.N, model.Tt, model.b, model.c)
     if isinstance(model, s.LTIControllerModel):
         return LTIController(
             num=_tuple(model.num),
@@ -33,6 +41,8 @@ def law(model: Any, plant: Plant) -> ControlLaw:
             C=_rows(model.C),
             D=_rows(model.D),
             dt=model.dt,
+            ff_num=_tuple(model.ff_num),
+            ff_den=_tuple(model.ff_den),
         )
     if isinstance(model, s.OpenLoopController):
         return OpenLoop()
@@ -43,10 +53,26 @@ def law_model(law_: ControlLaw) -> Any:
     """The model of a core law (for a plant's predefined controller)."""
     if isinstance(law_, StateFeedback):
         return s.StateFeedbackController(
-            kind="state_feedback", K=list(law_.K), estimate=law_.estimate
+            kind="state_feedback",
+            K=list(law_.K),
+            estimate=law_.estimate,
+            Nr=law_.Nr,
+            L=None if law_.L is None else [list(r) for r in law_.L],
+            observer_poles=None
+            if law_.observer_poles is None
+            else [s.Complex(re=complex(p).real, im=complex(p).imag) for p in law_.observer_poles],
         )
     if isinstance(law_, PID):
-        return s.PIDController(kind="pid", Kp=law_.Kp, Ki=law_.Ki, Kd=law_.Kd, N=law_.N, Tt=law_.Tt)
+        return s.PIDController(
+            kind="pid",
+            Kp=law_.Kp,
+            Ki=law_.Ki,
+            Kd=law_.Kd,
+            N=law_.N,
+            Tt=law_.Tt,
+            b=law_.b,
+            c=law_.c,
+        )
     if isinstance(law_, OpenLoop):
         return s.OpenLoopController(kind="open_loop")
     if isinstance(law_, CodeController):
@@ -57,7 +83,15 @@ def law_model(law_: ControlLaw) -> Any:
         if getattr(law_, k) is not None
     }
     return s.LTIControllerModel.model_validate(
-        {"kind": "lti", "num": _list(law_.num), "den": _list(law_.den), "dt": law_.dt, **matrices}
+        {
+            "kind": "lti",
+            "num": _list(law_.num),
+            "den": _list(law_.den),
+            "dt": law_.dt,
+            "ff_num": _list(law_.ff_num),
+            "ff_den": _list(law_.ff_den),
+            **matrices,
+        }
     )
 
 

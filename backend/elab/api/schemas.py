@@ -39,12 +39,26 @@ class PredefinedController(Model):
     kind: Literal["predefined"]
 
 
+class Complex(Model):
+    re: float
+    im: float
+
+
 class StateFeedbackController(Model):
-    """u = K (x_ref − x̂): one gain per state."""
+    """u = K (x_ref − x̂): one gain per state; or u = Nr r − K x̂ with a reference gain.
+    x̂: the true state, velocity filters, or a Luenberger observer (gain L, or placed at
+    observer_poles)."""
 
     kind: Literal["state_feedback"]
     K: list[Finite] = Field(min_length=1, max_length=64)
-    estimate: Literal["true_state", "velocity_filters"] = "velocity_filters"
+    estimate: Literal["true_state", "velocity_filters", "observer"] = "velocity_filters"
+    Nr: Finite | None = Field(None, description="reference gain (default: the reference state's K)")
+    L: list[list[Finite]] | None = Field(
+        None, max_length=64, description="observer gain: a row per state, a column per output"
+    )
+    observer_poles: list[Complex] | None = Field(
+        None, max_length=64, description="where to place the observer's poles (one per state)"
+    )
 
 
 class PIDController(Model):
@@ -56,6 +70,8 @@ class PIDController(Model):
     Kd: Finite = 0.0
     N: Finite = Field(10.0, gt=0)
     Tt: Finite | None = Field(None, gt=0, description="anti-windup tracking time (s)")
+    b: Finite = Field(1.0, description="setpoint weight of the proportional term")
+    c: Finite = Field(1.0, description="setpoint weight of the derivative term")
 
 
 class LTIControllerModel(Model):
@@ -69,6 +85,10 @@ class LTIControllerModel(Model):
     C: list[list[Finite]] | None = Field(None, max_length=1)
     D: list[list[Finite]] | None = Field(None, max_length=1)
     dt: Finite | None = Field(None, gt=0)
+    ff_num: list[Finite] | None = Field(
+        None, max_length=64, description="feed-forward from r to u, added: numerator"
+    )
+    ff_den: list[Finite] | None = Field(None, max_length=64, description="and denominator")
 
 
 class OpenLoopController(Model):
@@ -398,11 +418,6 @@ class ParamsApplied(Model):
 
 
 # -- plants, analysis, design ------------------------------------------------------
-class Complex(Model):
-    re: float
-    im: float
-
-
 # -- uploaded controllers ----------------------------------------------------------------
 class ControllerUpload(Model):
     """A controller file (docs/controllers.md): TOML, JSON or Python as text, .mat or .npz as

@@ -46,11 +46,14 @@ MAX_BYTES = 64 * 1024
 MAX_ORDER = 20  # controller states, or polynomial coefficients
 MAX_EXPANDED = 1 << 20  # bytes a .npz may expand to
 _FIELDS = {
-    "state_feedback": ("K", "estimate"),
-    "pid": ("Kp", "Ki", "Kd", "N", "Tt"),
-    "lti": ("num", "den", "A", "B", "C", "D", "dt"),
+    "state_feedback": ("K", "estimate", "Nr", "L", "observer_poles"),
+    "pid": ("Kp", "Ki", "Kd", "N", "Tt", "b", "c"),
+    "lti": ("num", "den", "A", "B", "C", "D", "dt", "ff_num", "ff_den"),
+    "chain": ("blocks", "dt", "ff_num", "ff_den"),
     "open_loop": (),
 }
+MAX_BLOCKS = 8
+_BLOCK_FIELDS = {"pid": ("Kp", "Ki", "Kd", "N"), "lti": ("num", "den", "A", "B", "C", "D")}
 _COMMON = ("version", "kind", "plant", "name")
 _MAT_FIX = "save -v7 ctrl.mat A B C D Ts  (or K, or Kp Ki Kd, or num den Ts)"
 
@@ -299,12 +302,49 @@ def _controller(fields: Mapping[str, Any], fmt: str, plant: Plant) -> Controller
 def _state_feedback(f: Mapping[str, Any], plant: Plant) -> StateFeedback:
     K = _vector("K", f.get("K"), plant.nx, plant.nx)
     estimate = f.get("estimate", "velocity_filters")
-    if estimate not in ("velocity_filters", "true_state"):
-        raise InvalidInput("estimate", estimate, "velocity_filters or true_state")
+    if estimate not in ("velocity_filters", "true_state", "observer"):
+        raise InvalidInput("estimate", estimate, "velocity_filters, true_state or observer")
     if len(K) != plant.nx:
         states = ", ".join(s.name for s in plant.states)
         raise InvalidInput("K", list(K), f"{plant.nx} gains, one per state of {plant.id}: {states}")
-    return StateFeedback(K, estimate)
+    Nr = None if f.get("Nr") is None else _number("Nr", f.get("Nr"))
+    L = poles = None
+    if estimate == "observer":
+        if ("L" in f) == ("observer_poles" in f):
+            raise InvalidInput(
+                "estimate",
+                "observer",
+                f"an observer with either L ({plant.nx}×{plant.ny}: a row per state, a "
+                f"column per output) or observer_poles ({plant.nx} poles)",
+            )
+        if "L" in f:
+            L = _matrix("L", f["L"])
+            if (len(L), len(L[0])) != (plant.nx, plant.ny):
+                raise InvalidInput(
+                    "L", f"{len(L)}×{len(L[0])}", f"{plant.nx}×{plant.ny} (states × outputs)"
+                )
+        else:
+            poles = _poles("observer_poles", f["observer_poles"], plant.nx)
+    elif "L" in f or "observer_poles" in f:
+        raise InvalidInput(
+            "L" if "L" in f else "observer_poles", "given", 'estimate = "observer" with it'
+        )
+    return StateFeedback(K, estimate, Nr, L, poles)
+
+
+def _poles(field: str, value: Any, n: int) -> tuple[complex, ...]:
+    """``n`` poles: numbers, or [re, im] pairs for complex ones (conjugates both given)."""
+    if not isinstance(value, list) or len(value) != n:
+        raise InvalidInput(field, value, f"{n} poles: numbers, or [re, im] for complex ones")
+    out = []
+    for i, v in enumerate(value):
+        if isinstance(v, list):
+            if len(v) != 2:
+                raise InvalidInput(f"{field}[{i}]", v, "[re, im]")
+            out.append(complex(_number(f"{field}[{i}]", v[0]), _number(f"{field}[{i}]", v[1])))
+        else:
+            out.append(complex(_number(f"{field}[{i}]", v)))
+    return tuple(out)
 
 
 def _pid(f: Mapping[str, Any], plant: Plant) -> PID:
@@ -315,7 +355,88 @@ def _pid(f: Mapping[str, Any], plant: Plant) -> PID:
         _number("Kd", f.get("Kd", 0.0)),
         _number("N", f.get("N", 10.0), positive=True),
         None if Tt is None else _number("Tt", Tt, positive=True),
+        _number("b", f.get("b", 1.0)),
+        _number("c", f.get("c", 1.0)),
     )
+
+
+def _feedforward(f: Mapping[str, Any]) -> dict[str, tuple[float, ...]]:
+    if "ff_num" not in f and "ff_den" not in f:
+        return {}
+    num = _vector("ff_num", f.get("ff_num"), 1, MAX_ORDER)
+    den = _vector("ff_den", f.get("ff_den"), 1, MAX_ORDER)
+    if den[0] == 0:
+        raise InvalidInput("ff_den", list(den), "a leading coefficient that is not zero")
+    if len(num) > len(den):
+        raise InvalidInput("ff_num", list(num), f"at most {len(den)} coefficients (proper)")
+    return {"ff_num": num, "ff_den": den}
+
+
+def _chain(f: Mapping[str, Any], plant: Plant) -> LTIController:
+    """Blocks in series on the error (each a ``pid`` or an ``lti``, all continuous or all
+    at one sample time ``dt``), as one LTI law (python-control ``series``). A PID in a
+    chain has no anti-windup (it is one linear block among others)."""
+    import control as ct
+
+    from elab.design.realise import lti_ss, pid_tf
+
+    blocks = f.get("blocks")
+    if not isinstance(blocks, list) or not 1 <= len(blocks) <= MAX_BLOCKS:
+        raise InvalidInput(
+            "blocks", blocks, f"1 to {MAX_BLOCKS} blocks ([[blocks]] tables, in signal order)"
+        )
+    dt = f.get("dt")
+    dt = None if dt is None else _number("dt", dt, positive=True)
+    total: Any = None
+    for i, block in enumerate(blocks):
+        if not isinstance(block, dict) or block.get("kind") not in ("pid", "lti"):
+            raise InvalidInput(f"blocks[{i}].kind", _kind_of(block), "pid or lti")
+        # no setpoint weights or anti-windup in a chain: its blocks act on the error alone
+        allowed = ("kind", *_BLOCK_FIELDS[block["kind"]])
+        for key in block:
+            if key not in allowed:
+                raise InvalidInput(
+                    f"blocks[{i}].{key}",
+                    block[key],
+                    "a field of the block: "
+                    + ", ".join(allowed)
+                    + " (the chain's dt applies to every block)",
+                )
+        try:
+            if block["kind"] == "pid":
+                if dt is not None:
+                    raise InvalidInput(f"blocks[{i}]", "pid", "lti blocks in a discrete chain")
+                part: Any = ct.ss(pid_tf(_pid(block, plant)))
+            else:
+                part = lti_ss(_lti({**block, "dt": dt}, plant))
+        except InvalidInput as exc:
+            if exc.field.startswith("blocks["):
+                raise
+            raise InvalidInput(
+                f"blocks[{i}].{exc.field.removeprefix('controller.')}", exc.value, exc.allowed
+            ) from None
+        total = part if total is None else ct.series(total, part)
+    if total.nstates > MAX_ORDER:
+        raise InvalidInput("blocks", f"{total.nstates} states", f"at most {MAX_ORDER} together")
+    n = total.nstates
+    ff = _feedforward(f)
+
+    def rows(m: Any) -> tuple[tuple[float, ...], ...]:
+        return tuple(tuple(float(x) for x in r) for r in np.asarray(m, dtype=np.float64))
+
+    return LTIController(
+        A=rows(np.reshape(total.A, (n, n))),
+        B=rows(np.reshape(total.B, (n, 1))),
+        C=rows(np.reshape(total.C, (1, n))),
+        D=rows(np.reshape(total.D, (1, 1))),
+        dt=dt,
+        ff_num=ff.get("ff_num"),
+        ff_den=ff.get("ff_den"),
+    )
+
+
+def _kind_of(block: Any) -> Any:
+    return block.get("kind") if isinstance(block, dict) else type(block).__name__
 
 
 def _lti(f: Mapping[str, Any], plant: Plant) -> LTIController:
@@ -336,7 +457,10 @@ def _lti(f: Mapping[str, Any], plant: Plant) -> LTIController:
             raise InvalidInput(
                 "num", list(num), f"at most {len(den)} coefficients (a proper controller)"
             )
-        return LTIController(num=num, den=den, dt=dt)
+        ff = _feedforward(f)
+        return LTIController(
+            num=num, den=den, dt=dt, ff_num=ff.get("ff_num"), ff_den=ff.get("ff_den")
+        )
     A = _matrix("A", f.get("A"))
     n = len(A)
     if any(len(row) != n for row in A) or n > MAX_ORDER:
@@ -349,7 +473,10 @@ def _lti(f: Mapping[str, Any], plant: Plant) -> LTIController:
                 f"{len(m)}×{len(m[0]) if m else 0}",
                 f"{shape[0]}×{shape[1]} (SISO, {n} states)",
             )
-    return LTIController(A=A, B=B, C=C, D=D, dt=dt)
+    ff = _feedforward(f)
+    return LTIController(
+        A=A, B=B, C=C, D=D, dt=dt, ff_num=ff.get("ff_num"), ff_den=ff.get("ff_den")
+    )
 
 
 def _open_loop(f: Mapping[str, Any], plant: Plant) -> OpenLoop:
@@ -360,6 +487,7 @@ _LAWS: dict[str, Callable[[Mapping[str, Any], Plant], ControlLaw]] = {
     "state_feedback": _state_feedback,
     "pid": _pid,
     "lti": _lti,
+    "chain": _chain,
     "open_loop": _open_loop,
 }
 

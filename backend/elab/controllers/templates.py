@@ -51,11 +51,24 @@ def law_fields(law: ControlLaw) -> dict[str, Any]:
     if isinstance(law, CodeController):
         return {"kind": "python", "file": law.name}
     if isinstance(law, StateFeedback):
-        return {"kind": "state_feedback", "K": list(law.K), "estimate": law.estimate}
+        sf: dict[str, Any] = {"kind": "state_feedback", "K": list(law.K), "estimate": law.estimate}
+        if law.Nr is not None:
+            sf["Nr"] = law.Nr
+        if law.L is not None:
+            sf["L"] = [list(r) for r in law.L]
+        if law.observer_poles is not None:
+            sf["observer_poles"] = [
+                p.real if p.imag == 0 else [p.real, p.imag]
+                for p in (complex(z) for z in law.observer_poles)
+            ]
+        return sf
     if isinstance(law, PID):
         out: dict[str, Any] = {"kind": "pid", "Kp": law.Kp, "Ki": law.Ki, "Kd": law.Kd, "N": law.N}
         if law.Tt is not None:
             out["Tt"] = law.Tt
+        for weight in ("b", "c"):
+            if getattr(law, weight) != 1.0:
+                out[weight] = getattr(law, weight)
         return out
     if isinstance(law, LTIController):
         fields: dict[str, Any] = {"kind": "lti"}
@@ -67,6 +80,8 @@ def law_fields(law: ControlLaw) -> dict[str, Any]:
                 fields[name] = [list(r) for r in getattr(law, name)]
         if law.dt is not None:
             fields["dt"] = law.dt
+        if law.ff_num is not None and law.ff_den is not None:
+            fields["ff_num"], fields["ff_den"] = list(law.ff_num), list(law.ff_den)
         return fields
     assert isinstance(law, OpenLoop)
     return {"kind": "open_loop"}
@@ -89,19 +104,24 @@ def _toml(plant: Plant, f: dict[str, Any]) -> str:
     kind = f["kind"]
     if kind == "state_feedback":
         body = [
-            'kind = "state_feedback"  # u = K (x_ref − x̂); also: pid, lti, open_loop',
+            'kind = "state_feedback"  # u = K (x_ref − x̂); also: pid, lti, chain, open_loop',
             "",
             f"# one gain per state, in this order: {states}",
             f"K = [{', '.join(_num(k) for k in f['K'])}]",
             "",
             "# x̂: velocity_filters = positions measured, velocities from band-limited",
-            "# differentiators (what the real rig can do); true_state = the simulated state",
+            "# differentiators (what the real rig can do); true_state = the simulated state;",
+            "# observer = a Luenberger observer on the model, with L or observer_poles:",
+            f'#   estimate = "observer"; observer_poles = [{_example_poles(plant.nx)}]',
+            "#   (complex ones as [re, im] pairs), or L = a row per state, a column per output",
             f'estimate = "{f["estimate"]}"',
+            "",
+            "# Nr = 20.0  # reference gain: u = Nr r − K x̂ (default: the reference state's gain)",
         ]
     elif kind == "pid":
         out = plant.outputs[plant.reference_output]
         body = [
-            f'kind = "pid"  # u = C(s) (r − {out.name}); also: state_feedback, lti, open_loop',
+            f'kind = "pid"  # u = C(s) (r − {out.name}); also: state_feedback, lti, chain',
             "",
             "# C(s) = Kp + Ki/s + Kd s / (Tf s + 1), Tf = Kd / (N Kp); Tustin at the run's Ts",
             f"Kp = {_num(f['Kp'])}  # V per {out.unit}",
@@ -109,6 +129,9 @@ def _toml(plant: Plant, f: dict[str, Any]) -> str:
             f"Kd = {_num(f['Kd'])}  # V·s per {out.unit}",
             f"N = {_num(f['N'])}  # derivative filter: the derivative acts up to N Kp / Kd rad/s",
             "# Tt = 1.0  # anti-windup tracking time (s); default sqrt(Ti Td), or Ti",
+            "# setpoint weights: u = Kp (b r − y) + Ki ∫(r − y) + D(s) (c r − y)",
+            "# b = 1.0",
+            "# c = 1.0",
         ]
     else:
         body = [f'kind = "{kind}"'] + [
@@ -118,11 +141,18 @@ def _toml(plant: Plant, f: dict[str, Any]) -> str:
         "",
         "# Other kinds, for reference:",
         '# kind = "lti" with num = [..], den = [..] (descending powers of s, or of z with',
-        "#   dt = sample time), or A, B, C, D: any SISO controller on the error r − y",
+        "#   dt = sample time), or A, B, C, D: any SISO controller on the error r − y;",
+        "#   ff_num, ff_den: a feed-forward from r to u, added",
+        '# kind = "chain": blocks in series on the error, each a [[blocks]] table with',
+        '#   kind = "pid" or "lti" and its fields (dt once, for the whole chain)',
         '# kind = "open_loop": u = r',
         "",
     ]
     return "\n".join(head + body + tail)
+
+
+def _example_poles(n: int) -> str:
+    return ", ".join(str(-40 - 5 * i) for i in range(n))
 
 
 def _num(x: float) -> str:

@@ -148,7 +148,7 @@ def realise(plant: Plant, law: ControlLaw, *, all_pid_states: bool = False) -> R
                 "a continuous controller (dt=None); discrete laws are "
                 "taken as they are by elab.sim",
             )
-        return _error_feedback(plant, lti_ss(law))
+        return _with_feedforward(_error_feedback(plant, lti_ss(law)), feedforward_ss(law))
     if isinstance(law, OpenLoop):
         return Realisation.static(np.ones((1, 1)), np.zeros((1, plant.ny)), False)
     if isinstance(law, CodeController):
@@ -164,21 +164,74 @@ def realise(plant: Plant, law: ControlLaw, *, all_pid_states: bool = False) -> R
 def _state_feedback(plant: Plant, law: StateFeedback) -> Realisation:
     K = _gain_row(plant, law.K)
     i = plant.reference_state
-    if i is None:
+    if law.Nr is None and i is None:
         raise InvalidInput(
             "plant.reference_state", i, "a state index: state feedback tracks r via x_ref = r e_i"
         )
+    if law.Nr is not None:
+        Nr = np.array([[finite_float("controller.Nr", law.Nr)]])
+    else:
+        assert i is not None
+        Nr = K[:, [i]]
     if law.estimate == "true_state":
-        return Realisation.static(K[:, [i]], -K, True)
+        return Realisation.static(Nr, -K, True)
+    if law.estimate == "observer":
+        return _observer(plant, law, K, Nr)
     if law.estimate != "velocity_filters":
         raise InvalidInput(
-            "controller.estimate", law.estimate, '"true_state" or "velocity_filters"'
+            "controller.estimate", law.estimate, '"true_state", "velocity_filters" or "observer"'
         )
     P_y, P_z, A, B_m = _velocity_estimator(plant)
     names = tuple(f"{plant.states[f.state].name}_filter" for f in plant.velocity_filters)
-    return Realisation(
-        A, np.zeros((A.shape[0], 1)), B_m, -K @ P_z, K[:, [i]], -K @ P_y, False, names
-    )
+    return Realisation(A, np.zeros((A.shape[0], 1)), B_m, -K @ P_z, Nr, -K @ P_y, False, names)
+
+
+def observer_gain(plant: Plant, law: StateFeedback) -> Matrix:
+    """The observer's ``L`` (nx × ny): given, or placed at ``law.observer_poles``."""
+    given = law.L is not None
+    if given == (law.observer_poles is not None):
+        raise InvalidInput(
+            "controller.L",
+            law.L,
+            "an observer needs either its gain L (one row per state, one column per "
+            "output) or observer_poles (one per state)",
+        )
+    if law.L is not None:
+        L = finite_array("controller.L", law.L)
+        if L.shape != (plant.nx, plant.ny):
+            raise DimensionError(
+                "controller.L", law.L, f"{plant.nx} rows (states) × {plant.ny} columns (outputs)"
+            )
+        return L
+    assert law.observer_poles is not None
+    poles = np.asarray(law.observer_poles, dtype=np.complex128)
+    if poles.shape != (plant.nx,) or not np.all(np.isfinite(poles)):
+        raise DimensionError(
+            "controller.observer_poles", law.observer_poles, f"{plant.nx} finite poles"
+        )
+    if np.any(poles.real >= 0):
+        raise InvalidInput(
+            "controller.observer_poles", law.observer_poles, "poles in the left half-plane"
+        )
+    try:
+        return np.asarray(ct.place(plant.A.T, plant.C.T, poles), dtype=np.float64).T
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        raise InvalidInput(
+            "controller.observer_poles",
+            law.observer_poles,
+            f"poles the observer can be placed at (complex ones in conjugate pairs, each "
+            f"at most rank(C) times): {exc}",
+        ) from None
+
+
+def _observer(plant: Plant, law: StateFeedback, K: Matrix, Nr: Matrix) -> Realisation:
+    """:math:`\\dot{\\hat x} = (A - BK - LC + LDK) \\hat x + (B - LD) N_r r + L y`,
+    :math:`u = N_r r - K \\hat x`."""
+    L = observer_gain(plant, law)
+    A, B, C, D = plant.A, plant.B, plant.C, plant.D
+    A_o = A - B @ K - L @ C + L @ D @ K
+    names = tuple(f"{st.name}_estimate" for st in plant.states)
+    return Realisation(A_o, (B - L @ D) @ Nr, L, -K, Nr, np.zeros((1, plant.ny)), False, names)
 
 
 def _gain_row(plant: Plant, gains: tuple[float, ...]) -> Matrix:
@@ -230,6 +283,45 @@ def _error_feedback(plant: Plant, controller: ct.StateSpace) -> Realisation:
     return Realisation(a, b, -b @ e_ref, c, d, -d @ e_ref, False, names)
 
 
+def _with_feedforward(real: Realisation, ff: ct.StateSpace | None) -> Realisation:
+    """``real`` with a feed-forward system from r to u in parallel (its states after)."""
+    if ff is None:
+        return real
+    a, b, c, d = (np.asarray(m, dtype=np.float64) for m in (ff.A, ff.B, ff.C, ff.D))
+    n, k = real.A.shape[0], a.shape[0]
+    A = np.zeros((n + k, n + k))
+    A[:n, :n], A[n:, n:] = real.A, a
+    return Realisation(
+        A,
+        np.vstack([real.B_r, b]),
+        np.vstack([real.B_m, np.zeros((k, real.B_m.shape[1]))]),
+        np.hstack([real.C, c]),
+        real.D_r + d,
+        real.D_m,
+        real.measures_state,
+        real.states + tuple(f"feedforward[{j}]" for j in range(k)),
+        real.integrator,
+    )
+
+
+def feedforward_ss(law: LTIController) -> ct.StateSpace | None:
+    """The law's feed-forward transfer function from r to u (``ff_num/ff_den``), in the
+    law's time domain; ``None`` without one."""
+    if law.ff_num is None and law.ff_den is None:
+        return None
+    if law.ff_num is None or law.ff_den is None:
+        raise InvalidInput("controller.ff_den", law.ff_den, "both ff_num and ff_den, or neither")
+    num = _polynomials.clean(finite_array("controller.ff_num", law.ff_num, (None,)), 0.0)
+    den = _polynomials.clean(finite_array("controller.ff_den", law.ff_den, (None,)), 0.0)
+    if den[0] == 0.0 or num.size > den.size:
+        raise InvalidInput(
+            "controller.ff_num",
+            law.ff_num,
+            "a proper feed-forward: nonzero ff_den, degree of ff_num ≤ degree of ff_den",
+        )
+    return ct.tf2ss(ct.tf(num, den, _dt(law)))
+
+
 def lti_ss(law: LTIController) -> ct.StateSpace:
     """The LTI law as python-control state space (continuous, or discrete with ``law.dt``)."""
     given_tf = law.num is not None and law.den is not None
@@ -266,24 +358,27 @@ def _dt(law: LTIController) -> float:
 
 
 def _pid(plant: Plant, law: PID, all_states: bool) -> Realisation:
-    """States :math:`[\\xi_i, \\xi_d]` with :math:`\\dot\\xi_i = e`,
-    :math:`T_f \\dot\\xi_d = e - \\xi_d`, :math:`e = r - y_{ref}`:
+    """States :math:`[\\xi_i, \\xi_d]` with :math:`\\dot\\xi_i = r - y_{ref}`,
+    :math:`T_f \\dot\\xi_d = (c r - y_{ref}) - \\xi_d`, and setpoint weights ``b``, ``c``:
 
-    .. math:: u = (K_p + K_d/T_f)\\, e + K_i \\xi_i - (K_d/T_f)\\, \\xi_d
+    .. math:: u = K_p (b r - y_{ref}) + K_i \\xi_i + (K_d/T_f)\\,(c r - y_{ref} - \\xi_d)
     """
     Kp, Ki, Kd, Tf = _pid_parameters(law)
+    b = finite_float("controller.b", law.b)
+    c = finite_float("controller.c", law.c)
     keep = [all_states or Ki != 0.0, all_states or Kd != 0.0]
     A = np.diag([0.0, -1.0 / Tf])[np.ix_(keep, keep)]
-    b = np.array([[1.0], [1.0 / Tf]])[keep]
-    c = np.array([[Ki, -Kd / Tf]])[:, keep]
+    on_y = np.array([[1.0], [1.0 / Tf]])[keep]
+    on_r = np.array([[1.0], [c / Tf]])[keep]
+    out = np.array([[Ki, -Kd / Tf]])[:, keep]
     e_ref = np.eye(plant.ny)[[plant.reference_output]]
     names = ("pid_integral", "pid_derivative_filter")
     return Realisation(
         A,
-        b,
-        -b @ e_ref,
-        c,
-        np.array([[Kp + Kd / Tf]]),
+        on_r,
+        -on_y @ e_ref,
+        out,
+        np.array([[Kp * b + Kd / Tf * c]]),
         -(Kp + Kd / Tf) * e_ref,
         False,
         tuple(n for n, k in zip(names, keep, strict=True) if k),

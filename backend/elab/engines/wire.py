@@ -87,11 +87,15 @@ def plain(value: Any) -> Any:
         }
     if isinstance(value, tuple | list):
         return [plain(v) for v in value]
+    if isinstance(value, complex):  # an observer's poles
+        return {"type": "complex", "re": value.real, "im": value.imag}
     return value
 
 
 def typed(value: Any) -> Any:
     """The inverse of :func:`plain`."""
+    if isinstance(value, dict) and value.get("type") == "complex":
+        return complex(value["re"], value["im"])
     if isinstance(value, dict) and "type" in value:
         cls = _TYPES[value["type"]]
         return cls(**{k: typed(v) for k, v in value.items() if k != "type"})

@@ -23,9 +23,9 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.design.realise import lti_ss, pid_tracking_time, realise
+from elab.design.realise import feedforward_ss, lti_ss, pid_tracking_time, realise
 from elab.errors import InvalidInput
-from elab.laws import PID, CodeController, ControlLaw, LTIController
+from elab.laws import PID, CodeController, ControlLaw, LTIController, StateFeedback
 from elab.plants.base import Plant
 from elab.validate import finite_float
 
@@ -78,6 +78,9 @@ def discretise(law: ControlLaw, plant: Plant, Ts: float) -> DiscreteController:
     Lw = np.zeros(sys.nstates)
     if isinstance(law, PID) and real.integrator is not None and law.Ki != 0:
         Lw[real.integrator] = Ts / (law.Ki * pid_tracking_time(law))
+    if isinstance(law, StateFeedback) and law.estimate == "observer":
+        # the observer learns the applied u, not the commanded one (to first order in Ts)
+        Lw = Ts * (plant.B - real.B_m @ plant.D)[:, 0]
     return DiscreteController(*_arrays(d), Lw, feedback)
 
 
@@ -99,4 +102,11 @@ def _discrete_lti(law: LTIController, plant: Plant, Ts: float) -> DiscreteContro
     e = np.zeros((1, 1 + plant.ny))  # the error e = r − y_ref from w = [r, y]
     e[0, 0], e[0, 1 + plant.reference_output] = 1.0, -1.0
     on_error = ct.ss(sys.A, np.asarray(sys.B) @ e, sys.C, np.asarray(sys.D) @ e, dt)
+    ff = feedforward_ss(law)
+    if ff is not None:  # in parallel, on r alone
+        r = np.zeros((1, 1 + plant.ny))
+        r[0, 0] = 1.0
+        on_error = ct.parallel(
+            on_error, ct.ss(ff.A, np.asarray(ff.B) @ r, ff.C, np.asarray(ff.D) @ r, dt)
+        )
     return DiscreteController(*_arrays(on_error), np.zeros(on_error.nstates), "output")

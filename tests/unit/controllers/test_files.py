@@ -89,7 +89,7 @@ def test_syntax_errors_say_where() -> None:
     [
         ('kind = "pid"\nKp = 1', "version", ("version = 1",)),
         ('version = 2\nkind = "pid"\nKp = 1', "version", ("1",)),
-        ('version = 1\nkind = "fuzzy"', "kind", ("state_feedback, pid, lti, open_loop",)),
+        ('version = 1\nkind = "fuzzy"', "kind", ("state_feedback, pid, lti, chain, open_loop",)),
         ('version = 1\nkind = "pid"\nKp = 1\nKq = 2', "Kq", ("Kp, Ki, Kd, N, Tt",)),
         ('version = 1\nkind = "state_feedback"\nK = [1, 2]', "K", ("4 numbers",)),
         ('version = 1\nkind = "state_feedback"\nK = [1, 2, 3, nan]', "K.3", ("finite",)),
