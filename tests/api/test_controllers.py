@@ -269,3 +269,47 @@ def test_an_observer_and_a_chain_with_feedforward_upload_and_run(server: Server)
         a = c.get(f"/runs/{runs[0].json()['id']}/data", params={"format": "json"}).json()
         b = c.get(f"/runs/{inline.json()['id']}/data", params={"format": "json"}).json()
         assert a["data"] == b["data"]
+
+
+def test_a_file_uploads_as_a_form_as_curl_sends_it(server: Server) -> None:
+    mat = io.BytesIO()
+    scipy.io.savemat(mat, {"Kp": 12.0, "Ki": 0.49, "Kd": 0.5})
+    with server.client() as c:
+        r = c.post(
+            "/controllers",
+            data={"plant": "belt_conveyor"},
+            files={"file": ("seed_pid.mat", mat.getvalue(), "application/octet-stream")},
+        )
+        assert r.status_code == 201, r.text
+        up = r.json()
+        assert up["format"] == "mat" and up["name"] == "seed_pid.mat"
+        assert up["controller"]["Kp"] == 12.0
+        r = c.post(
+            "/controllers",
+            data={"plant": "flexible_link", "format": "toml", "name": "mine"},
+            files={"file": ("ctrl.txt", TOML.encode(), "text/plain")},
+        )
+        assert r.status_code == 201 and r.json()["name"] == "mine"
+        bad = [
+            ({"plant": "flexible_link"}, {"x": ("c.toml", b"x", "t")}, "x"),
+            ({"plant": "flexible_link"}, {"file": ("c.docx", b"x", "x/y")}, "file"),
+            ({"plant": "flexible_link", "extra": "1"}, {"file": ("c.toml", b"x", "t")}, "extra"),
+            ({"plant": "nowhere"}, {"file": ("c.toml", TOML.encode(), "t")}, "plant"),
+            ({"plant": "flexible_link"}, {"file": ("c.toml", b"version = ", "t")}, "file"),
+        ]
+        for data, files, field in bad:
+            r = c.post("/controllers", data=data, files=files)
+            assert r.status_code == 422, (field, r.text)
+            assert r.json()["error"]["field"] == field, (field, r.text)
+        form = "multipart/form-data; boundary=x"
+        only_plant = b'--x\r\ncontent-disposition: form-data; name="plant"\r\n\r\nflexible_link'
+        r = c.post(
+            "/controllers", content=only_plant + b"\r\n--x--\r\n", headers={"content-type": form}
+        )
+        assert r.status_code == 422 and r.json()["error"]["field"] == "file", r.text
+        r = c.post("/controllers", content=b"--x\r\nbroken", headers={"content-type": form})
+        assert r.status_code == 422, r.text
+        # a form anywhere else is still refused
+        r = c.post("/runs", data={"plant": "flexible_link"}, files={"f": ("a", b"b", "c")})
+        assert r.status_code == 415
+        assert len(c.get("/controllers").json()["controllers"]) == 2  # nothing else kept

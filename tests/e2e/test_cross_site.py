@@ -25,7 +25,11 @@ const lab = q.get("lab"), run = q.get("run");
 const report = {};
 async function attack() {
   const body = JSON.stringify({plant: "flexible_link", duration: 5});
+  const form = new FormData();  // a controller file as a form: multipart, no preflight
+  form.append("plant", "flexible_link");
+  form.append("file", new Blob(['version = 1\\nkind = "open_loop"\\n']), "evil.toml");
   for (const [name, url, init] of [
+    ["upload", lab + "/api/v1/controllers", {body: form}],
     ["start", lab + "/api/v1/runs", {body, headers: {"content-type": "text/plain"}}],
     ["stop", lab + "/api/v1/runs/" + run + "/stop", {}],
     ["pause", lab + "/api/v1/runs/" + run + "/pause", {body: "{}"}],
@@ -89,8 +93,14 @@ def test_a_page_on_another_origin_cannot_start_or_stop_runs(
         assert run["status"] == "running", run  # ...refused: the run goes on
         assert anyone.get("/runs").json()["total"] == before  # and nothing was started
 
-    # the lab's own page, in the same browser, still controls the run
+    # the lab's own page, in the same browser, still controls the run; the form upload
+    # from the other site left nothing in the browser's controllers
     page.goto(f"/runs/{victim}")
+    assert report["upload"] == "sent", report
+    kept = page.evaluate(
+        """async () => (await (await fetch("/api/v1/controllers")).json()).controllers"""
+    )
+    assert kept == [], kept
     stopped = page.evaluate(
         f"""async () => (await (await fetch("/api/v1/runs/{victim}/stop",
              {{method: "POST"}})).json()).status"""

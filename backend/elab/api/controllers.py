@@ -13,8 +13,11 @@ import binascii
 import math
 import secrets
 import time
+from collections.abc import AsyncGenerator
 from typing import Any
 
+from starlette.datastructures import UploadFile
+from starlette.formparsers import MultiPartException, MultiPartParser
 from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response
 
@@ -23,7 +26,7 @@ from elab.access import Identity, display_name, may_control
 from elab.api import convert
 from elab.api import schemas as s
 from elab.api.auth import identity
-from elab.api.http import Param, endpoint, ok, query, read_model, within_budget
+from elab.api.http import Param, endpoint, ok, query, read_body, read_model, within_budget
 from elab.engines import coded
 from elab.engines.coded import CodeSettings
 from elab.errors import InvalidInput, NotFound
@@ -75,11 +78,29 @@ async def controller_template(request: Request) -> Response:
     )
 
 
+FORM = {
+    "type": "object",
+    "required": ["plant", "file"],
+    "properties": {
+        "plant": {"type": "string", "enum": list(PLANTS)},
+        "file": {"type": "string", "format": "binary", "description": "the controller file"},
+        "format": {
+            "type": "string",
+            "enum": list(ctl.FORMATS),
+            "description": "default: from the file's name",
+        },
+        "name": {"type": "string", "maxLength": 80},
+    },
+    "additionalProperties": False,
+}
+
+
 @endpoint(
     "POST",
     "/controllers",
     "Upload a controller file: read, checked on the plant's model, kept with its report",
     body=s.ControllerUpload,
+    form=FORM,
     response=s.UploadedController,
     status=201,
     errors=(404, 413, 415, 422, 429),
@@ -92,14 +113,21 @@ async def upload_controller(request: Request) -> Response:
     by trial runs on the model in its sandbox (a step and a square wave, about a second),
     and its report has its compute time per step. A file that cannot be read gets 422
     naming the line and column or the field, and nothing is stored. At most
-    ``ELAB_MAX_CONTROLLERS_PER_IDENTITY`` (100) per identity."""
+    ``ELAB_MAX_CONTROLLERS_PER_IDENTITY`` (100) per identity.
+
+    The file may also come as ``multipart/form-data`` (``curl -F plant=flexible_link -F
+    file=@ctrl.mat``): fields ``plant``, ``file``, and optionally ``format`` (default: from
+    the file's name) and ``name``."""
     # an upload: within ELAB_MAX_UPLOAD, not the 1 MiB of other bodies (90,000 characters
     # of content may take 12 bytes each as JSON escapes)
-    req = await read_model(request, s.ControllerUpload, upload=True)
+    if _media(request) == "multipart/form-data":
+        req, data = await _form(request)
+    else:
+        req = await read_model(request, s.ControllerUpload, upload=True)
+        data = _content(req)
     if req.plant not in PLANTS:
         raise InvalidInput("plant", req.plant, "one of " + ", ".join(PLANTS))
     plant = get_plant(req.plant)
-    data = _content(req)
     who = identity(request)
     limit = request.app.state.settings.max_controllers_per_identity
     with request.app.state.pending.hold("controllers", who.id) as others:
@@ -126,6 +154,58 @@ async def upload_controller(request: Request) -> Response:
         )
         await asyncio.to_thread(store(request).add_controller, stored)
     return ok(controller_out(stored, who), status=201)
+
+
+def _media(request: Request) -> str:
+    return request.headers.get("content-type", "").split(";")[0].strip().lower()
+
+
+async def _form(request: Request) -> tuple[s.ControllerUpload, bytes]:
+    """A controller file sent as a form: read within ``ELAB_MAX_UPLOAD``, then parsed
+    (one file, a few fields, none larger than a controller file may be)."""
+    body = await read_body(request, upload=True)
+
+    async def stream() -> AsyncGenerator[bytes, None]:
+        yield body
+
+    try:
+        form = await MultiPartParser(
+            request.headers, stream(), max_files=1, max_fields=3, max_part_size=8 * 1024
+        ).parse()
+    except (MultiPartException, ValueError, KeyError) as exc:
+        raise InvalidInput(
+            "body",
+            f"an unreadable form ({exc})",
+            "multipart/form-data with plant, file and optionally format and name",
+        ) from None
+    try:
+        unknown = sorted(set(form.keys()) - {"plant", "file", "format", "name"})
+        if unknown:
+            raise InvalidInput(unknown[0], "given", "the fields plant, file, format, name")
+        upload = form.get("file")
+        if not isinstance(upload, UploadFile):
+            raise InvalidInput(
+                "file", None, "a file part named file (curl -F file=@my_controller.toml)"
+            )
+        fields = {k: form.get(k) for k in ("plant", "format", "name")}
+        for k, v in fields.items():
+            if v is not None and not isinstance(v, str):
+                raise InvalidInput(k, "a file", "a text field")
+        fmt = fields["format"] or ctl.format_of(upload.filename or "")
+        data = await upload.read(ctl.files.MAX_BYTES + 1)
+    finally:
+        await form.close()
+    if not data:
+        raise InvalidInput("file", "an empty file", "a controller file")
+    req = s.ControllerUpload.model_validate(
+        {
+            "plant": fields["plant"] or "",
+            "format": fmt,
+            "content": "-",  # the file is in data, read as bytes
+            "name": fields["name"] or (upload.filename or "")[:80] or None,
+        }
+    )
+    return req, data
 
 
 def _content(req: s.ControllerUpload) -> bytes:

@@ -9,7 +9,11 @@
   With SameSite cookies this is the CSRF defence (no token to carry around).
 - A websocket upgrade with a foreign ``Origin`` is refused (HTTP 403).
 - An API body must be ``application/json``: a ``text/plain`` body, which any page
-  can send without asking, gets 415.
+  can send without asking, gets 415. The one exception is a controller file sent as
+  ``multipart/form-data`` to ``POST /api/v1/controllers`` (what ``curl -F`` and a form
+  send): a page on another site could post that too, which the ``Origin`` and
+  ``Sec-Fetch-Site`` checks above refuse, and it only adds a controller to the sender's
+  own list.
 - Every response has the security headers: a content security policy with no inline
   script, no framing by other sites, ``nosniff``, a same-origin referrer policy.
 """
@@ -22,6 +26,8 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 JSON = "application/json"
+FORM = "multipart/form-data"
+FORM_PATHS = frozenset({"/api/v1/controllers"})  # where a file may come as a form
 CSP = (
     "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
     "img-src 'self' data: blob:; font-src 'self' data:; connect-src 'self'; "
@@ -100,13 +106,14 @@ class Guard:
             has_body = headers.get("content-length", "0") not in ("0", "") or (
                 "transfer-encoding" in headers
             )
-            if (ctype is not None or has_body) and (
-                ctype is None or ctype.split(";")[0].strip().lower() != JSON
-            ):
+            media = None if ctype is None else ctype.split(";")[0].strip().lower()
+            form = method == "POST" and scope["path"] in FORM_PATHS
+            if (ctype is not None or has_body) and media != JSON and not (form and media == FORM):
+                also = f" or {FORM} (a file)" if form else ""
                 return (
                     415,
                     "unsupported_media_type",
-                    f"content-type: got {ctype!r}; allowed: {JSON} (a JSON body)",
+                    f"content-type: got {ctype!r}; allowed: {JSON} (a JSON body){also}",
                 )
         return None
 

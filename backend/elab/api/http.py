@@ -74,6 +74,7 @@ class Endpoint:
     # operations that take the id this one returns (OpenAPI links: clients and fuzzers follow
     # them): (operationId, its path parameter)
     links: tuple[tuple[str, str], ...] = ()
+    form: dict[str, Any] | None = None  # a multipart/form-data body it also takes (schema)
 
 
 ENDPOINTS: list[Endpoint] = []

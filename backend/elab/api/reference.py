@@ -146,6 +146,8 @@ def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict
             "required": True,
             "content": {"application/json": {"schema": ref[id(e.body), "validation"]}},
         }
+        if e.form is not None:
+            op["requestBody"]["content"]["multipart/form-data"] = {"schema": e.form}
     if e.response is None:
         content = {}
     elif e.response == "file":
