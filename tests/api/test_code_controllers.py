@@ -189,3 +189,44 @@ def test_random_and_mutated_python_never_crashes_and_refused_files_are_not_kept(
         if r.status_code == 201:
             report = r.json()["report"]
             assert report["domain"] == "trial" and report["rig_ready"] == (not report["problems"])
+
+
+HOSTILE = {
+    "reads a file": "return float(len(open('/etc/passwd').read()))",
+    "loops for ever": "while True:\n                pass",
+    "allocates without bound": "self.x = bytearray(1 << 34)\n            return 0.0",
+    "returns NaN": "return float('nan')",
+    "returns text": "return 'ten volts'",
+}
+REASONS = {
+    "reads a file": "forbids",
+    "loops for ever": "missed its deadline",
+    "allocates without bound": "MemoryError",
+    "returns NaN": "finite number",
+    "returns text": "ValueError",
+}
+
+
+def test_hostile_controllers_fail_their_own_runs_and_nothing_else(lab: Server) -> None:
+    """Five controllers that turn hostile after 0.2 s, one after another beside an
+    ordinary run: each run fails with its reason and the samples before, the ordinary one
+    goes on, and the server is healthy."""
+    with lab.client() as c:
+        plain = c.post("/runs", json={"plant": "belt_conveyor", "duration": 60}).json()["id"]
+        for name, body in HOSTILE.items():
+            code = (
+                "class Controller:\n    def step(self, t, y, r):\n"
+                f"        if t >= 0.2:\n            {body}\n        return 0.0\n"
+            )
+            cid = upload(c, code)["id"]
+            rid = c.post("/runs", json={"plant": "flexible_link", "controller_id": cid}).json()
+            done = until(
+                lambda rid=rid["id"]: (x := c.get(f"/runs/{rid}").json())["finished_at"] and x, 30
+            )
+            assert done["status"] == "failed", (name, done)
+            assert REASONS[name] in done["error"], (name, done["error"])
+            assert 200 <= done["n_samples"] <= 211, (name, done["n_samples"])
+        assert c.get(f"/runs/{plain}").json()["status"] == "running"
+        health = c.get("/health").json()
+        assert health["status"] == "ok", health
+        c.post(f"/runs/{plain}/stop")
