@@ -32,6 +32,9 @@ from elab.sim.spec import CompiledRun, RunSpec, compile_run
 Array = NDArray[np.float64]
 
 
+LATE_SHARE = 0.001  # late steps in a trial past this share are a warning
+
+
 @dataclass(frozen=True)
 class CodeSettings:
     """``deadline``: s a step may take before the last u is held; ``max_misses``: late
@@ -223,14 +226,16 @@ def trial(plant: Plant, law: CodeController, settings: CodeSettings | None = Non
                     f"the step response has not settled within 5 % after {T:g} s (off by "
                     f"{err:.3g} {unit} at the end)"
                 )
-        if out.times["misses"]:
-            warnings.append(
-                f"{out.times['misses']} of {out.times['steps']} steps of the {what} trial "
-                f"were later than {settings.deadline * 1e3:g} ms (the last u was held)"
-            )
         compute = _worse(compute, out.times)
         if out.failed is not None:
             break  # the other trial would only fail the same way
+    late, steps = int(compute.get("misses", 0)), int(compute.get("steps", 0))
+    if late > LATE_SHARE * max(steps, 1):  # a few on a busy machine are in the figures
+        warnings.append(
+            f"{late} of {steps} steps were later than {settings.deadline * 1e3:g} ms (the "
+            "last u was held): the controller is slow for this sample time"
+        )
+    unit = plant.outputs[ref].unit
     return Report(
         plant=plant.id,
         kind="CodeController",
@@ -245,7 +250,7 @@ def trial(plant: Plant, law: CodeController, settings: CodeSettings | None = Non
         warnings=tuple(warnings),
         domain="trial",
         compute=compute,
-        trial=f"a step and a square wave (period {period:g} s) of {amplitude:g}, "
+        trial=f"a step and a square wave (period {period:g} s) of {amplitude:.4g} {unit}, "
         f"{T:g} s each, on the model",
     )
 

@@ -198,3 +198,18 @@ def test_a_code_run_steps_beside_batch_runs_and_a_failing_one_ends_alone() -> No
     while bad.sandbox._proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.01)
     assert bad.sandbox._proc.poll() is not None
+
+
+def test_a_controller_too_slow_for_its_sample_time_gets_a_warning() -> None:
+    """Every 50th step takes 1 ms: 2 % of the steps late, against a 0.5 ms deadline."""
+    slow = (
+        "import time\nclass Controller:\n    def reset(self, p):\n        self.n = 0\n"
+        "    def step(self, t, y, r):\n        self.n += 1\n        if self.n % 50 == 0:\n"
+        "            t0 = time.perf_counter()\n"
+        "            while time.perf_counter() - t0 < 1e-3:\n                pass\n"
+        "        return 2.0 * (r - y[0])\n"
+    )
+    report = trial(get_plant("belt_conveyor"), CodeController(slow))
+    assert report.compute is not None and report.compute["misses"] >= 300
+    assert any("later than 0.5 ms" in w for w in report.warnings), report.text()
+    assert report.rig_ready  # slow is a warning: held u's, not a failure
