@@ -69,8 +69,9 @@ describe("verdictText", () => {
 
 describe("computeText", () => {
   it("writes a Python controller's compute time per step in µs, and how many were late", () => {
-    const c = { steps: 20000, median_us: 41.23, p99_us: 88.14, max_us: 1234.5, round_trip_median_us: 120.4, round_trip_p99_us: 250, misses: 3 };
+    const c = { steps: 20000, median_us: 41.23, p99_us: 88.14, max_us: 1234.5, round_trip_median_us: 120.4, round_trip_p99_us: 250, misses: 3, slow: 0 };
     expect(computeText(c)).toBe("Compute time per step: median 41.2 µs, p99 88.1 µs (max 1230 µs); round trip median 120 µs, p99 250 µs; 3 late of 20,000 steps");
+    expect(computeText({ ...c, slow: 2 })).toMatch(/3 late of 20,000 steps, 2 of them slower than the deadline in the controller itself$/);
   });
 });
 

@@ -121,6 +121,7 @@ export function computeText(c: ComputeTimes): string {
   return (
     `Compute time per step: median ${us(c.median_us)} µs, p99 ${us(c.p99_us)} µs (max ${us(c.max_us)} µs); ` +
     `round trip median ${us(c.round_trip_median_us)} µs, p99 ${us(c.round_trip_p99_us)} µs; ` +
-    `${c.misses.toLocaleString("en")} late of ${c.steps.toLocaleString("en")} steps`
+    `${c.misses.toLocaleString("en")} late of ${c.steps.toLocaleString("en")} steps` +
+    (c.slow ? `, ${c.slow.toLocaleString("en")} of them slower than the deadline in the controller itself` : "")
   );
 }

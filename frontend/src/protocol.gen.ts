@@ -598,8 +598,9 @@ export interface ResumeFrom {
 }
 /**
  * A Python controller's time per step: its own compute time inside the sandbox
- * (median, p99, max) and the round trip a run waits for, in µs; ``misses``: steps
- * later than the deadline (the last u was held).
+ * (median, p99, max) and the round trip a run waits for, in µs. A simulation waits for
+ * a late answer (its samples never depend on the machine's load); the rig will hold
+ * the last u.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ComputeTimes".
@@ -611,7 +612,14 @@ export interface ComputeTimes {
   max_us: number;
   round_trip_median_us: number;
   round_trip_p99_us: number;
+  /**
+   * steps answered after the deadline
+   */
   misses: number;
+  /**
+   * steps whose own compute time passed the deadline
+   */
+  slow: number;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

@@ -34,12 +34,7 @@ RAISES_LATER = (
 
 @pytest.fixture(scope="module")
 def lab(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    # a deadline a loaded 2-core test machine keeps: no u is held, so runs are exact
-    srv = Server(
-        tmp_path_factory.mktemp("code") / "data",
-        ELAB_CODE_DEADLINE="0.05",
-        ELAB_MAX_CODE_RUNS="2",
-    ).start()
+    srv = Server(tmp_path_factory.mktemp("code") / "data", ELAB_MAX_CODE_RUNS="2").start()
     yield srv
     srv.stop()
 
@@ -69,12 +64,12 @@ def test_a_python_controller_uploads_with_its_trial_and_runs_as_offline(lab: Ser
         assert run["request"]["controller_id"] == up["id"]
         done = until(lambda: (x := c.get(f"/runs/{run['id']}").json())["finished_at"] and x, 60)
         assert done["status"] == "finished", done
-        assert done["compute"]["steps"] == 3000 and done["compute"]["misses"] == 0
+        assert done["compute"]["steps"] == 3000 and done["compute"]["slow"] == 0
         got = c.get(f"/runs/{run['id']}/data", params={"format": "json"}).json()["data"]
 
     signal = Square(float(np.radians(30)), float(FLEX.signal.period))
     spec = RunSpec(FLEX, CodeController(SOURCE), signal, duration=3.0, noise_seed=11)
-    offline = run_through(compile_run(spec), CodeSettings(deadline=0.05)).rows
+    offline = run_through(compile_run(spec), CodeSettings()).rows  # the server's settings
     assert np.array_equal(np.asarray(got["u"]), offline[:, 1])  # the same bits
     assert np.array_equal(np.asarray(got["theta"]), offline[:, 2])
 
@@ -200,7 +195,7 @@ HOSTILE = {
 }
 REASONS = {
     "reads a file": "forbids",
-    "loops for ever": "missed its deadline",
+    "loops for ever": "did not answer within 0.2 s",
     "allocates without bound": "MemoryError",
     "returns NaN": "finite number",
     "returns text": "ValueError",

@@ -437,8 +437,9 @@ class ControllerUpload(Model):
 
 class ComputeTimes(Model):
     """A Python controller's time per step: its own compute time inside the sandbox
-    (median, p99, max) and the round trip a run waits for, in µs; ``misses``: steps
-    later than the deadline (the last u was held)."""
+    (median, p99, max) and the round trip a run waits for, in µs. A simulation waits for
+    a late answer (its samples never depend on the machine's load); the rig will hold
+    the last u."""
 
     steps: int
     median_us: float
@@ -446,7 +447,8 @@ class ComputeTimes(Model):
     max_us: float
     round_trip_median_us: float
     round_trip_p99_us: float
-    misses: int
+    misses: int = Field(description="steps answered after the deadline")
+    slow: int = Field(description="steps whose own compute time passed the deadline")
 
 
 class ControllerReportOut(Model):

@@ -20,9 +20,11 @@ The process is a fresh interpreter running :mod:`elab.controllers._inside`:
   convenience for clear errors: the boundary is the kernel's).
 
 Each step has a deadline (``deadline`` s, measured with ``select()``, which does not
-round up to milliseconds as ``poll`` does). A late step holds the last u; ``max_misses``
-late steps in a row end the controller with the reason, as does an exception, a
-non-finite u, or the process dying.
+round up to milliseconds as ``poll`` does). On the rig (``hold``) a late step holds the
+last u and ``max_misses`` late steps in a row end the controller; in a simulation the
+model waits for the answer (so samples never depend on the machine's load) and
+``max_misses`` steps in a row whose own compute time passed the deadline end it. An
+exception, a non-finite u, or the process dying end it too, with the reason.
 """
 
 from __future__ import annotations
@@ -62,12 +64,14 @@ class StepTimes:
     controller's own compute time (measured inside its process around ``step``) and the
     round trip the run waits for (request written to answer read), each kept as a
     histogram of 100 bins per decade (percentiles to within 2.3 %), with the exact
-    maximum; ``misses``: steps whose answer came after the deadline."""
+    maximum; ``misses``: steps whose answer came after the deadline; ``slow``: steps whose
+    own compute time passed it (the controller's doing, not the machine's load)."""
 
     EDGES = np.logspace(-7, 1, 801)  # s: 0.1 µs .. 10 s
 
     def __init__(self) -> None:
         self.misses = 0
+        self.slow = 0
         self.steps = 0
         self._buf = np.zeros((2, 4096))
         self._n = 0
@@ -94,9 +98,13 @@ class StepTimes:
 
     def summary(self) -> dict[str, float | int]:
         """``steps``; the compute time's ``median_us``, ``p99_us``, ``max_us``; the round
-        trip's ``round_trip_median_us``, ``round_trip_p99_us``; ``misses``."""
+        trip's ``round_trip_median_us``, ``round_trip_p99_us``; ``misses``; ``slow``."""
         self._fold()
-        out: dict[str, float | int] = {"steps": self.steps, "misses": self.misses}
+        out: dict[str, float | int] = {
+            "steps": self.steps,
+            "misses": self.misses,
+            "slow": self.slow,
+        }
         for i, prefix in ((0, ""), (1, "round_trip_")):
             out[prefix + "median_us"] = self._percentile(i, 0.5)
             out[prefix + "p99_us"] = self._percentile(i, 0.99)
@@ -140,6 +148,8 @@ class Sandboxed:
         memory: int = 1 << 30,
         cpu_seconds: int = 3600,
         filename: str = "controller.py",
+        hold: bool = True,
+        patience: float = 1.0,
     ) -> None:
         why = available()
         if why is not None:
@@ -149,6 +159,8 @@ class Sandboxed:
         self.ny = ny
         self.deadline = deadline
         self.max_misses = max_misses
+        self.hold = hold
+        self.patience = patience
         self.times = StepTimes()
         self._k = 0
         self._u = 0.0
@@ -187,7 +199,14 @@ class Sandboxed:
             raise ControllerFailed("the controller did not start")
 
     def step(self, t: float, y: Sequence[float], r: float) -> float:
-        """u for sample ``k`` (counted here); the last u if the answer is late."""
+        """u for sample ``k`` (counted here).
+
+        ``hold`` (the rig: the plant does not wait): an answer later than the deadline
+        holds the last u, and ``max_misses`` late answers in a row fail the controller.
+        Otherwise (a simulation: the model waits, so a run's samples never depend on how
+        busy the machine is) the answer is waited for, up to ``patience`` s; a late one
+        is counted, and ``max_misses`` steps in a row whose own compute time passed the
+        deadline fail the controller: it is too slow, whatever the machine's load."""
         self._k += 1
         k = self._k
         start = time.perf_counter()
@@ -195,9 +214,15 @@ class Sandboxed:
             os.write(self._fd_in, self._request.pack(k, t, r, *y))
         except BrokenPipeError:
             self._died()
+        wait = self.deadline if self.hold else self.patience
         while True:
-            left = self.deadline - (time.perf_counter() - start)
+            left = wait - (time.perf_counter() - start)
             got = self._answer(max(left, 0.0))
+            if got is None and not self.hold:
+                self.close()
+                raise ControllerFailed(
+                    f"the controller did not answer within {self.patience:g} s (at t = {t:g} s)"
+                )
             if got is None:  # late: hold u; its answer is read (and dropped) later
                 self.times.misses += 1
                 self._misses += 1
@@ -210,8 +235,21 @@ class Sandboxed:
                 return self._u
             if got[0] == k:
                 break  # an older, late answer is dropped
-        self.times.add(got[2], time.perf_counter() - start)
-        self._misses = 0
+        trip = time.perf_counter() - start
+        self.times.add(got[2], trip)
+        self.times.slow += got[2] > self.deadline
+        if self.hold:
+            self._misses = 0
+        else:
+            self.times.misses += trip > self.deadline
+            self._misses = self._misses + 1 if got[2] > self.deadline else 0
+            if self._misses >= self.max_misses:
+                self.close()
+                raise ControllerFailed(
+                    f"the controller's step took longer than its deadline of "
+                    f"{self.deadline * 1e3:g} ms {self._misses} times in a row (at t = {t:g} "
+                    f"s; the last took {got[2] * 1e3:.3g} ms): too slow for this sample time"
+                )
         self._u = got[1]
         return self._u
 

@@ -36,7 +36,7 @@ SEED = {
         Step(0.1745),
     ),
 }
-LOOSE = CodeSettings(deadline=0.05)  # a loaded test machine must not hold a u
+LOOSE = CodeSettings()  # a simulation waits for late answers: the default is exact too
 
 
 def rows_of(law: ControlLaw, plant_id: str, signal: object, **kw: object) -> np.ndarray:
@@ -67,7 +67,7 @@ def test_the_seed_controllers_as_python_run_as_the_declarative_ones(plant_id: st
     u_tol = max(1e-12, 1e-15 * float(K.sum()) * 100.0)
     assert diff[1] <= u_tol, (diff[1], u_tol)
     assert np.abs(declarative[:, 1]).max() > 0.1  # the loop did something
-    assert out.times["steps"] == declarative.shape[0] and out.times["misses"] == 0
+    assert out.times["steps"] == declarative.shape[0] and out.times["slow"] == 0
 
 
 def test_the_pid_anti_windup_is_the_declarative_one_when_the_input_saturates() -> None:
@@ -210,6 +210,6 @@ def test_a_controller_too_slow_for_its_sample_time_gets_a_warning() -> None:
         "        return 2.0 * (r - y[0])\n"
     )
     report = trial(get_plant("belt_conveyor"), CodeController(slow))
-    assert report.compute is not None and report.compute["misses"] >= 300
-    assert any("later than 0.5 ms" in w for w in report.warnings), report.text()
+    assert report.compute is not None and report.compute["slow"] >= 300
+    assert any("longer than the deadline of 0.5 ms" in w for w in report.warnings)
     assert report.rig_ready  # slow is a warning: held u's, not a failure

@@ -195,3 +195,44 @@ def _descendants(pid: int) -> list[int]:
             out += kids
             todo += kids
     return out
+
+
+SLOW_AT = """
+import time
+
+class Controller:
+    def step(self, t, y, r):
+        if {slow}:
+            t0 = time.perf_counter()
+            while time.perf_counter() - t0 < 2e-3:
+                pass
+        return t
+"""
+
+
+def test_a_simulation_waits_for_a_late_answer_and_fails_a_controller_slow_in_itself() -> None:
+    """Without ``hold`` a late answer is waited for (u is the controller's, not the last
+    one), counted late and slow; ten steps in a row slow in the controller itself fail it,
+    and so does an answer that never comes."""
+    with Sandboxed(SLOW_AT.format(slow="t == 0.003"), ny=1, hold=False) as c:
+        us = [c.step(k * 1e-3, [0.0], 0.0) for k in range(6)]
+        assert us == [k * 1e-3 for k in range(6)]  # the late one too
+        s = c.times.summary()
+        assert s["misses"] >= 1 and s["slow"] == 1
+    too_slow = r"longer than its deadline of 0\.5 ms 10 times"
+    with (
+        Sandboxed(SLOW_AT.format(slow="t >= 0.002"), ny=1, hold=False) as c,
+        pytest.raises(ControllerFailed, match=too_slow),
+    ):
+        for k in range(20):
+            c.step(k * 1e-3, [0.0], 0.0)
+    with Sandboxed(
+        SLOW_AT.format(slow="False").replace("return t", "while True: pass"),
+        ny=1,
+        hold=False,
+        patience=0.2,
+    ) as c:
+        t0 = time.monotonic()
+        with pytest.raises(ControllerFailed, match=r"did not answer within 0\.2 s"):
+            c.step(0.0, [0.0], 0.0)
+        assert time.monotonic() - t0 < 1.0
