@@ -134,7 +134,7 @@ def bench_controllers() -> str:
 
 The code runs in its sandboxed process (bubblewrap, seccomp, rlimits) and answers each
 step over a pipe; the declarative law is stepped by the compiled batch loop. The
-controller's own compute time is measured inside its process around `step`; the round
+controller's own compute time is its CPU time around `step`, inside its process; the round
 trip is what the run waits for (request written to answer read). The sandbox's overhead
 per step is the round trip less the compute time.
 

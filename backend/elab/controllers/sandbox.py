@@ -61,7 +61,7 @@ class ControllerFailed(ElabError):
 
 class StepTimes:
     """Time per step, in constant memory (an hour at 1 kHz is 3.6 million steps): the
-    controller's own compute time (measured inside its process around ``step``) and the
+    controller's own compute time (its CPU time around ``step``, inside its process) and the
     round trip the run waits for (request written to answer read), each kept as a
     histogram of 100 bins per decade (percentiles to within 2.3 %), with the exact
     maximum; ``misses``: steps whose answer came after the deadline; ``slow``: steps whose
