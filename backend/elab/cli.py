@@ -59,8 +59,9 @@ def parse_complex_vector(text: str, field: str) -> tuple[complex, ...]:
     return values
 
 
-def read_file_law(path: Path, plant: Plant) -> ControlLaw:
-    """The law of a controller file (any format of ``elab template``)."""
+def read_file(path: Path, plant: Plant) -> Any:
+    """A controller file (any format of ``elab template``), read for ``plant``: its
+    :class:`elab.controllers.Controller` (a Python one named after the file)."""
     from elab import controllers
 
     fmt = controllers.format_of(path.name)
@@ -69,17 +70,17 @@ def read_file_law(path: Path, plant: Plant) -> ControlLaw:
             data = f.read(controllers.files.MAX_BYTES + 1)
     except OSError as exc:
         raise InvalidInput("file", str(path), f"a readable file ({exc.strerror})") from None
-    law = controllers.read_controller(data, fmt, plant).law
-    if isinstance(law, CodeController):
-        law = CodeController(law.source, path.name)
-    return law
+    ctrl = controllers.read_controller(data, fmt, plant)
+    if isinstance(ctrl.law, CodeController):
+        ctrl = replace(ctrl, law=CodeController(ctrl.law.source, path.name))
+    return ctrl
 
 
 def parse_law(text: str, plant: Plant, estimate: str) -> ControlLaw:
     """``predefined`` | ``open`` | ``K:k1,k2,...`` | ``pid:Kp,Ki,Kd`` | ``lqr:Q1,..,Qn;R``
     | a controller file (``my.py``, ``my.toml``, ...)."""
     if text.rsplit(".", 1)[-1].lower() in ("toml", "json", "mat", "npz", "py"):
-        return read_file_law(Path(text), plant)
+        return read_file(Path(text), plant).law  # type: ignore[no-any-return]
     kind, _, arg = text.partition(":")
     if kind == "predefined":
         return plant.predefined
@@ -398,14 +399,7 @@ def cmd_check(args: argparse.Namespace) -> str:
     from elab.engines import coded
 
     plant = get_plant(args.plant)
-    path = Path(args.file)
-    fmt = controllers.format_of(path.name)
-    try:
-        with path.open("rb") as f:
-            data = f.read(controllers.files.MAX_BYTES + 1)
-    except OSError as exc:
-        raise InvalidInput("file", str(path), f"a readable file ({exc.strerror})") from None
-    ctrl = controllers.read_controller(data, fmt, plant)
+    ctrl = read_file(Path(args.file), plant)
     report = coded.report(plant, ctrl.law, coded.CodeSettings(deadline=args.deadline))
     if args.json:
         return _json(

@@ -4,7 +4,6 @@ compute times in the record, failures that end only their run, and the limits.""
 
 from __future__ import annotations
 
-import random
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -20,6 +19,7 @@ from elab.laws import CodeController, StateFeedback
 from elab.plants import get_plant
 from elab.sim import RunSpec, Square, compile_run
 from tests.api.server import Server, until
+from tests.api.test_controllers import mutated
 
 pytestmark = pytest.mark.skipif(available() is not None, reason=str(available()))
 
@@ -148,20 +148,9 @@ def test_without_a_sandbox_code_is_refused_and_declarative_controllers_still_wor
 
 
 def mutated_python(seed: int) -> str:
-    """The Python template with a few random edits: dropped, repeated or replaced bytes
-    (most break its syntax; some change numbers, names or indentation and run)."""
-    text = bytearray(SOURCE.encode())
-    rng = random.Random(seed)
-    for _ in range(rng.randint(1, 4)):
-        i = rng.randrange(len(text))
-        op = rng.choice(["drop", "dup", "byte"])
-        if op == "drop":
-            del text[i]
-        elif op == "dup":
-            text[i:i] = text[i : i + rng.randint(1, 8)]
-        else:
-            text[i] = rng.randrange(32, 127)
-    return text.decode("utf-8", "replace")
+    """The Python template with a few random edits (most break its syntax; some change
+    numbers, names or indentation and run)."""
+    return mutated(seed, SOURCE)
 
 
 @settings(max_examples=25, deadline=None)

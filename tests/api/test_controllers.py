@@ -178,20 +178,21 @@ def test_a_refused_file_says_where_and_stores_nothing(server: Server) -> None:
         assert c.get("/controllers").json()["controllers"] == []
 
 
-def mutated(seed: int) -> str:
-    """The TOML template with a few random edits: dropped, repeated or swapped bytes."""
-    text = bytearray(TOML.encode())
+def mutated(seed: int, text: str = TOML) -> str:
+    """``text`` (the TOML template) with a few random edits: dropped, repeated or swapped
+    bytes."""
+    data = bytearray(text.encode())
     rng = random.Random(seed)
     for _ in range(rng.randint(1, 6)):
-        i = rng.randrange(len(text))
+        i = rng.randrange(len(data))
         op = rng.choice(["drop", "dup", "byte"])
         if op == "drop":
-            del text[i]
+            del data[i]
         elif op == "dup":
-            text[i:i] = text[i : i + rng.randint(1, 8)]
+            data[i:i] = data[i : i + rng.randint(1, 8)]
         else:
-            text[i] = rng.randrange(32, 127)
-    return text.decode("ascii", "replace")
+            data[i] = rng.randrange(32, 127)
+    return data.decode("utf-8", "replace")
 
 
 @settings(

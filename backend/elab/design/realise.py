@@ -311,15 +311,7 @@ def feedforward_ss(law: LTIController) -> ct.StateSpace | None:
         return None
     if law.ff_num is None or law.ff_den is None:
         raise InvalidInput("controller.ff_den", law.ff_den, "both ff_num and ff_den, or neither")
-    num = _polynomials.clean(finite_array("controller.ff_num", law.ff_num, (None,)), 0.0)
-    den = _polynomials.clean(finite_array("controller.ff_den", law.ff_den, (None,)), 0.0)
-    if den[0] == 0.0 or num.size > den.size:
-        raise InvalidInput(
-            "controller.ff_num",
-            law.ff_num,
-            "a proper feed-forward: nonzero ff_den, degree of ff_num ≤ degree of ff_den",
-        )
-    return ct.tf2ss(ct.tf(num, den, _dt(law)))
+    return _proper("ff_num", law.ff_num, "ff_den", law.ff_den, _dt(law))
 
 
 def lti_ss(law: LTIController) -> ct.StateSpace:
@@ -340,15 +332,23 @@ def lti_ss(law: LTIController) -> ct.StateSpace:
             shaped("controller.D", law.D, (1, 1)),
             _dt(law),
         )
-    num = _polynomials.clean(finite_array("controller.num", law.num, (None,)), 0.0)
-    den = _polynomials.clean(finite_array("controller.den", law.den, (None,)), 0.0)
+    return _proper("num", law.num, "den", law.den, _dt(law))
+
+
+def _proper(
+    num_name: str, num_given: object, den_name: str, den_given: object, dt: float
+) -> ct.StateSpace:
+    """The transfer function ``num/den`` in state space, if it is proper."""
+    num = _polynomials.clean(finite_array(f"controller.{num_name}", num_given, (None,)), 0.0)
+    den = _polynomials.clean(finite_array(f"controller.{den_name}", den_given, (None,)), 0.0)
     if den[0] == 0.0 or num.size > den.size:
         raise InvalidInput(
-            "controller.num",
-            law.num,
-            "a proper transfer function: nonzero den, degree of num ≤ degree of den",
+            f"controller.{num_name}",
+            num_given,
+            f"a proper transfer function: nonzero {den_name}, degree of {num_name} ≤ "
+            f"degree of {den_name}",
         )
-    return ct.tf2ss(ct.tf(num, den, _dt(law)))
+    return ct.tf2ss(ct.tf(num, den, dt))
 
 
 def _dt(law: LTIController) -> float:
