@@ -616,7 +616,15 @@ def _identify_text(data: Any, result: Any) -> str:
     ]
     a = result.analyses
     if "correlation" in a:
-        lines.append(f"correlation analysis: delay {a['correlation']['delay']} samples")
+        delay = a["correlation"]["delay"]
+        lines.append(
+            "correlation analysis: "
+            + (
+                f"delay {delay} samples"
+                if delay is not None
+                else "no delay found (no impulse-response coefficient is significant)"
+            )
+        )
     if "arx_search" in a:
         s = a["arx_search"]
         best = min(s["rows"], key=lambda r: r[3])
@@ -651,8 +659,10 @@ def _identify_text(data: Any, result: Any) -> str:
     return "\n".join(lines)
 
 
-def _pct(values: list[float]) -> str:
-    return ", ".join(f"{v:.2f} %" for v in values)
+def _pct(values: list[float | None]) -> str:
+    return ", ".join(
+        "undefined" if v is None or not math.isfinite(v) else f"{v:.2f} %" for v in values
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

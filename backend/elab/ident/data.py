@@ -137,6 +137,22 @@ def _detrend(a: Array, kind: str) -> Array:
     return np.asarray(a - T @ coef, dtype=np.float64)
 
 
+def require_varying(y: Array, names: tuple[str, ...] | list[str], part: str) -> None:
+    """Raise unless every output varies over ``part`` of the data: a constant output
+    (all zero, a sensor that was not connected) has nothing to identify, and every method
+    would fail on it in its own way (an empty order range, a singular matrix)."""
+    for j in range(y.shape[1]):
+        x = y[:, j]
+        scale = float(np.max(np.abs(x))) if x.size else 0.0
+        if x.size and float(np.ptp(x)) <= 1e-12 * max(scale, 1e-300):
+            raise InvalidInput(
+                names[j] if j < len(names) else f"y[{j}]",
+                f"an output that is constant ({x[0]:.6g}) over all {x.size} samples of the {part}",
+                "an output that responds to the input (is the sensor connected, is this "
+                "the right column?)",
+            )
+
+
 def require_exciting(u: Array, order: int, field: str = "u") -> None:
     """Raise unless every input is persistently exciting of ``order``.
 

@@ -60,6 +60,20 @@ class Subspace:
         )
 
 
+def _exciting_horizon(data: IdData, s: int) -> int | None:
+    """The largest horizon below ``s`` the input is exciting enough for (bisection on the
+    persistence of excitation, which holds for every order below one that holds)."""
+    lo, hi = 1, s  # order 2·lo holds (or lo = 1: none known), 2·hi does not
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        try:
+            require_exciting(data.u, 2 * mid)
+            lo = mid
+        except InvalidInput:
+            hi = mid
+    return lo if lo >= 2 else None
+
+
 def decompose(data: IdData, horizon: int | None = None) -> Subspace:
     """The LQ factorisation and the SVD every order shares (``horizon`` s: default
     SLICOT's, s = min(⌊(N+1) / (2 (nu+ny+1))⌋, 16) … at least 2)."""
@@ -72,7 +86,20 @@ def decompose(data: IdData, horizon: int | None = None) -> Subspace:
             horizon,
             f"an integer in 2 … {min(s_cap, MAX_HORIZON)} for {N} samples ((N+1) / (2 (nu+ny+1)))",
         )
-    require_exciting(data.u, 2 * s)
+    try:
+        require_exciting(data.u, 2 * s)
+    except InvalidInput:
+        top = _exciting_horizon(data, s)
+        if top is None:
+            raise  # not even horizon 2: the input's own error says why
+        if horizon is not None:
+            raise InvalidInput(
+                "horizon",
+                horizon,
+                f"an integer in 2 … {top} for this input: it is persistently exciting of "
+                f"order {2 * top} but not {2 * s} (a horizon s needs order 2s)",
+            ) from None
+        s = top  # the default: the largest horizon the input supports
     j = N - 2 * s + 1
 
     def hankel(x: Array, start: int) -> Array:  # s block rows, j columns

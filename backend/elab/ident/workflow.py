@@ -23,7 +23,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
-from elab.ident.data import IdData
+from elab.ident.data import IdData, require_varying
 from elab.ident.models import LinearModel
 from elab.ident.nonparametric import cra, sine_response, spa
 from elab.ident.pem import armax, oe
@@ -115,6 +115,7 @@ def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
     if not 0 < plan.split < 1:
         raise InvalidInput("split", plan.split, "a fraction in (0, 1): the estimation share")
     ze, zv = data.split(float(plan.split))
+    require_varying(ze.y, list(data.output_names), "estimation part")
     if plan.detrend != "none":  # each part its own trend, as MATLAB's standard experiment
         ze, zv = ze.detrend(plan.detrend), zv.detrend(plan.detrend)
     z = IdData(
@@ -136,12 +137,24 @@ def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
             f"{z.ny} outputs and {z.nu} inputs: correlation, spectral and sine "
             "analysis and the ARX search need one of each; they were skipped"
         )
+    asked_more = bool(plan.models or plan.arx_search or plan.n4sid_orders or plan.sine_hz)
     if siso and plan.correlation:
-        c = cra(ze, max_lag=min(plan.max_lag, max(ze.N // 4 - 12, 1)))
-        out.analyses["correlation"] = c.as_dict() | {"Ts": z.Ts}
+        try:
+            c = cra(ze, max_lag=min(plan.max_lag, max(ze.N // 4 - 12, 1)))
+        except InvalidInput as exc:
+            if not asked_more:  # it was all that was asked for
+                raise
+            out.notes.append(f"correlation analysis skipped: {exc}")
+        else:
+            out.analyses["correlation"] = c.as_dict() | {"Ts": z.Ts}
         report("correlation", 0.05)
     if siso and plan.spectral:
-        out.analyses["spectral"] = spa(ze).as_dict()
+        try:
+            out.analyses["spectral"] = spa(ze).as_dict()
+        except InvalidInput as exc:
+            if not asked_more:
+                raise
+            out.notes.append(f"spectral analysis skipped: {exc}")
         report("spectral", 0.08)
     if siso and plan.sine_hz is not None:
         out.analyses["sine"] = sine_response(z, plan.sine_hz).as_dict()
@@ -160,6 +173,12 @@ def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
         report("subspace", 0.6)
     else:
         sub, best = None, 0
+    flat = [zv.output_names[j] for j in range(zv.ny) if np.ptp(zv.y[:, j]) == 0]
+    if flat and plan.models:
+        out.notes.append(
+            f"the validation part of {', '.join(flat)} is constant: fits on it are "
+            "undefined (null); the estimation fits stand"
+        )
     for i, request in enumerate(plan.models):
         model = _estimate(ze, request, sub, best, plan.horizon, i)
         out.fitted.append(model)

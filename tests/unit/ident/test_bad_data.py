@@ -1,0 +1,122 @@
+"""Data an identification cannot use, sent exactly as users sent it (issue 16): each gets
+the clean error of what is wrong, or a result whose undefined numbers say so, from the
+library, the CLI and its JSON alike; never a traceback, -inf or an order range 1 … 0."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elab.cli import main
+from elab.errors import InvalidInput
+from elab.ident import IdData
+from elab.ident import workflow as wf
+
+N = 400
+
+
+def system(u: np.ndarray) -> np.ndarray:
+    rng = np.random.default_rng(3)
+    return np.convolve(u, [0.0, 0.5, 0.3])[: u.size] + 0.01 * rng.standard_normal(u.size)
+
+
+def noise(n: int = N, seed: int = 0) -> np.ndarray:
+    return np.random.default_rng(seed).standard_normal(n)
+
+
+def write(path: Path, u: np.ndarray, y: np.ndarray) -> Path:
+    rows = zip(u.tolist(), y.tolist(), strict=True)
+    path.write_text("u,y\n" + "".join(f"{a!r},{b!r}\n" for a, b in rows))
+    return path
+
+
+def cli(capsys: pytest.CaptureFixture[str], path: Path, *extra: str) -> tuple[int, str, str]:
+    code = main(["identify", str(path), "--input", "u", "--output", "y", "--Ts", "0.1", *extra])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def plan(*models: str, **kw: object) -> wf.Plan:
+    return wf.Plan(models=tuple(wf.parse_model(m) for m in models), **kw)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("ask", [("--model", "n4sid"), ("--search", "arx:1-4,1-4,1"), ()])
+def test_an_output_that_is_all_zero_is_named(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, ask: tuple[str, ...]
+) -> None:
+    """Before: 'orders in 1 … 0', a LinAlgError traceback, or 'delay None samples'."""
+    code, out, err = cli(capsys, write(tmp_path / "z.csv", noise(), np.zeros(N)), *ask)
+    assert code == 2 and out == ""
+    assert "y: got 'an output that is constant (0) over all 200 samples" in err
+    assert "Traceback" not in err and "1 … 0" not in err
+
+
+def test_an_input_constant_over_the_estimation_part_is_named(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """Before: ZeroDivisionError in the correlation analysis."""
+    u = noise()
+    u[: N // 2] = 1.0
+    code, _, err = cli(capsys, write(tmp_path / "c.csv", u, system(u)), "--model", "arx:2,2,1")
+    assert code == 2 and "u: got 'an input that is constant'" in err
+
+
+def test_a_constant_validation_output_gives_undefined_fits_not_minus_infinity(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    u = noise()
+    y = system(u)
+    y[N // 2 :] = 2.0
+    path = write(tmp_path / "v.csv", u, y)
+    code, out, _ = cli(capsys, path, "--model", "arx:2,2,1")
+    assert code == 0 and "validation fit undefined (simulation), undefined (one step)" in out
+    assert "the validation part of y is constant" in out and "inf" not in out
+    code, out, _ = cli(capsys, path, "--model", "arx:2,2,1", "--json")
+    data = json.loads(out)  # valid JSON: no -Infinity
+    fit = data["models"][0]["fit"]
+    assert fit["validation_simulation"] == [None] and fit["estimation_simulation"][0] > 90
+
+
+def test_a_short_record_is_judged_by_what_was_asked(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """40 samples: before, n4sid:4 was refused for the correlation analysis's prewhitening.
+    Now the order is refused for what it is, and a model that fits is fitted with the
+    correlation analysis skipped and said so."""
+    u = noise(40)
+    path = write(tmp_path / "s.csv", u, system(u))
+    code, _, err = cli(capsys, path, "--model", "n4sid:4")
+    assert code == 2 and "models[0].order: got 4" in err and "prewhitening" not in err
+    code, out, _ = cli(capsys, path, "--model", "arx:1,2,1")
+    assert code == 0 and "arx 1 2 1: validation fit" in out
+    assert "note: correlation analysis skipped" in out
+    code, _, err = cli(capsys, path)  # the correlation analysis was all that was asked
+    assert code == 2 and "prewhitening" in err
+
+
+def test_no_delay_is_said_in_words(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    u = noise()
+    code, out, _ = cli(capsys, write(tmp_path / "n.csv", u, noise(seed=9)))
+    assert code == 0
+    assert "no delay found" in out and "None" not in out
+
+
+def test_the_horizon_range_is_the_one_the_input_supports(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """Three sines are persistently exciting of order 6: horizons up to 3. Before, the
+    error offered 2 … 58 (the data's bound) and refused most of it for excitation."""
+    t = np.arange(700)
+    u = np.sin(0.3 * t) + np.sin(1.1 * t) + np.sin(2.0 * t)
+    path = write(tmp_path / "h.csv", u, system(u))
+    code, _, err = cli(capsys, path, "--model", "n4sid:2,20")
+    assert code == 2 and "an integer in 2 … 3 for this input" in err
+    code, out, _ = cli(capsys, path, "--model", "n4sid:2")  # the default horizon adapts
+    assert code == 0 and "subspace (horizon 3)" in out
+    z = IdData(system(u)[:, None], u[:, None], 0.1)
+    with pytest.raises(InvalidInput) as e:
+        wf.run(z, plan("n4sid:2,20"))
+    assert e.value.field == "models[0].horizon" or e.value.field == "horizon"
