@@ -1078,10 +1078,10 @@ export interface IdentModelOut {
     [k: string]: number;
   };
   /**
-   * the model's own parameters (polynomials with their standard deviations, loss, FPE, AIC; singular values)
+   * the model's own parameters (polynomials with their standard deviations, loss, FPE, AIC; for n4sid the singular values, x0, whether A was stabilised and which poles were reflected ([|z| before, after] each), and how K was had: 'riccati' or 'none' (an output-error predictor)
    */
   parameters: {
-    [k: string]: (number | null)[] | boolean | number | null;
+    [k: string]: (number | null)[] | (number | null)[][] | boolean | number | null | string;
   };
   fit: FitOut;
   noise_variance: (number | null)[][];

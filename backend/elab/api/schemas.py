@@ -883,9 +883,11 @@ class IdentModelOut(Model):
     name: str
     kind: Literal["arx", "armax", "oe", "n4sid"]
     orders: dict[str, int]
-    parameters: dict[str, list[Num] | bool | int | Num] = Field(
+    parameters: dict[str, list[Num] | list[list[Num]] | bool | int | Num | str] = Field(
         description="the model's own parameters (polynomials with their standard deviations, "
-        "loss, FPE, AIC; singular values)"
+        "loss, FPE, AIC; for n4sid the singular values, x0, whether A was stabilised and "
+        "which poles were reflected ([|z| before, after] each), and how K was had: "
+        "'riccati' or 'none' (an output-error predictor)"
     )
     fit: FitOut
     noise_variance: list[list[Num]]

@@ -183,9 +183,31 @@ def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
         model = _estimate(ze, request, sub, best, plan.horizon, i)
         out.fitted.append(model)
         out.models.append(_describe(model, request, ze, zv, i))
+        out.notes += _said(out.models[-1]["name"], model)
         report(f"model {request.name}", 0.6 + 0.4 * (i + 1) / len(plan.models))
     report("done", 1.0)
     return out
+
+
+def _said(name: str, m: LinearModel) -> list[str]:
+    """What a reader of a model must know: an unstable estimate kept or reflected, a
+    Kalman gain that could not be had."""
+    notes = []
+    top = float(np.max(np.abs(m.poles))) if m.n else 0.0
+    if m.kind == "n4sid" and m.parameters.get("reflected"):
+        moved = ", ".join(f"|z| {a:.4g} → {b:.4g}" for a, b in m.parameters["reflected"])
+        notes.append(f"{name}: poles outside the unit circle were reflected into it ({moved})")
+    elif top > 1.0:
+        notes.append(
+            f"{name}: a pole outside the unit circle (|z| = {top:.4g}): the model is "
+            "unstable as estimated, and kept so"
+        )
+    if m.kind == "n4sid" and m.parameters.get("kalman") == "none":
+        notes.append(
+            f"{name}: no Kalman gain (the Riccati equation had no stabilising solution): "
+            "K = 0, so its one-step prediction is its simulation"
+        )
+    return notes
 
 
 def _arx_search(

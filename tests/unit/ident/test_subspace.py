@@ -71,14 +71,23 @@ def test_lightly_damped_system_validates_above_80_percent() -> None:
     assert_allclose(np.sort(np.abs(m.poles)), [0.995, 0.995, 0.997, 0.997], atol=2e-3)
 
 
-def test_unstable_estimates_are_stabilised_on_request() -> None:
+def test_unstable_estimates_are_kept_by_default_and_reflected_on_request() -> None:
+    """By default A is kept as estimated (issue 16: the zero-padded stabilisation pulled
+    every pole inward); ``stable=True`` reflects the pole outside the unit circle to
+    1/|z| and keeps the other one where it was."""
     a = np.real(np.poly([1.004, 0.5]))
     u = np.random.default_rng(6).standard_normal(400)
     z = iddata(scipy.signal.lfilter([0, 1, 0.3], a, u), u, 1.0)
-    free = n4sid(z, 2, horizon=6, stable=False)
+    free = n4sid(z, 2, horizon=6)
     assert np.max(np.abs(free.poles)) == pytest.approx(1.004, abs=1e-6)
-    tamed = n4sid(z, 2, horizon=6)
-    assert np.max(np.abs(tamed.poles)) <= 1 + 1e-9 and tamed.parameters["stabilised"]
+    assert not free.parameters["stabilised"] and free.parameters["reflected"] == []
+    tamed = n4sid(z, 2, horizon=6, stable=True)
+    assert tamed.parameters["stabilised"]
+    [[before, after]] = tamed.parameters["reflected"]
+    assert before == pytest.approx(1.004, abs=1e-6) and after == pytest.approx(1 / before)
+    assert_allclose(
+        np.sort(np.abs(tamed.poles)), np.sort([1 / before, np.min(np.abs(free.poles))]), rtol=1e-9
+    )
 
 
 def test_kalman_gain_gives_a_better_one_step_predictor(dryer: tuple[IdData, IdData]) -> None:
@@ -102,3 +111,19 @@ def test_bad_requests_say_what_is_wrong(dryer: tuple[IdData, IdData]) -> None:
     with pytest.raises(InvalidInput) as err:
         n4sid(ze[:20], 2, horizon=8)
     assert err.value.field == "horizon"
+
+
+def test_the_workflow_says_when_a_model_is_unstable_as_estimated() -> None:
+    from elab.ident import workflow as wf
+
+    a = np.real(np.poly([1.004, 0.5]))
+    u = np.random.default_rng(6).standard_normal(800)
+    z = iddata(scipy.signal.lfilter([0, 1, 0.3], a, u), u, 1.0)
+    out = wf.run(
+        z,
+        wf.Plan(
+            models=(wf.parse_model("n4sid:2,6"),), correlation=False, spectral=False, detrend="none"
+        ),
+    )
+    assert any("n4sid 2 6: a pole outside the unit circle (|z| = 1.004" in n for n in out.notes)
+    assert any("no Kalman gain" in n for n in out.notes)  # the fallback is said too
