@@ -85,6 +85,7 @@ def read_csv(text: str) -> Table:
         raise InvalidInput("data", f"{len(rows)} rows", "at least 2 samples")
     if len(rows) > MAX_SAMPLES:
         raise InvalidInput("data", f"{len(rows):,} rows", f"at most {MAX_SAMPLES:,} samples")
+    names, rows, column_Ts = _metadata_Ts(names, rows)
     data = np.empty((len(rows), len(names)))
     for i, row in enumerate(rows):
         if len(row) != len(names):
@@ -101,7 +102,51 @@ def read_csv(text: str) -> Table:
             raise InvalidInput(f"data row {i + 1}", ",".join(row)[:60], "finite numbers")
     units = _units(header, names)
     Ts = _header_Ts(header)
+    if column_Ts is not None:
+        if Ts is not None and not np.isclose(Ts, column_Ts, rtol=1e-9):
+            raise InvalidInput(
+                "Ts", column_Ts, f"the header's sample time {Ts:g} s (the two differ)"
+            )
+        Ts = column_Ts
     return _table(names, units, data, Ts)
+
+
+TS_COLUMNS = ("ts", "dt", "sample_time", "sampletime")
+
+
+def _metadata_Ts(
+    names: list[str], rows: list[list[str]]
+) -> tuple[list[str], list[list[str]], float | None]:
+    """A sample-time column (``Ts``, ``dt``, …) as benchmark files have it: filled in the
+    first row (or some rows) and empty in the others. Taken out of the data, its value
+    becomes the sample time; values that differ are refused."""
+    found = [i for i, n in enumerate(names) if n.strip().lower() in TS_COLUMNS]
+    if not found:
+        return names, rows, None
+    c = found[0]
+    given: list[float] = []
+    kept = []
+    for i, row in enumerate(rows):
+        row = row + [""] * (len(names) - len(row))  # trailing empty cells were dropped
+        cell = row[c].strip() if c < len(row) else ""
+        if cell:
+            try:
+                given.append(float(cell))
+            except ValueError:
+                raise InvalidInput(
+                    f"data row {i + 1}", cell, f"a sample time in {names[c]}"
+                ) from None
+        kept.append(row[:c] + row[c + 1 :])
+    if not given:
+        raise InvalidInput(names[c], "an empty column", "the sample time in at least one row")
+    if not np.allclose(given, given[0], rtol=1e-9, atol=0):
+        first = ", ".join(f"{g:g}" for g in sorted(set(given))[:3])
+        raise InvalidInput(
+            names[c],
+            f"{len(set(given))} different values ({first} …)",
+            "one sample time (a uniformly sampled record)",
+        )
+    return names[:c] + names[c + 1 :], kept, given[0]
 
 
 def read_json(text: str | bytes) -> Table:

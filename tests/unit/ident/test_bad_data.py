@@ -120,3 +120,30 @@ def test_the_horizon_range_is_the_one_the_input_supports(
     with pytest.raises(InvalidInput) as e:
         wf.run(z, plan("n4sid:2,20"))
     assert e.value.field == "models[0].horizon" or e.value.field == "horizon"
+
+
+def test_a_sample_time_column_filled_once_is_the_sample_time(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """As benchmark files have it: ``Ts`` given in the first row only (before: refused,
+    'got 2 values; allowed: 3 values')."""
+    from elab.ident.files import read_csv
+
+    u = noise()
+    y = system(u)
+    lines = ["u,y,Ts"] + [
+        f"{a!r},{b!r}" + (",0.05" if i == 0 else "")
+        for i, (a, b) in enumerate(zip(u.tolist(), y.tolist(), strict=True))
+    ]
+    table = read_csv("\n".join(lines))
+    assert table.names == ("u", "y") and table.Ts == 0.05 and table.data.shape == (N, 2)
+    first = ["Ts,u,y", "0.05,1,2", ",3,4", ",5,6"]
+    t2 = read_csv("\n".join(first))
+    assert t2.names == ("u", "y") and t2.Ts == 0.05 and t2.data.tolist() == [[1, 2], [3, 4], [5, 6]]
+    with pytest.raises(InvalidInput, match="2 different values"):
+        read_csv("u,y,Ts\n1,2,0.05\n3,4,0.1\n5,6,")
+    path = tmp_path / "ts.csv"
+    path.write_text("\n".join(lines))
+    code = main(["identify", str(path), "--input", "u", "--output", "y", "--model", "arx:2,2,1"])
+    out, err = capsys.readouterr()
+    assert code == 0 and "at Ts = 0.05 s" in out, err
