@@ -547,6 +547,11 @@ def _add_identify(sub: Any) -> None:
         help="arx:na1-na2,nb1-nb2,nk1-nk2 | n4sid:n1-n2 (order searches)",
     )
     p.add_argument("--split", type=float, default=0.5, help="estimation share (default 0.5)")
+    p.add_argument(
+        "--validation",
+        help="a separate record to validate on (the same columns); the data file is then "
+        "all estimation, and its means detrend both",
+    )
     p.add_argument("--detrend", default="mean", choices=["mean", "linear", "none"])
     p.add_argument("--horizon", type=int, help="subspace block rows")
     p.add_argument("--sine", type=float, help="sine analysis at this frequency (Hz)")
@@ -558,13 +563,17 @@ def cmd_identify(args: argparse.Namespace) -> str:
     from elab.ident import workflow as wf
     from elab.ident.files import read_table
 
-    path = Path(args.data)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise InvalidInput("data", args.data, f"a readable file ({exc.strerror})") from None
-    table = read_table(raw, "json" if path.suffix.lower() == ".json" else "csv")
-    data = table.dataset(_names(args.input), _names(args.output), args.Ts)
+    def dataset(name: str, field: str) -> Any:
+        path = Path(name)
+        try:
+            raw = path.read_bytes()
+        except OSError as exc:
+            raise InvalidInput(field, name, f"a readable file ({exc.strerror})") from None
+        table = read_table(raw, "json" if path.suffix.lower() == ".json" else "csv")
+        return table.dataset(_names(args.input), _names(args.output), args.Ts)
+
+    data = dataset(args.data, "data")
+    validation = None if args.validation is None else dataset(args.validation, "validation")
     arx_search, n4sid_orders = None, None
     for text in args.search:
         kind, _, spans = text.partition(":")
@@ -584,7 +593,7 @@ def cmd_identify(args: argparse.Namespace) -> str:
         n4sid_orders=n4sid_orders,
         horizon=args.horizon,
     )
-    result = wf.run(data, plan)
+    result = wf.run(data, plan, validation=validation)
     if args.json:  # the API's answer, validated against the same wire model
         from elab.api.convert import ident_json
 

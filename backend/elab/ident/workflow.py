@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import control as ct
@@ -109,15 +109,32 @@ def parse_model(text: str) -> ModelRequest:
     return ModelRequest(kind, dict(zip(names, values, strict=True)))  # type: ignore[arg-type]
 
 
-def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
-    """Everything ``plan`` asks for on ``data`` (see the module docstring)."""
+def run(
+    data: IdData,
+    plan: Plan,
+    progress: Progress | None = None,
+    validation: IdData | None = None,
+) -> Result:
+    """Everything ``plan`` asks for on ``data`` (see the module docstring). ``validation``:
+    a separate record to validate on (``data`` is then all estimation, and ``split`` is
+    not used)."""
     report = progress or (lambda stage, done: None)
-    if not 0 < plan.split < 1:
-        raise InvalidInput("split", plan.split, "a fraction in (0, 1): the estimation share")
-    ze, zv = data.split(float(plan.split))
+    if validation is None:
+        if not 0 < plan.split < 1:
+            raise InvalidInput("split", plan.split, "a fraction in (0, 1): the estimation share")
+        ze, zv = data.split(float(plan.split))
+    else:
+        ze, zv = data, _same_channels(data, validation)
     require_varying(ze.y, list(data.output_names), "estimation part")
-    if plan.detrend != "none":  # each part its own trend, as MATLAB's standard experiment
+    if plan.detrend != "none" and validation is None:
+        # each part its own trend, as MATLAB's standard experiment
         ze, zv = ze.detrend(plan.detrend), zv.detrend(plan.detrend)
+    elif plan.detrend == "mean":  # a record of its own: the estimation record's means
+        y0, u0 = ze.y.mean(axis=0), ze.u.mean(axis=0)
+        ze = replace(ze, y=ze.y - y0, u=ze.u - u0, trend="mean")
+        zv = replace(zv, y=zv.y - y0, u=zv.u - u0, trend="mean")
+    elif plan.detrend == "linear":  # a line does not carry over: each record its own
+        ze, zv = ze.detrend("linear"), zv.detrend("linear")
     z = IdData(
         np.vstack([ze.y, zv.y]),
         np.vstack([ze.u, zv.u]),
@@ -187,6 +204,23 @@ def run(data: IdData, plan: Plan, progress: Progress | None = None) -> Result:
         report(f"model {request.name}", 0.6 + 0.4 * (i + 1) / len(plan.models))
     report("done", 1.0)
     return out
+
+
+def _same_channels(data: IdData, validation: IdData) -> IdData:
+    """The validation record, checked to be the same experiment's kind: the same sample
+    time and channels."""
+    if not math.isclose(validation.Ts, data.Ts, rel_tol=1e-9):
+        raise InvalidInput(
+            "validation.Ts", validation.Ts, f"the estimation record's sample time {data.Ts:g} s"
+        )
+    for what in ("output_names", "input_names"):
+        if getattr(validation, what) != getattr(data, what):
+            raise InvalidInput(
+                f"validation.{what}",
+                list(getattr(validation, what)),
+                f"the estimation record's {', '.join(getattr(data, what))}",
+            )
+    return validation
 
 
 def _said(name: str, m: LinearModel) -> list[str]:

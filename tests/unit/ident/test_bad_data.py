@@ -147,3 +147,34 @@ def test_a_sample_time_column_filled_once_is_the_sample_time(
     code = main(["identify", str(path), "--input", "u", "--output", "y", "--model", "arx:2,2,1"])
     out, err = capsys.readouterr()
     assert code == 0 and "at Ts = 0.05 s" in out, err
+
+
+def test_a_separate_validation_record_is_detrended_with_the_estimation_records_means(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """``--validation FILE``: the data file is all estimation; the validation record gets
+    the estimation record's means removed, so an offset of its own shows in its fit
+    instead of being taken out by its own mean (validation information leaking into the
+    model's offset)."""
+    u1, u2 = noise(seed=1), noise(seed=2)
+    est = write(tmp_path / "e.csv", u1, system(u1))
+    same = write(tmp_path / "v.csv", u2, system(u2))
+    shifted = write(tmp_path / "s.csv", u2, system(u2) + 0.5)
+    model = ("--model", "arx:2,2,1", "--json")
+    fits = []
+    for val in (same, shifted):
+        code, out, err = cli(capsys, est, *model, "--validation", str(val))
+        assert code == 0, err
+        data = json.loads(out)
+        assert data["data"]["estimation"] == N and data["data"]["N"] == 2 * N
+        fits.append(data["models"][0]["fit"]["validation_simulation"][0])
+    assert fits[0] > 95 and fits[1] < fits[0] - 20  # the offset is seen, not hidden
+    bad = tmp_path / "b.csv"
+    bad.write_text("u,q\n1,2\n3,4\n5,6\n")
+    code, _, err = cli(capsys, est, "--validation", str(bad))
+    assert code == 2 and "y" in err
+    z1 = IdData(system(u1)[:, None], u1[:, None], 0.1, ("y",), ("u",))
+    z2 = IdData(system(u2)[:, None], u2[:, None], 0.2, ("y",), ("u",))
+    with pytest.raises(InvalidInput, match=r"sample time 0\.1 s") as e:
+        wf.run(z1, plan("arx:2,2,1"), validation=z2)
+    assert e.value.field == "validation.Ts"
