@@ -6,9 +6,11 @@ The process is a fresh interpreter running :mod:`elab.controllers._inside`:
 - **bubblewrap** gives it every namespace of its own (no network, its own PID and IPC
   namespaces), a read-only view of the interpreter and numpy and nothing else of the
   file system, and ``--die-with-parent``;
-- **rlimits**: address space, CPU seconds, open files, file size 0;
+- **rlimits** (set by ``prlimit`` before bubblewrap starts): address space, CPU seconds,
+  open files, file size 0;
 - **ordinary scheduling**: the engine runs under SCHED_FIFO, which a child would inherit;
-  the controller's process is put back to SCHED_OTHER, so user code never runs ahead of
+  the controller's process is put back to SCHED_OTHER (``chrt --other``), so user code
+  never runs ahead of
   the machine (a controller starting up, importing numpy for 0.1 s at real-time priority,
   held the other controllers on its core past their deadlines: runs failed). The
   stepping thread sleeps while it waits for an answer, so the process still gets the CPU
@@ -32,7 +34,6 @@ from __future__ import annotations
 import functools
 import json
 import os
-import resource
 import select
 import shutil
 import struct
@@ -126,6 +127,9 @@ def available() -> str | None:
     """``None`` if code controllers can run here, else why not."""
     if shutil.which("bwrap") is None:
         return "bubblewrap (bwrap) is not installed: apt-get install bubblewrap"
+    for tool in ("prlimit", "chrt"):
+        if shutil.which(tool) is None:
+            return f"{tool} is not installed: apt-get install util-linux"
     try:
         import pyseccomp  # noqa: F401
     except ImportError:
@@ -167,11 +171,10 @@ class Sandboxed:
         self._misses = 0
         self._request = struct.Struct("<q" + "d" * (2 + ny))
         self._proc = subprocess.Popen(
-            _command(),
+            _command(memory, cpu_seconds),
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL,
-            preexec_fn=lambda: _limits(memory, cpu_seconds),
             env={"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "PYTHONHASHSEED": "0"},
         )
         assert self._proc.stdin is not None and self._proc.stdout is not None
@@ -351,7 +354,11 @@ def _paths() -> list[str]:
     return sorted({str(Path(numpy.__file__).parents[1]), str(Path(pyseccomp.__file__).parent)})
 
 
-def _command() -> list[str]:
+def _command(memory: int, cpu_seconds: int) -> list[str]:
+    """The controller's process: its limits set by ``prlimit`` and its scheduling by
+    ``chrt`` (util-linux), each then exec'ing the next, so no Python runs between fork and
+    exec in the engine's threaded process (``preexec_fn`` may deadlock there); then
+    bubblewrap, then the interpreter."""
     binds: list[str] = []
     for path in sorted(
         {"/usr", "/lib", "/lib64", "/bin", "/etc/ld.so.cache", sys.prefix, sys.base_prefix}
@@ -360,7 +367,18 @@ def _command() -> list[str]:
         if os.path.exists(path):
             binds += ["--ro-bind", path, path]
     return [
-        "bwrap",
+        _tool("prlimit"),
+        f"--as={memory}",
+        f"--cpu={cpu_seconds}",
+        "--fsize=0",
+        "--nofile=16",
+        "--core=0",
+        # µs of CPU under a real-time policy without a blocking call: SIGXCPU, then SIGKILL
+        f"--rttime={RT_SOFT_US}:{2 * RT_SOFT_US}",
+        _tool("chrt"),
+        "--other",  # never real-time, whatever the engine is
+        "0",
+        _tool("bwrap"),
         "--unshare-all",
         "--die-with-parent",
         "--new-session",
@@ -378,12 +396,8 @@ def _command() -> list[str]:
     ]
 
 
-def _limits(memory: int, cpu_seconds: int) -> None:
-    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))  # never real-time
-    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
-    resource.setrlimit(resource.RLIMIT_CPU, (cpu_seconds, cpu_seconds))
-    resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
-    resource.setrlimit(resource.RLIMIT_NOFILE, (16, 16))
-    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-    # µs of CPU under a real-time policy without a blocking call: SIGXCPU, then SIGKILL
-    resource.setrlimit(resource.RLIMIT_RTTIME, (RT_SOFT_US, 2 * RT_SOFT_US))
+def _tool(name: str) -> str:
+    found = shutil.which(name)
+    if found is None:
+        raise Unavailable(f"code controllers cannot run on this server: {name} is not installed")
+    return found
