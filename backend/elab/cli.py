@@ -646,7 +646,8 @@ def _identify_text(data: Any, result: Any) -> str:
         o = a["n4sid_orders"]
         sv = ", ".join(f"{v:.4g}" for v in o["singular_values"][:8])
         lines.append(
-            f"subspace (horizon {o['horizon']}): singular values {sv}, …; order by MDL: {o['best']}"
+            f"subspace (horizon {o['horizon']}): singular values {sv}, …; order {o['best']}: "
+            f"{o['reason']}"
         )
     if "sine" in a:
         sn = a["sine"]

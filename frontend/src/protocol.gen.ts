@@ -232,6 +232,10 @@ export interface ArxSearchOut {
 export interface N4SidOrdersOut {
   horizon: number;
   best: number;
+  /**
+   * why that order: a gap in the singular values, or MDL
+   */
+  reason: string;
   orders: OrderRow[];
   singular_values: (number | null)[];
 }

@@ -821,6 +821,7 @@ class OrderRow(Model):
 class N4sidOrdersOut(Model):
     horizon: int
     best: int
+    reason: str = Field(description="why that order: a gap in the singular values, or MDL")
     orders: list[OrderRow]
     singular_values: list[Num]
 

@@ -180,10 +180,11 @@ def run(
     if plan.n4sid_orders is not None or any(m.kind == "n4sid" for m in plan.models):
         sub = decompose(ze, plan.horizon)
         orders = plan.n4sid_orders or range(1, min(10, sub.max_order) + 1)
-        best, rows = choose_order(sub, orders)
+        best, rows, why = choose_order(sub, orders)
         out.analyses["n4sid_orders"] = {
             "horizon": sub.horizon,
             "best": best,
+            "reason": why,
             "orders": rows,
             "singular_values": sub.singular_values.tolist(),
         }

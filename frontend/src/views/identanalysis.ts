@@ -204,7 +204,7 @@ export class IdentAnalysis {
       const o = a.n4sid_orders;
       const sv = o.singular_values.slice(0, 30);
       const div = this.chartBox("ident-singular-values");
-      sections.push(h("section.panel", h("h2", "Subspace: singular values"), h("p", `Horizon ${o.horizon}. The order where they drop is the model's order; by MDL over ${o.orders[0].order}…${o.orders[o.orders.length - 1].order}: ${o.best}.`), div, downloadButton("singular-values.csv", ["index", "sigma"], [sv.map((_, i) => i + 1), sv])));
+      sections.push(h("section.panel", h("h2", "Subspace: singular values"), h("p", `Horizon ${o.horizon}. The order where they drop is the model's order; over ${o.orders[0].order}…${o.orders[o.orders.length - 1].order}: ${o.best} (${o.reason})`), div, downloadButton("singular-values.csv", ["index", "sigma"], [sv.map((_, i) => i + 1), sv])));
       queueMicrotask(() => chart(div, [{ x: sv.map((_, i) => i + 1), y: sv.map((x) => (x === null ? null : Math.log10(x))), name: "log₁₀ σ", mode: "markers" }], { xTitle: "index (order)", yTitles: ["log₁₀ singular value"], height: 300 }));
     }
     if (out.models.length) sections.push(this.modelsSection(out, req));

@@ -24,8 +24,9 @@ def test_dryer_singular_values_and_fits(dryer: tuple[IdData, IdData]) -> None:
     assert_allclose(sub.singular_values[:5], [39.13, 9.925, 2.132, 1.081, 0.416], rtol=1.5e-3)
     assert compare(n4sid(ze, 4, sub=sub), zr).fit[0] >= 89  # published: 89.8 %
     assert compare(n4sid(ze, 3, sub=sub), zr).fit[0] >= 89  # published: 89.5 %
-    order, rows = choose_order(sub, range(1, 11))
+    order, rows, why = choose_order(sub, range(1, 11))
     assert order in (3, 4)  # "order 3 or 4 suggested"
+    assert why.startswith("least MDL")  # the dryer's singular values fall at most 4.7×
     assert [r["order"] for r in rows] == list(range(1, 11))
     assert rows[0]["loss"] > rows[3]["loss"]
 
@@ -127,3 +128,18 @@ def test_the_workflow_says_when_a_model_is_unstable_as_estimated() -> None:
     )
     assert any("n4sid 2 6: a pole outside the unit circle (|z| = 1.004" in n for n in out.notes)
     assert any("no Kalman gain" in n for n in out.notes)  # the fallback is said too
+
+
+def test_a_gap_in_the_singular_values_decides_the_order() -> None:
+    """Order 4 with little noise: the singular values fall far more than 100× after the
+    fourth, which decides whatever MDL says (issue 16: MDL picked 10 and 6)."""
+    rng = np.random.default_rng(4)
+    u = rng.standard_normal(2000)
+    y = ct.forced_response(
+        ct.tf([0.2, 0.1], [1, -1.2, 0.5], 1) * ct.tf([1.0], [1, -0.6, 0.25], 1), np.arange(2000), u
+    ).outputs + 1e-6 * rng.standard_normal(2000)
+    z = iddata(y, u, 1.0)
+    sub = decompose(z, 16)
+    order, _, why = choose_order(sub, range(1, 11))
+    assert order == 4 and "fall" in why and "after order 4" in why, why
+    assert n4sid(z).n == 4
