@@ -24,9 +24,27 @@ HERE = Path(__file__).parent / "fuzz"
 ST = str(Path(sys.executable).parent / "st")
 
 
+#: a SystemError from CPython 3.11's ast.parse (its recursion-depth accounting; see
+#: CPython gh-106905) that Hypothesis can hit while describing one of its own strategies:
+#: the tool failing, not the API (seen once in four full runs, in a pass whose 725 cases
+#: had all passed)
+TOOL_BUG = "AST constructor recursion depth mismatch"
+
+
 def schemathesis(srv: Server, *args: str, env: dict[str, str] | None = None) -> int:
-    """One Schemathesis pass; the number of cases it ran (all of which passed)."""
-    r = subprocess.run(
+    """One Schemathesis pass; the number of cases it ran (all of which passed). A pass that
+    failed only by :data:`TOOL_BUG` runs once more."""
+    r = _run(srv, *args, env=env)
+    if r.returncode != 0 and TOOL_BUG in r.stdout and "Runtime Error: 1" in r.stdout:
+        r = _run(srv, *args, env=env)
+    assert r.returncode == 0, r.stdout[-6000:]
+    ran = re.search(r"(\d+) generated, \1 passed", r.stdout)  # cases ran, and all passed
+    assert ran, r.stdout[-3000:]
+    return int(ran.group(1))
+
+
+def _run(srv: Server, *args: str, env: dict[str, str] | None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
         [
             ST,
             *(["--config-file", str(HERE / "victim.toml")] if env else []),
@@ -47,10 +65,6 @@ def schemathesis(srv: Server, *args: str, env: dict[str, str] | None = None) -> 
         check=False,
         env={**os.environ, **(env or {})},
     )
-    assert r.returncode == 0, r.stdout[-6000:]
-    ran = re.search(r"(\d+) generated, \1 passed", r.stdout)  # cases ran, and all passed
-    assert ran, r.stdout[-3000:]
-    return int(ran.group(1))
 
 
 def test_the_api_matches_its_openapi_document_under_fuzzing(tmp_path: Path) -> None:
