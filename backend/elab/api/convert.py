@@ -3,6 +3,7 @@ the models; the core re-checks what only it knows (dimensions, sample time)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -31,7 +32,7 @@ def law(model: Any, plant: Plant) -> ControlLaw:
             else tuple(complex(p.re, p.im) for p in model.observer_poles),
         )
     if isinstance(model, s.PIDController):
-        return PID(model.Kp, model.Ki, model.Kd, model.N, model.Tt, model.b, model.c)
+        return PID(**model.model_dump(exclude={"kind"}))
     if isinstance(model, s.LTIControllerModel):
         return LTIController(
             num=_tuple(model.num),
@@ -60,19 +61,10 @@ def law_model(law_: ControlLaw) -> Any:
             L=None if law_.L is None else [list(r) for r in law_.L],
             observer_poles=None
             if law_.observer_poles is None
-            else [s.Complex(re=complex(p).real, im=complex(p).imag) for p in law_.observer_poles],
+            else complex_list(law_.observer_poles),
         )
     if isinstance(law_, PID):
-        return s.PIDController(
-            kind="pid",
-            Kp=law_.Kp,
-            Ki=law_.Ki,
-            Kd=law_.Kd,
-            N=law_.N,
-            Tt=law_.Tt,
-            b=law_.b,
-            c=law_.c,
-        )
+        return s.PIDController(kind="pid", **dataclasses.asdict(law_))
     if isinstance(law_, OpenLoop):
         return s.OpenLoopController(kind="open_loop")
     if isinstance(law_, CodeController):

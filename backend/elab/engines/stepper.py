@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from elab.engines.base import Block, Changed, Pace
 from elab.engines.coded import CodedRun
 from elab.engines.timetable import Timetable
-from elab.errors import Conflict, InvalidInput
+from elab.errors import Conflict
 from elab.lifecycle import RunState, transition
 from elab.sim.batch import Batch
 from elab.sim.engine import DIVERGENCE_LIMIT, first_divergence
@@ -224,14 +224,8 @@ class Stepper:
 
     def _replace(self, run_id: str, run: CompiledRun, controller: bool, signals: bool) -> int:
         live = self._live(run_id)
-        if live.coded is not None:
-            if controller:
-                raise InvalidInput(
-                    "controller",
-                    live.run.spec.law,
-                    "the run's own Python controller (it cannot be swapped mid-run): "
-                    "start a new run",
-                )
+        if live.coded is not None:  # its law never changes (the engine refuses that)
+            assert not controller, "a code controller is not swapped mid-run"
             live.coded.set_run(run)
             live.run = run
             return self._k(live)
