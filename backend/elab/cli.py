@@ -634,13 +634,12 @@ def _identify_text(data: Any, result: Any) -> str:
                 else "no delay found (no impulse-response coefficient is significant)"
             )
         )
-    if "arx_search" in a:
-        s = a["arx_search"]
+    for s in ([a["arx_search"]] if "arx_search" in a else []) + a.get("arx_search_outputs", []):
         best = min(s["rows"], key=lambda r: r[3])
         lines.append(
-            f"ARX search over {len(s['rows'])} structures: best [na nb nk] = "
-            f"{s['best']} (validation loss {best[3]:.6g}); AIC {s['aic']}, "
-            f"MDL {s['mdl']}"
+            f"ARX search{' for ' + s['output'] if 'output' in s else ''} over "
+            f"{len(s['rows'])} structures: best [na nb nk] = {s['best']} (validation loss "
+            f"{best[3]:.6g}); AIC {s['aic']}, MDL {s['mdl']}"
         )
     if "n4sid_orders" in a:
         o = a["n4sid_orders"]
@@ -655,16 +654,35 @@ def _identify_text(data: Any, result: Any) -> str:
             f"sine analysis at {sn['frequency_hz']:g} Hz: |G| = {sn['magnitude']:.4g},"
             f" phase {sn['phase_deg']:.1f} deg"
         )
+    m_nu = len(result.data["input_names"])
     for m in result.models:
         fit = m["fit"]
         lines.append(
-            f"{m['name']}: validation fit {_pct(fit['validation_simulation'])} "
-            f"(simulation), {_pct(fit['validation_one_step'])} (one step)"
+            f"{m['name']}: validation fit {_pct(fit['headline'])} (simulation, "
+            f"{'estimated' if fit['headline_x0'] == 'estimated' else 'zero'} initial state), "
+            f"{_pct(fit['validation_one_step'])} (one step)"
+        )
+        other = (
+            "validation_simulation"
+            if fit["headline_x0"] == "estimated"
+            else "validation_simulation_x0"
+        )
+        lines.append(
+            f"  from the {'zero' if fit['headline_x0'] == 'estimated' else 'estimated'} "
+            f"initial state: {_pct(fit[other])}"
+            + (f" ({fit['headline_why']})" if fit["headline_x0"] == "estimated" else "")
         )
         p = m["parameters"]
         for key in ("A", "B", "C", "F"):
-            if key in p:
-                lines.append(f"  {key}(q) = " + " ".join(f"{c:+.4f}" for c in p[key]))
+            rows = p.get(key)
+            if not rows:
+                continue
+            if not isinstance(rows[0], list):  # one output, one input
+                lines.append(f"  {key}(q) = " + " ".join(f"{c:+.4f}" for c in rows))
+                continue
+            for i, row in enumerate(rows):  # MIMO ARX: A per output, B per output and input
+                where = f"y{i + 1}" if key == "A" else f"y{i // m_nu + 1}, u{i % m_nu + 1}"
+                lines.append(f"  {key}(q) [{where}] = " + " ".join(f"{c:+.4f}" for c in row))
     lines += [f"note: {n}" for n in result.notes]
     return "\n".join(lines)
 

@@ -167,6 +167,7 @@ export interface AnalysesOut {
   spectral: SpectralOut | null;
   sine: SineOut | null;
   arx_search: ArxSearchOut | null;
+  arx_search_outputs: ArxSearchOut[] | null;
   n4sid_orders: N4SidOrdersOut | null;
 }
 /**
@@ -215,11 +216,14 @@ export interface SineOut {
 }
 /**
  * One row per structure: ``[na, nb, nk, validation loss]``; the best by loss, AIC, MDL.
+ * With several outputs, one search per output (``output`` names it), each structure's
+ * nb and nk applying to every input.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ArxSearchOut".
  */
 export interface ArxSearchOut {
+  output: string | null;
   rows: (number | null)[][];
   best: number[];
   aic: number[];
@@ -915,7 +919,10 @@ export interface FileData {
 /**
  * Fit % per output: on the validation set simulated from a zero initial state (the
  * published figures' convention), from the best initial state, and one step ahead; on the
- * estimation set simulated from the best initial state.
+ * estimation set simulated from the best initial state. The headline is the validation
+ * simulation fit that means something for the model: from the estimated initial state
+ * when a mode does not decay within the validation record (integrating, unstable or
+ * slower than the record), else from zero.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "FitOut".
@@ -925,6 +932,9 @@ export interface FitOut {
   validation_simulation_x0: (number | null)[];
   validation_one_step: (number | null)[];
   estimation_simulation: (number | null)[];
+  headline: (number | null)[];
+  headline_x0: "zero" | "estimated";
+  headline_why: string;
 }
 /**
  * Samples k0 .. k0+n−1: float32 little-endian bytes per channel (t = k·Ts).
@@ -1015,7 +1025,9 @@ export interface ParamChangeInfo {
 }
 /**
  * The data as analysed (detrended), thinned to ≤ 5000 points per series: every
- * ``step``-th sample; the first ``estimation`` samples estimate, the rest validate.
+ * ``step``-th sample; the first ``estimation`` samples estimate, the rest validate:
+ * the rest of the data (``validation`` "split"), or a separate record (``validation``
+ * "record"), whose samples follow the estimation record's on the time axis.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "IdentDataOut".
@@ -1024,6 +1036,7 @@ export interface IdentDataOut {
   N: number;
   Ts: number;
   estimation: number;
+  validation: "split" | "record";
   step: number;
   trend: string;
   t: number[];
@@ -1104,9 +1117,13 @@ export interface IdentModelOut {
    */
   continuous: ContinuousOut | null;
   /**
-   * [output][sample] on the validation set
+   * [output][sample] on the validation set, from a zero initial state
    */
   simulated: number[][];
+  /**
+   * the same from the estimated state
+   */
+  simulated_x0: number[][];
   one_step: number[][];
   residuals: ResidualsOut | null;
 }
@@ -1150,15 +1167,25 @@ export interface ResidualsOut {
 }
 /**
  * Identification on a run's data or an uploaded table. ``split``: the estimation
- * share (the first part); the rest validates. Send ``Accept: application/x-ndjson`` to
- * receive progress lines before the result.
+ * share (the first part); the rest validates. Or ``validation``: a separate record to
+ * validate on, given as ``data`` is, with the same channels and sample time; ``data``
+ * then all estimates and ``split`` is not used. Both records together are within the
+ * body's limit (``ELAB_MAX_UPLOAD``) and 2,000,000 samples. Send ``Accept:
+ * application/x-ndjson`` to receive progress lines before the result.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "IdentRequest".
  */
 export interface IdentRequest {
   data: RunData | FileData;
+  /**
+   * a separate validation record (the same channels and sample time); with detrend 'mean', the estimation record's means are removed from both
+   */
+  validation?: (RunData | FileData) | null;
   detrend?: "mean" | "linear" | "none";
+  /**
+   * not used with a validation record
+   */
   split?: number;
   correlation?: boolean;
   max_lag?: number;

@@ -729,14 +729,25 @@ class ArxSearch(Model):
     nk: Span = [1, 10]
 
 
+IdentSource = Annotated[RunData | FileData, Field(discriminator="source")]
+
+
 class IdentRequest(Model):
     """Identification on a run's data or an uploaded table. ``split``: the estimation
-    share (the first part); the rest validates. Send ``Accept: application/x-ndjson`` to
-    receive progress lines before the result."""
+    share (the first part); the rest validates. Or ``validation``: a separate record to
+    validate on, given as ``data`` is, with the same channels and sample time; ``data``
+    then all estimates and ``split`` is not used. Both records together are within the
+    body's limit (``ELAB_MAX_UPLOAD``) and 2,000,000 samples. Send ``Accept:
+    application/x-ndjson`` to receive progress lines before the result."""
 
-    data: Annotated[RunData | FileData, Field(discriminator="source")]
+    data: IdentSource
+    validation: IdentSource | None = Field(
+        None,
+        description="a separate validation record (the same channels and sample time); "
+        "with detrend 'mean', the estimation record's means are removed from both",
+    )
     detrend: Literal["mean", "linear", "none"] = "mean"
-    split: Finite = Field(0.5, gt=0, lt=1)
+    split: Finite = Field(0.5, gt=0, lt=1, description="not used with a validation record")
     correlation: bool = True
     max_lag: int = Field(30, ge=1, le=500)
     spectral: bool = True
@@ -758,11 +769,14 @@ Matrix = list[list[float]]
 
 class IdentDataOut(Model):
     """The data as analysed (detrended), thinned to ≤ 5000 points per series: every
-    ``step``-th sample; the first ``estimation`` samples estimate, the rest validate."""
+    ``step``-th sample; the first ``estimation`` samples estimate, the rest validate:
+    the rest of the data (``validation`` "split"), or a separate record (``validation``
+    "record"), whose samples follow the estimation record's on the time axis."""
 
     N: int
     Ts: float
     estimation: int
+    validation: Literal["split", "record"] = "split"
     step: int
     trend: str
     t: list[float]
@@ -804,8 +818,11 @@ class SineOut(Model):
 
 
 class ArxSearchOut(Model):
-    """One row per structure: ``[na, nb, nk, validation loss]``; the best by loss, AIC, MDL."""
+    """One row per structure: ``[na, nb, nk, validation loss]``; the best by loss, AIC, MDL.
+    With several outputs, one search per output (``output`` names it), each structure's
+    nb and nk applying to every input."""
 
+    output: str | None = None
     rows: list[list[Num]]
     best: list[int]
     aic: list[int]
@@ -833,18 +850,25 @@ class AnalysesOut(Model):
     spectral: SpectralOut | None = None
     sine: SineOut | None = None
     arx_search: ArxSearchOut | None = None
+    arx_search_outputs: list[ArxSearchOut] | None = None
     n4sid_orders: N4sidOrdersOut | None = None
 
 
 class FitOut(Model):
     """Fit % per output: on the validation set simulated from a zero initial state (the
     published figures' convention), from the best initial state, and one step ahead; on the
-    estimation set simulated from the best initial state."""
+    estimation set simulated from the best initial state. The headline is the validation
+    simulation fit that means something for the model: from the estimated initial state
+    when a mode does not decay within the validation record (integrating, unstable or
+    slower than the record), else from zero."""
 
     validation_simulation: list[Num]
     validation_simulation_x0: list[Num]
     validation_one_step: list[Num]
     estimation_simulation: list[Num]
+    headline: list[Num]
+    headline_x0: Literal["zero", "estimated"]
+    headline_why: str
 
 
 class StateSpaceOut(Model):
@@ -899,7 +923,10 @@ class IdentModelOut(Model):
     continuous: ContinuousOut | None = Field(
         description="by the inverse zero-order hold; null where no real one exists"
     )
-    simulated: list[list[float]] = Field(description="[output][sample] on the validation set")
+    simulated: list[list[float]] = Field(
+        description="[output][sample] on the validation set, from a zero initial state"
+    )
+    simulated_x0: list[list[float]] = Field(description="the same from the estimated state")
     one_step: list[list[float]]
     residuals: ResidualsOut | None = None
 

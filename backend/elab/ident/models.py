@@ -10,6 +10,7 @@ design tools (python-control) are written once.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,6 +22,50 @@ from elab.errors import InvalidInput
 from elab.ident.data import IdData
 
 Array = NDArray[np.float64]
+X0_RCOND = 1e-8  # singular values of the observability matrix below this share are cut
+X0_GROWTH = 1e100  # an unstable model's free response is fitted while Aᵗ grows less
+
+
+def observability(A: Array, C: Array, N: int) -> Array:
+    """C Aᵗ for t = 0 … N−1, shape (N, ny, n), in blocks of doubling length."""
+    ny, n = C.shape
+    out = np.empty((N, ny, n))
+    out[0] = C
+    filled, P = 1, A.copy()  # P = A^filled
+    while filled < N:
+        m = min(filled, N - filled)
+        out[filled : filled + m] = out[:m] @ P
+        filled += m
+        P = P @ P if filled < N else P
+    return out
+
+
+def initial_state(A: Array, C: Array, free: Array) -> Array:
+    """x₀ minimising ‖free(t) − C Aᵗ x₀‖ over the data, well-conditioned: the singular
+    directions of the observability matrix below :data:`X0_RCOND` of the largest are left
+    out (the minimum-norm solution, not one that trades a huge x₀ against noise). An
+    unstable model is fitted over the samples where Aᵗ stays below :data:`X0_GROWTH`
+    (beyond them its simulation overflows), and samples whose free response is not
+    finite are left out."""
+    N, n = free.shape[0], A.shape[0]
+    if n == 0 or N == 0:
+        return np.zeros(n)
+    rho = float(np.max(np.abs(np.linalg.eigvals(A))))
+    T = N if rho <= 1.0 else max(n, min(N, int(math.log(X0_GROWTH) / math.log(rho))))
+    with np.errstate(over="ignore", invalid="ignore"):
+        Ob = observability(A, C, T)
+    return fit_state(Ob, free[:T])
+
+
+def fit_state(Ob: Array, free: Array) -> Array:
+    """x₀ minimising ‖free(t) − Ob(t) x₀‖ (Ob: (T, ny, n)) by the truncated SVD of
+    :func:`initial_state`, over the samples where both are finite."""
+    n = Ob.shape[2]
+    ok = np.isfinite(free).all(axis=1) & np.isfinite(Ob).all(axis=(1, 2))
+    if not ok.any():
+        return np.zeros(n)
+    x0, *_ = np.linalg.lstsq(Ob[ok].reshape(-1, n), free[ok].reshape(-1), rcond=X0_RCOND)
+    return np.asarray(x0, dtype=np.float64)
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,6 @@
 """ARX models by least squares, and the ARX order search (MATLAB's arx, struc, arxstruc,
-selstruc) for single-output data.
+selstruc) for single-output data; :func:`arx` also takes several inputs and outputs
+(:mod:`elab.ident.multivariable`).
 
 The model (Ljung 1999, sec. 4.2):
 
@@ -17,7 +18,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Iterable
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,18 +26,17 @@ from numpy.typing import NDArray
 from elab.errors import InvalidInput
 from elab.ident.data import IdData, require_exciting
 from elab.ident.models import LinearModel
+from elab.ident.multivariable import Orders, arx_per_output, miso_regressors
 
 Array = NDArray[np.float64]
 
 
-def _siso(data: IdData, what: str) -> tuple[Array, Array]:
-    if data.ny != 1 or data.nu != 1:
+def _one_output(data: IdData, what: str) -> tuple[Array, Array]:
+    if data.ny != 1:
         raise InvalidInput(
-            "data",
-            f"{data.ny} outputs and {data.nu} inputs",
-            f"one output and one input for {what}",
+            "data", f"{data.ny} outputs", f"one output for {what} (search each on its own)"
         )
-    return data.y[:, 0], data.u[:, 0]
+    return data.y[:, 0], data.u
 
 
 def _check_orders(na: int, nb: int, nk: int) -> None:
@@ -47,16 +47,33 @@ def _check_orders(na: int, nb: int, nk: int) -> None:
 
 def regressors(y: Array, u: Array, na: int, nb: int, nk: int, start: int) -> tuple[Array, Array]:
     """Φ (rows φ(t)ᵀ for t = start … N−1) and Y = y(start …)."""
-    N = y.shape[0]
-    cols = [-y[start - i : N - i] for i in range(1, na + 1)]
-    cols += [u[start - nk - j : N - nk - j] for j in range(nb)]
-    return np.column_stack(cols) if cols else np.zeros((N - start, 0)), y[start:]
+    return miso_regressors(y, u[:, None], na, [nb], [nk], start)
 
 
-def arx(data: IdData, na: int, nb: int, nk: int = 1) -> LinearModel:
-    """The least-squares ARX model of orders ``na``, ``nb`` and delay ``nk``."""
+def arx(data: IdData, na: Orders, nb: Orders, nk: Orders = 1) -> LinearModel:
+    """The least-squares ARX model of orders ``na``, ``nb`` and delay ``nk``.
+
+    Several inputs or outputs: one least-squares problem per output, as GNU Octave's
+    ``arx`` (:func:`elab.ident.multivariable.arx_per_output`); ``na`` an integer or one per
+    output, ``nb`` and ``nk`` an integer or an ny × nu matrix.
+    """
+    if data.ny == 1 and data.nu == 1:
+        return _arx_siso(data, _scalar(na), _scalar(nb), _scalar(nk))
+    return arx_per_output(data, na, nb, nk)
+
+
+def _scalar(order: Orders) -> Any:
+    """A one-element list or array as its element: one output's orders as 1 × 1 matrices."""
+    try:
+        a = np.asarray(order)
+    except ValueError:  # a ragged list: _check_orders names it
+        return order
+    return a.item() if a.ndim and a.size == 1 else order
+
+
+def _arx_siso(data: IdData, na: int, nb: int, nk: int) -> LinearModel:
     _check_orders(na, nb, nk)
-    y, u = _siso(data, "ARX")
+    y, u = data.y[:, 0], data.u[:, 0]
     start = max(na, nb + nk - 1)
     d = na + nb
     if data.N - start <= d:
@@ -141,20 +158,24 @@ def arxstruc(ze: IdData, zv: IdData, structures: Array) -> Array:
     As MATLAB's arxstruc: each model is estimated on ``ze`` exactly as :func:`arx` does,
     and V is the mean squared one-step prediction error over every sample of ``zv``, with
     values before the first sample taken as zero. One padded regressor matrix per delay
-    serves every (na, nb): a model solves a sub-block of its normal equations.
+    serves every (na, nb): a model solves a sub-block of its normal equations. Several
+    inputs (one output): a row's nb and nk apply to every input.
     """
     S = np.asarray(structures, dtype=np.int64)
     if S.ndim != 2 or S.shape[1] != 3 or S.shape[0] == 0:
         raise InvalidInput("structures", f"shape {S.shape}", "rows [na nb nk]")
-    ye, ue = _siso(ze, "arxstruc")
-    yv, uv = _siso(zv, "arxstruc")
+    ye, ue = _one_output(ze, "arxstruc")
+    yv, uv = _one_output(zv, "arxstruc")
+    nu = ue.shape[1]
+    if uv.shape[1] != nu:
+        raise InvalidInput("zv", f"{uv.shape[1]} inputs", f"{nu} inputs, as ze")
     na_max, nb_max = int(S[:, 0].max()), int(S[:, 1].max())
     head = max(na_max, int((S[:, 1] + S[:, 2]).max()) - 1)  # rows where a lag is missing
-    if ze.N - head <= na_max + nb_max:
+    if ze.N - head <= na_max + nu * nb_max:
         raise InvalidInput(
             "ze",
             f"{ze.N} samples",
-            f"more than {head + na_max + nb_max} samples for these structures",
+            f"more than {head + na_max + nu * nb_max} samples for these structures",
         )
     require_exciting(ze.u, nb_max)
     out = np.empty((S.shape[0], 4))
@@ -167,7 +188,9 @@ def arxstruc(ze: IdData, zv: IdData, structures: Array) -> Array:
         Rv, rv, yy = Pv.T @ Pv, Pv.T @ Yv, float(Yv @ Yv)
         for i in np.flatnonzero(S[:, 2] == nk):
             na, nb = int(S[i, 0]), int(S[i, 1])
-            idx = np.r_[np.arange(na), na_max + np.arange(nb)]
+            idx = np.concatenate(
+                [np.arange(na), *(na_max + j * nb_max + np.arange(nb) for j in range(nu))]
+            )
             own = max(na, nb + nk - 1)  # arx's first row for this model
             H = Pe[own:head][:, idx]
             theta = np.linalg.solve(R[np.ix_(idx, idx)] + H.T @ H, r[idx] + H.T @ Ye[own:head])
@@ -176,10 +199,12 @@ def arxstruc(ze: IdData, zv: IdData, structures: Array) -> Array:
     return out
 
 
-def _padded(y: Array, u: Array, na: int, nb: int, nk: int) -> tuple[Array, Array]:
-    """Regressors for every sample, values before the data taken as zero."""
-    pad = na + nb + nk
-    return regressors(np.r_[np.zeros(pad), y], np.r_[np.zeros(pad), u], na, nb, nk, pad)
+def _padded(y: Array, U: Array, na: int, nb: int, nk: int) -> tuple[Array, Array]:
+    """Regressors for every sample, values before the data taken as zero; every input
+    with ``nb`` lags from delay ``nk``."""
+    pad, nu = na + nb + nk, U.shape[1]
+    y, U = np.r_[np.zeros(pad), y], np.vstack([np.zeros((pad, nu)), U])
+    return miso_regressors(y, U, na, [nb] * nu, [nk] * nu, pad)
 
 
 def selstruc(

@@ -27,8 +27,8 @@ and the Kalman gain K solves the filter Riccati equation for them.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import Any, Literal
 
 import numpy as np
 import scipy.fft
@@ -38,10 +38,13 @@ from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
 from elab.ident.data import IdData, require_exciting
-from elab.ident.models import LinearModel
+from elab.ident.models import LinearModel, initial_state, observability
 
 Array = NDArray[np.float64]
 MAX_HORIZON = 100
+BD_METHODS = ("subspace", "simulation")
+BD = Literal["subspace", "simulation"]
+Stable = bool | Literal["auto"]
 GAP = 100.0  # a fall of the singular values this large decides the order
 
 
@@ -53,7 +56,7 @@ class Subspace:
     horizon: int
     singular_values: Array
     U1: Array  # left singular vectors of L₃₂ (s·ny × s·ny)
-    L32: Array
+    L: Array  # [U_f; U_p; Y_p; Y_f] = L Q, lower triangular
     states_basis: Array  # U₁ᵀ L₃₂ L₂₂⁺ W_p: row i over √σᵢ is state i at times s … s+j−1
 
     @property
@@ -118,7 +121,7 @@ def decompose(data: IdData, horizon: int | None = None) -> Subspace:
     L22, L32 = L[a:b, a:b], L[b:, a:b]
     U1, sv, _ = np.linalg.svd(L32)
     states_basis = (U1.T @ L32 @ np.linalg.pinv(L22)) @ Wp
-    return Subspace(data, s, sv, U1, L32, states_basis)
+    return Subspace(data, s, sv, U1, L, states_basis)
 
 
 def _lq_factor(H: Array) -> Array:
@@ -141,22 +144,33 @@ def n4sid(
     order: int | None = None,
     horizon: int | None = None,
     orders: range | None = None,
-    stable: bool = False,
+    stable: Stable = "auto",
     sub: Subspace | None = None,
+    bd: BD = "subspace",
 ) -> LinearModel:
     """The state-space model of ``order`` (or the best of ``orders`` by :func:`choose_order`;
-    default range 1 … 10) in innovations form, with its singular values in ``parameters``."""
+    default range 1 … 10) in innovations form, with its singular values in ``parameters``.
+
+    ``bd``: B and D from the R factor (N4SID, as SLICOT) or by the simulation least
+    squares (jointly with x₀). ``stable``: what to do with poles of the estimate outside
+    the unit circle — ``False`` keeps them, ``True`` reflects them into it (λ → 1/λ̄, the
+    others stay), ``"auto"`` keeps whichever of the two fits the estimation data better
+    (simulated from its estimated initial state), and both fits are in ``parameters``."""
+    if bd not in BD_METHODS:
+        raise InvalidInput("bd", bd, " or ".join(repr(b) for b in BD_METHODS))
+    if stable not in (False, True, "auto"):
+        raise InvalidInput("stable", stable, "false, true or 'auto'")
     sub = decompose(data, horizon) if sub is None else sub
     if order is None:
-        order = choose_order(sub, orders or range(1, 11))[0]
+        order = choose_order(sub, orders or range(1, 11), bd)[0]
     if not isinstance(order, int) or isinstance(order, bool) or not 1 <= order <= sub.max_order:
         raise InvalidInput(
             "order",
             order,
             f"an integer in 1 … {sub.max_order} for horizon {sub.horizon} (order < horizon)",
         )
-    A, C, moved = _shift(sub, order, stable)
-    B, D, x0 = _input_matrices(data, A, C)
+    f = _fitted(sub, order, stable, bd)
+    A, B, C, D = f.A, f.B, f.C, f.D
     K, lam, riccati = _kalman_gain(sub, A, B, C, D)
     return LinearModel(
         A,
@@ -170,10 +184,13 @@ def n4sid(
         orders={"n": order, "horizon": sub.horizon},
         parameters={
             "singular_values": sub.singular_values.tolist(),
-            "x0": x0.tolist(),
-            "stabilised": bool(moved),
+            "x0": f.x0.tolist(),
+            "bd": bd,
+            "stabilised": bool(f.moved),
             # poles reflected into the unit circle: [|z| before, |z| after] each
-            "reflected": moved,
+            "reflected": f.moved,
+            # with an unstable estimate: the estimation fits (%) as estimated and reflected
+            **f.choice,
             # the Kalman gain: "riccati", or "none" when the Riccati equation had no
             # stabilising solution (an output-error model: the predictor simulates)
             "kalman": riccati,
@@ -181,7 +198,9 @@ def n4sid(
     )
 
 
-def choose_order(sub: Subspace, orders: range) -> tuple[int, list[dict[str, Any]], str]:
+def choose_order(
+    sub: Subspace, orders: range, bd: BD = "subspace"
+) -> tuple[int, list[dict[str, Any]], str]:
     """The order over ``orders``, every order's figures, and why it was chosen.
 
     A gap in the singular values decides when there is one: the order after which they
@@ -189,7 +208,9 @@ def choose_order(sub: Subspace, orders: range) -> tuple[int, list[dict[str, Any]
     log V + d log(N) / N, where V is the mean squared simulation error on the data (x₀
     estimated) and d = n (2 ny + nu) + ny nu the free parameters (Ljung 1999, sec. 16.4).
     (MDL alone picked 10 at one horizon and 6 at another for data whose singular values
-    fall 100× after order 4.)"""
+    fall 100× after order 4.) The losses are of the models as estimated: an order whose
+    estimate has a pole outside the unit circle is a sign of a spurious mode, and should
+    not win by its reflection (on the hair dryer, order 6's reflected model would)."""
     data = sub.data
     top = sub.max_order
     valid = [n for n in orders if 1 <= n <= top]
@@ -201,10 +222,7 @@ def choose_order(sub: Subspace, orders: range) -> tuple[int, list[dict[str, Any]
         )
     rows = []
     for n in valid:
-        A, C, _ = _shift(sub, n, False)
-        B, D, x0 = _input_matrices(data, A, C)
-        err = data.y - _simulate_fast(A, B, C, D, x0, data.u)
-        V = float(np.mean(err**2))
+        V = _fitted(sub, n, False, bd).loss
         d = n * (2 * data.ny + data.nu) + data.ny * data.nu
         rows.append(
             {"order": n, "loss": V, "mdl": math.log(max(V, 1e-300)) + d * math.log(data.N) / data.N}
@@ -220,6 +238,47 @@ def choose_order(sub: Subspace, orders: range) -> tuple[int, list[dict[str, Any]
             (f"the singular values fall {falls[gap]:.3g}× after order {gap} (MDL: {best})"),
         )
     return best, rows, f"least MDL (no fall of the singular values of {GAP:g}× or more)"
+
+
+@dataclass(frozen=True)
+class _Fitted:
+    A: Array
+    B: Array
+    C: Array
+    D: Array
+    x0: Array
+    loss: float  # mean squared simulation error on the estimation data, x₀ estimated
+    moved: list[list[float]]
+    choice: dict[str, float]
+
+
+def _fitted(sub: Subspace, n: int, stable: Stable, bd: BD) -> _Fitted:
+    """The model of order ``n`` under the ``stable`` policy (see :func:`n4sid`)."""
+    kept = _model(sub, *_shift(sub, n, False), bd)
+    if stable is False or np.max(np.abs(np.linalg.eigvals(kept.A))) <= 1.0:
+        return kept
+    reflected = _model(sub, *_shift(sub, n, True), bd)
+    if stable is True:
+        return reflected
+    fits = {
+        "estimation_fit_as_estimated": _fit_of(sub, kept.loss),
+        "estimation_fit_reflected": _fit_of(sub, reflected.loss),
+    }
+    better = reflected if reflected.loss < kept.loss or not np.isfinite(kept.loss) else kept
+    return replace(better, choice=fits)
+
+
+def _model(sub: Subspace, A: Array, C: Array, moved: list[list[float]], bd: BD) -> _Fitted:
+    B, D, x0 = _bdx0(sub, A, C, bd)
+    err = sub.data.y - _simulate_fast(A, B, C, D, x0, sub.data.u)
+    loss = float(np.mean(err**2)) if np.all(np.isfinite(err)) else math.inf
+    return _Fitted(A, B, C, D, x0, loss, moved, {})
+
+
+def _fit_of(sub: Subspace, loss: float) -> float:
+    """The fit % (all outputs together) a mean squared error gives on the estimation data."""
+    spread = float(np.mean((sub.data.y - sub.data.y.mean(axis=0)) ** 2))
+    return 100 * (1 - math.sqrt(loss / spread)) if math.isfinite(loss) and spread > 0 else -math.inf
 
 
 def _shift(sub: Subspace, n: int, stable: bool) -> tuple[Array, Array, list[list[float]]]:
@@ -240,18 +299,68 @@ def _shift(sub: Subspace, n: int, stable: bool) -> tuple[Array, Array, list[list
     return np.asarray(A, dtype=np.float64), C, moved
 
 
-def _markov(A: Array, C: Array, N: int) -> Array:
-    """C Aᵗ for t = 0 … N−1, shape (N, ny, n), in blocks of doubling length."""
-    ny, n = C.shape
-    out = np.empty((N, ny, n))
-    out[0] = C
-    filled, P = 1, A.copy()  # P = A^filled
-    while filled < N:
-        m = min(filled, N - filled)
-        out[filled : filled + m] = out[:m] @ P
-        filled += m
-        P = P @ P if filled < N else P
-    return out
+def _bdx0(sub: Subspace, A: Array, C: Array, bd: BD) -> tuple[Array, Array, Array]:
+    """B, D and the estimation record's x₀ by ``bd``'s method."""
+    if bd == "simulation":
+        return _input_matrices(sub.data, A, C)
+    B, D = _subspace_bd(sub, A, C)
+    zero = np.zeros(A.shape[0])
+    x0 = initial_state(A, C, sub.data.y - _simulate_fast(A, B, C, D, zero, sub.data.u))
+    return B, D, x0
+
+
+def _subspace_bd(sub: Subspace, A: Array, C: Array) -> tuple[Array, Array]:
+    """B and D from the R factor by N4SID's robust algorithm (Van Overschee & De Moor
+    1996, sec. 4.3.3; SLICOT IB01BD with METH = 'N', which GNU Octave's ``n4sid`` runs).
+
+    With Z_i = Y_f / [W_p; U_f] and Z_{i+1} = Y_f⁻ / [W_p⁺; U_f⁻] (orthogonal projections;
+    the minus drops the first block row, the plus adds it to the past),
+    Γ_s⁺ Z_i = X̂_i + Γ_s⁺ H_s U_f and Γ_{s−1}⁺ Z_{i+1} = X̂_{i+1} + Γ_{s−1}⁺ H_{s−1} U_f⁻,
+    H the block Toeplitz matrix of D, C B, C A B, …; so
+
+        [Γ_{s−1}⁺ Z_{i+1}; Y_{i|i}] − [A; C] Γ_s⁺ Z_i = 𝒦(B, D) U_f + residuals,
+        𝒦 = [[B, Γ_{s−1}⁺ H_{s−1}] − A Γ_s⁺ H_s;  [D, 0] − C Γ_s⁺ H_s],
+
+    linear in B and D. Every signal here lies in the row space of the Hankel matrix, so
+    the least squares runs on its coordinates in Q (the rows of L), not on the data."""
+    data, s = sub.data, sub.horizon
+    nu, ny, n = data.nu, data.ny, A.shape[0]
+    L = sub.L
+    a, b = s * nu, s * (nu + ny) + s * nu  # U_f | W_p | Y_f
+    Yf = L[b:]
+    Zi = Yf.copy()
+    Zi[:, b:] = 0.0  # onto [U_f; W_p]: the Q₁, Q₂ coordinates
+    Zi1 = Yf[ny:].copy()
+    Zi1[:, b + ny :] = 0.0  # onto [U_f; W_p; y_s]: y_s adds the first ny Q₃ rows
+    G = sub.U1[:, :n] * np.sqrt(sub.singular_values[:n])
+    G_plus = (sub.U1[:, :n] / np.sqrt(sub.singular_values[:n])).T  # orthogonal columns
+    G_minus_plus = np.linalg.pinv(G[:-ny])
+    Uf = L[:a]
+    P = np.vstack([G_minus_plus @ Zi1, Yf[:ny]]) - np.vstack([A, C]) @ (G_plus @ Zi)
+    powers = [C]  # C A^k, k = 0 … s−2
+    for _ in range(s - 2):
+        powers.append(powers[-1] @ A)
+
+    def kappa(B: Array, D: Array) -> Array:
+        H = np.zeros((s * ny, s * nu))
+        for r in range(s):
+            H[r * ny : (r + 1) * ny, r * nu : (r + 1) * nu] = D
+            for c in range(r):
+                H[r * ny : (r + 1) * ny, c * nu : (c + 1) * nu] = powers[r - c - 1] @ B
+        top = np.hstack([B, G_minus_plus @ H[ny:, nu:]]) - A @ (G_plus @ H)
+        bottom = np.hstack([D, np.zeros((ny, (s - 1) * nu))]) - C @ (G_plus @ H)
+        return np.vstack([top, bottom])
+
+    d = ny * nu + n * nu
+    cols = np.empty((P.size, d))
+    for k in range(d):  # 𝒦 is linear in θ = [vec D; vec B]: one column per unknown
+        theta = np.zeros(d)
+        theta[k] = 1.0
+        cols[:, k] = (
+            kappa(theta[ny * nu :].reshape(n, nu), theta[: ny * nu].reshape(ny, nu)) @ Uf
+        ).ravel()
+    theta = np.asarray(scipy.linalg.lstsq(cols, P.ravel(), check_finite=False)[0], dtype=np.float64)
+    return theta[ny * nu :].reshape(n, nu), theta[: ny * nu].reshape(ny, nu)
 
 
 def _input_matrices(data: IdData, A: Array, C: Array) -> tuple[Array, Array, Array]:
@@ -278,7 +387,7 @@ def _fft_regressors(A: Array, C: Array, u: Array) -> tuple[Array, list[Array]]:
     """C Aᵗ (N, ny, n), and per input k the Markov parameters convolved with u_k one step
     late, Σ_{j<t} C A^{t−1−j} u_k(j), by FFT."""
     N, ny, n = u.shape[0], C.shape[0], A.shape[0]
-    h = _markov(A, C, N)
+    h = observability(A, C, N)
     L = scipy.fft.next_fast_len(2 * N - 1, real=True)
     H = scipy.fft.rfft(h.reshape(N, ny * n), L, axis=0)
     forced = []
@@ -289,8 +398,14 @@ def _fft_regressors(A: Array, C: Array, u: Array) -> tuple[Array, list[Array]]:
 
 
 def _simulate_fast(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> Array:
+    """The simulated output (an unstable model's may overflow to inf or nan)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _convolved(A, B, C, D, x0, u)
+
+
+def _convolved(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> Array:
     N = u.shape[0]
-    h = _markov(A, C, N)
+    h = observability(A, C, N)
     y = h @ x0 + u @ D.T
     for k in range(u.shape[1]):
         hb = h @ B[:, k]  # (N, ny) impulse response C A^t b_k

@@ -72,7 +72,10 @@ def test_a_constant_validation_output_gives_undefined_fits_not_minus_infinity(
     y[N // 2 :] = 2.0
     path = write(tmp_path / "v.csv", u, y)
     code, out, _ = cli(capsys, path, "--model", "arx:2,2,1")
-    assert code == 0 and "validation fit undefined (simulation), undefined (one step)" in out
+    assert (
+        code == 0
+        and "validation fit undefined (simulation, zero initial state), undefined (one step)" in out
+    )
     assert "the validation part of y is constant" in out and "inf" not in out
     code, out, _ = cli(capsys, path, "--model", "arx:2,2,1", "--json")
     data = json.loads(out)  # valid JSON: no -Infinity

@@ -3,6 +3,9 @@ systems (every plant's discretised model, lightly damped systems) and its own gu
 
 from __future__ import annotations
 
+from dataclasses import replace
+from pathlib import Path
+
 import control as ct
 import numpy as np
 import pytest
@@ -127,7 +130,15 @@ def test_the_workflow_says_when_a_model_is_unstable_as_estimated() -> None:
         ),
     )
     assert any("n4sid 2 6: a pole outside the unit circle (|z| = 1.004" in n for n in out.notes)
-    assert any("no Kalman gain" in n for n in out.notes)  # the fallback is said too
+    m = out.fitted[0]
+    assert m.parameters["kalman"] == "riccati"  # B and D from the R factor: a predictor exists
+    assert np.max(np.abs(np.linalg.eigvals(m.A - m.K @ m.C))) < 1
+    fit = out.models[0]["fit"]
+    assert fit["headline_x0"] == "estimated" and "unstable" in fit["headline_why"]
+    assert fit["headline"] == fit["validation_simulation_x0"]
+    # the fallback, when the Riccati equation has no stabilising solution, is said too
+    said = wf._said("n4sid 2", replace(m, parameters=m.parameters | {"kalman": "none"}))
+    assert any("no Kalman gain" in n for n in said)
 
 
 def test_a_gap_in_the_singular_values_decides_the_order() -> None:
@@ -143,3 +154,90 @@ def test_a_gap_in_the_singular_values_decides_the_order() -> None:
     order, _, why = choose_order(sub, range(1, 11))
     assert order == 4 and "fall" in why and "after order 4" in why, why
     assert n4sid(z).n == 4
+
+
+def _lightly_damped(seed: int) -> tuple[IdData, IdData]:
+    """Two resonances at |z| = 0.998 and 0.995 (a flexible structure), white input, 5 %
+    output noise; 600 samples to estimate, 600 to validate."""
+    poles = [0.998 * np.exp(0.05j), 0.995 * np.exp(0.3j)]
+    a = np.real(np.poly(poles + [np.conj(p) for p in poles]))
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal(1200)
+    y = scipy.signal.lfilter([0, 0.02, -0.01, 0.015], a, u)
+    y = y + 0.05 * np.std(y) * rng.standard_normal(y.size)
+    z = iddata(y, u, 1.0)
+    return z[:600], z[600:]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_an_unstable_estimate_of_a_lightly_damped_plant_gives_a_good_default(seed: int) -> None:
+    """Issue 16: the shift-invariance estimate crosses the unit circle at some orders
+    (|z| 1.0003 … 1.04 here); the default model at each such order fits the validation
+    record (from its estimated initial state: the headline for modes this slow) within 1
+    point of the better of the estimate as it is and its reflection. (The zero-padded
+    stabilisation, once the default, fitted 13 % where the estimate fitted 96.7 %.)"""
+    ze, zv = _lightly_damped(seed)
+    sub = decompose(ze, 20)
+    crossed = 0
+    for n in range(2, 11):
+        kept = n4sid(ze, n, sub=sub, stable=False)
+        if np.max(np.abs(kept.poles)) <= 1:
+            continue
+        crossed += 1
+        default = n4sid(ze, n, sub=sub)
+        reflected = n4sid(ze, n, sub=sub, stable=True)
+        mine, as_is, refl = (
+            compare(m, zv, x0="estimate").fit[0] for m in (default, kept, reflected)
+        )
+        assert mine >= max(as_is, refl) - 1.0, (n, mine, as_is, refl)
+        p = default.parameters
+        assert p["estimation_fit_reflected"] != p["estimation_fit_as_estimated"]
+        chosen_reflected = p["estimation_fit_reflected"] > p["estimation_fit_as_estimated"]
+        assert p["stabilised"] == chosen_reflected
+    assert crossed >= 1 or seed in (2,)  # seed 2's estimates stay inside at every order
+
+
+@pytest.mark.parametrize(
+    ("name", "columns", "nest", "s"),
+    [("dryer", (1, 0), 500, 16), ("robot_arm", (1, 0), 512, 20), ("exchanger", (2, 1), 2000, 20)],
+)
+def test_every_order_is_no_worse_than_the_estimate_as_it_is(
+    name: str, columns: tuple[int, int], nest: int, s: int
+) -> None:
+    """Orders 1–10 on the public data sets: the default model validates at least as well
+    as the unstabilised estimate, from a zero and from the estimated initial state (the
+    unstable estimates at orders 6 and 10 of the dryer, 10 of the robot arm and 6, 8, 10
+    of the heat exchanger are reflected, and fit better for it)."""
+    raw = np.loadtxt(Path(__file__).resolve().parents[2] / "reference" / "ident" / f"{name}.dat")
+    y, u = raw[:, columns[0]], raw[:, columns[1]]
+    ze = iddata(y[:nest] - y[:nest].mean(), u[:nest] - u[:nest].mean(), 1.0)
+    zv = iddata(y[nest:] - y[nest:].mean(), u[nest:] - u[nest:].mean(), 1.0)
+    sub = decompose(ze, s)
+    for n in range(1, 11):
+        default, kept = n4sid(ze, n, sub=sub), n4sid(ze, n, sub=sub, stable=False)
+        for x0 in ("zero", "estimate"):
+            mine = compare(default, zv, x0=x0).fit[0]
+            as_is = compare(kept, zv, x0=x0).fit[0]
+            assert mine >= as_is - 0.05 or not np.isfinite(as_is), (n, x0, mine, as_is)
+
+
+def test_the_headline_fit_is_the_one_that_means_something(dryer: tuple[IdData, IdData]) -> None:
+    """From a zero state when every mode decays within the validation record (the hair
+    dryer, the published convention); from the estimated state for an integrator (the
+    zero-state fit of an integrating plant's model measures where the record starts)."""
+    from elab.ident import workflow as wf
+
+    ze, zv = dryer
+    plan = wf.Plan(models=(wf.parse_model("arx:2,2,3"),), correlation=False, spectral=False)
+    fit = wf.run(ze, plan, validation=zv).models[0]["fit"]
+    assert fit["headline_x0"] == "zero" and fit["headline"] == fit["validation_simulation"]
+    rng = np.random.default_rng(3)
+    u = np.sign(rng.standard_normal(1000))
+    y = scipy.signal.lfilter([0, 0.1], [1, -1], u) + 0.01 * rng.standard_normal(1000)
+    out = wf.run(
+        iddata(y, u, 0.1), replace(plan, models=(wf.parse_model("arx:1,1,1"),), detrend="none")
+    )
+    fit = out.models[0]["fit"]
+    assert fit["headline_x0"] == "estimated" and fit["headline"] == fit["validation_simulation_x0"]
+    assert "longer than the 500-sample record" in fit["headline_why"]
+    assert fit["headline"][0] > 90 > 0 > fit["validation_simulation"][0]  # 93.8 %, −151 %
