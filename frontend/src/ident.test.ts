@@ -1,5 +1,6 @@
 import { describe, expect, it } from "vitest";
-import { discreteStep, parseModels } from "./ident";
+import { columnNames, dataSummary, discreteStep, fileRecord, parseModels, tooLarge } from "./ident";
+import type { IdentDataOut } from "./protocol.gen";
 
 /** ``text`` is refused with a message containing ``part``. */
 function failsWith(text: string, part: string): void {
@@ -37,5 +38,31 @@ describe("discreteStep", () => {
   it("is the step response of y(k+1) = 0.5 y(k) + u(k)", () => {
     const y = discreteStep({ A: [[0.5]], B: [[1]], C: [[1]], D: [[0]] }, 5)[0];
     expect(y).toEqual([0, 1, 1.5, 1.75, 1.875]);
+  });
+});
+
+describe("files as request records", () => {
+  it("reads column lists and the format from the name", () => {
+    expect(columnNames(" c1, c2 ,, ")).toEqual(["c1", "c2"]);
+    expect(fileRecord("Val.JSON", "{}", ["u"], ["y"], null)).toEqual({ source: "file", name: "Val.JSON", format: "json", text: "{}", input: ["u"], output: ["y"], Ts: null });
+    expect(fileRecord("dryer.dat", "1 2", ["c1"], ["c2"], 0.08).format).toBe("csv");
+  });
+  it("counts every file of a request against the limit", () => {
+    expect(tooLarge([{ name: "a.csv", size: 16 << 20 }])).toBeNull();
+    expect(tooLarge([{ name: "a.csv", size: 17 << 20 }])).toBe("a.csv is 17.0 MiB: the limit is 16.0 MiB.");
+    expect(tooLarge([{ name: "a.csv", size: 10 << 20 }, { name: "b.csv", size: 7 << 20 }])).toBe("a.csv and b.csv are 17.0 MiB together: the limit is 16.0 MiB.");
+    expect(tooLarge([], 1)).toBeNull();
+  });
+});
+
+describe("dataSummary", () => {
+  const d = { N: 1000, Ts: 0.08, estimation: 500, validation: "split", step: 1, trend: "mean", t: [0] } as IdentDataOut;
+  it("says where validation comes from", () => {
+    expect(dataSummary(d)).toBe("1,000 samples at Ts = 80 ms; estimation: the first 500 (to t = 40 s), validation: the rest; detrended: mean.");
+    const record = { ...d, validation: "record" } as IdentDataOut;
+    expect(dataSummary(record, "val.dat")).toBe("1,000 samples at Ts = 80 ms; estimation: all 500 of the data, validation: the 500 of the separate record val.dat (drawn after them, from t = 40 s); the estimation data's means removed from both.");
+    expect(dataSummary({ ...record, trend: "linear" })).toContain("validation: the 500 of a separate record");
+    expect(dataSummary({ ...record, trend: "linear" })).toContain("each record's own straight line removed");
+    expect(dataSummary({ ...record, trend: "none" })).toContain("kept as recorded");
   });
 });

@@ -1,6 +1,8 @@
 // Identification helpers without DOM: the model list in the CLI's syntax
-// (`arx:4,4,3; n4sid:4`), and the hand-over of an identified model to the design view.
-import type { ArmaxSpec, ArxSpec, IdentOut, N4SidSpec, OeSpec } from "./protocol.gen";
+// (`arx:4,4,3; n4sid:4`), uploaded files as request records, the data set in words, and
+// the hand-over of an identified model to the design view.
+import type { ArmaxSpec, ArxSpec, FileData, IdentDataOut, IdentOut, N4SidSpec, OeSpec } from "./protocol.gen";
+import { fmt } from "./units";
 
 export type ModelSpec = ArxSpec | ArmaxSpec | OeSpec | N4SidSpec;
 export type ParsedModels = { ok: true; models: ModelSpec[] } | { ok: false; message: string };
@@ -43,6 +45,44 @@ export function parseModels(text: string): ParsedModels {
   return { ok: true, models };
 }
 
+/** The body's limit (the server's ELAB_MAX_UPLOAD default): every file of a request together. */
+export const MAX_UPLOAD = 16 << 20;
+
+/** "c1, c2" → ["c1", "c2"] (a column list as typed). */
+export function columnNames(text: string): FileData["input"] {
+  return text
+    .split(",")
+    .map((x) => x.trim())
+    .filter(Boolean) as FileData["input"];
+}
+
+/** An uploaded file as a request record (`data` or `validation`): JSON by its extension,
+ * else CSV or whitespace-separated columns; `Ts` null: from the file. */
+export function fileRecord(name: string, text: string, input: FileData["input"], output: FileData["output"], Ts: number | null): FileData {
+  return { source: "file", name, format: name.toLowerCase().endsWith(".json") ? "json" : "csv", text, input, output, Ts };
+}
+
+/** Why these files cannot go in one request (null: they can). */
+export function tooLarge(files: { name: string; size: number }[], limit = MAX_UPLOAD): string | null {
+  const total = files.reduce((n, f) => n + f.size, 0);
+  if (total <= limit) return null;
+  const mib = (n: number) => `${(n / 2 ** 20).toFixed(1)} MiB`;
+  const which = files.length > 1 ? `${files.map((f) => f.name).join(" and ")} are ${mib(total)} together` : `${files[0].name} is ${mib(total)}`;
+  return `${which}: the limit is ${mib(limit)}.`;
+}
+
+/** The data set as analysed, in a sentence: how many samples, which estimate and which
+ * validate (the rest of the data, or a separate record), and how they were detrended. */
+export function dataSummary(d: IdentDataOut, validationName: string | null = null): string {
+  const n = (k: number) => k.toLocaleString("en");
+  const split = d.estimation * d.Ts + d.t[0];
+  const head = `${n(d.N)} samples at Ts = ${fmt(d.Ts * 1000)} ms`;
+  if (d.validation === "split") return `${head}; estimation: the first ${n(d.estimation)} (to t = ${fmt(split)} s), validation: the rest; detrended: ${d.trend}.`;
+  const record = validationName ? `the separate record ${validationName}` : "a separate record";
+  const trend = d.trend === "mean" ? "the estimation data's means removed from both" : d.trend === "linear" ? "each record's own straight line removed" : "kept as recorded";
+  return `${head}; estimation: all ${n(d.estimation)} of the data, validation: the ${n(d.N - d.estimation)} of ${record} (drawn after them, from t = ${fmt(split)} s); ${trend}.`;
+}
+
 /** What the design view receives from "Use this model". */
 export interface HandedModel {
   name: string;
@@ -67,7 +107,7 @@ export function handOver(plantId: string, out: IdentOut, index: number, source: 
     input: d.input_names[0],
     output: d.output_names,
     units: d.output_units,
-    fit: m.fit.validation_simulation,
+    fit: m.fit.headline,
     ss: m.ss,
     tf: m.tf,
     poles: m.poles,

@@ -112,7 +112,7 @@ CASES: list[tuple[str, str, str | None, str]] = [
         "POST",
         "/ident",
         file_body(f'{{"Ts": {HUGE}, "u": [1, 2, 3], "y": [1, 2, 3]}}', "json"),
-        "Ts",
+        "data.Ts",
     ),
     ("POST", "/ident", file_body(f'{{"Ts": 0.1, "u": {DEEP[:20_000]}, "y": [1]}}', "json"), "data"),
 ]

@@ -136,10 +136,15 @@ def ident_json(result: wf.Result) -> str:
     return s.IdentOut.model_validate(result.as_dict()).model_dump_json()
 
 
-def identify(data: IdData, plan: wf.Plan, progress: wf.Progress | None = None) -> str:
+def identify(
+    data: IdData,
+    plan: wf.Plan,
+    validation: IdData | None = None,
+    progress: wf.Progress | None = None,
+) -> str:
     """:func:`elab.ident.workflow.run` and :func:`ident_json` (one job of the server's
     identification workers: the JSON is written there, not in the web process)."""
-    return ident_json(wf.run(data, plan, progress))
+    return ident_json(wf.run(data, plan, progress, validation=validation))
 
 
 def complex_list(values: Any) -> list[s.Complex]:

@@ -1,5 +1,6 @@
 """Identification over HTTP: ``POST /api/v1/ident`` runs :func:`elab.ident.workflow.run`
-on a run's recording or on an uploaded table and answers with every result as JSON.
+on a run's recording or on an uploaded table (validated on its rest or on a separate
+record: :mod:`elab.api.identdata`) and answers with every result as JSON.
 
 With ``Accept: application/x-ndjson`` the answer is a stream of lines, ``{"progress":
 {"stage", "done"}}`` while it works, then ``{"result": …}`` or ``{"error": …}``. The data
@@ -17,6 +18,7 @@ from __future__ import annotations
 import asyncio
 from collections import Counter
 from collections.abc import AsyncIterator, Callable, Coroutine
+from functools import partial
 from typing import Any, TypeVar
 
 from starlette.background import BackgroundTask
@@ -27,13 +29,12 @@ from elab.api import convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import endpoint, error_detail, read_model
+from elab.api.identdata import records
 from elab.errors import ElabError, InvalidInput, TooMany
 from elab.ident import IdData
 from elab.ident import workflow as wf
-from elab.ident.files import read_table
+from elab.ident.files import Table, read_table
 from elab.jobs import JobPool
-from elab.plants import get_plant
-from elab.runs.manager import RunManager
 
 T = TypeVar("T")
 
@@ -50,21 +51,23 @@ T = TypeVar("T")
 async def identify(request: Request) -> Response:
     """Correlation, spectral and sine analysis, ARX order search, subspace singular values
     and the requested ARX, ARMAX, OE and n4sid models with their validation fit % and
-    residual analysis (see docs/identification.md). The body may be as large as
+    residual analysis (see docs/identification.md), validated on the rest of the data or on
+    a separate ``validation`` record. The body, both records in it, may be as large as
     ``ELAB_MAX_UPLOAD`` (16 MiB)."""
     req = await read_model(request, s.IdentRequest, upload=True)
     slot = _slots(request).take(identity(request).id)
     mine: Callable[[], None] | None = slot
     try:
-        data, sine = await _dataset(request, req.data)
+        data, validation, sine = await records(request, req, partial(_parse, request))
         plan = _plan(req, sine)
         if "application/x-ndjson" in request.headers.get("accept", ""):
             mine = None  # given back when the stream ends, however it ends
-            lines = _progress_lines(jobs(request), data, plan, slot)
+            lines = _progress_lines(jobs(request), (data, plan, validation), slot)
             return StreamingResponse(
                 lines, media_type="application/x-ndjson", background=BackgroundTask(slot)
             )
-        result = await _unless_gone(request, jobs(request).run(convert.identify, data, plan))
+        job = jobs(request).run(convert.identify, data, plan, validation)
+        result = await _unless_gone(request, job)
         if result is None:
             raise ClientGone
     except ClientGone:
@@ -140,16 +143,18 @@ async def _disconnected(request: Request) -> None:
 
 
 async def _progress_lines(
-    pool: JobPool, data: IdData, plan: wf.Plan, release: Callable[[], None]
+    pool: JobPool,
+    work: tuple[IdData, wf.Plan, IdData | None],
+    release: Callable[[], None],
 ) -> AsyncIterator[bytes]:
-    """Progress, then the result: the job's reports as they come. When the client goes
-    away, the response is cancelled here, which stops the job."""
+    """Progress, then the result of :func:`convert.identify` on ``work`` (data, plan,
+    validation): the job's reports as they come. When the client goes away, the response
+    is cancelled here, which stops the job."""
     queue: asyncio.Queue[tuple[str, float]] = asyncio.Queue()
     job = asyncio.ensure_future(
         pool.run(
             convert.identify,
-            data,
-            plan,
+            *work,
             progress=lambda stage, done: queue.put_nowait((stage, done)),
         )
     )
@@ -176,69 +181,12 @@ def _line(line: s.IdentLine) -> bytes:
     return line.model_dump_json().encode() + b"\n"
 
 
-async def _dataset(request: Request, src: s.RunData | s.FileData) -> tuple[IdData, float | None]:
-    """The data set and, for a run excited by a sine, its frequency (Hz)."""
-    if isinstance(src, s.FileData):  # parsed by a worker: a huge file stalls no stream
-        table = await _unless_gone(
-            request, jobs(request).run(read_table, src.text.encode(), src.format)
-        )
-        if table is None:
-            raise ClientGone
-        return _prefixed("data", lambda: table.dataset(src.input, src.output, src.Ts)), None
-    m: RunManager = request.app.state.manager
-    record = await m.get(src.run, identity(request))
-    names = [c[0] for c in record.channels]
-    units = dict(record.channels)
-    outputs = src.output or [
-        get_plant(record.plant).outputs[get_plant(record.plant).reference_output].name
-    ]
-    for fieldname, chosen in (("input", src.input), ("output", outputs)):
-        for name in chosen:
-            if name not in names:
-                raise InvalidInput(
-                    f"data.{fieldname}", name, f"channels of run {record.id}: {', '.join(names)}"
-                )
-    k0 = 0 if src.t_from is None else round(src.t_from / record.Ts)
-    k1 = None if src.t_to is None else round(src.t_to / record.Ts) + 1
-    if k1 is not None and k1 <= k0:
-        raise InvalidInput("data.t_to", src.t_to, f"a time after t_from ({src.t_from} s)")
-    rows = await m.read(record.id, k0, k1)
-    if rows.shape[0] < 2:
-        raise InvalidInput(
-            "data.run",
-            record.id,
-            f"a run with recorded samples in the range (it has {record.n_stored})",
-        )
-    col = {n: i for i, n in enumerate(names)}
-    data = _prefixed(
-        "data",
-        lambda: IdData(
-            rows[:, [col[n] for n in outputs]],
-            rows[:, [col[n] for n in src.input]],
-            record.Ts,
-            output_names=tuple(outputs),
-            input_names=tuple(src.input),
-            output_units=tuple(units[n] for n in outputs),
-            input_units=tuple(units[n] for n in src.input),
-            k0=k0,
-        ),
-    )
-    return data, _sine_of(record.spec)
-
-
-def _sine_of(spec: dict[str, Any]) -> float | None:
-    for key in ("excitation", "signal"):
-        sig = spec.get(key)
-        if isinstance(sig, dict) and sig.get("kind") == "sine":
-            return float(sig["frequency"])
-    return None
-
-
-def _prefixed(prefix: str, make: Any) -> Any:
-    try:
-        return make()
-    except InvalidInput as exc:
-        raise InvalidInput(f"{prefix}.{exc.field}", exc.value, exc.allowed) from None
+async def _parse(request: Request, text: bytes, fmt: str) -> Table:
+    """A file's table, parsed by a worker: a huge file stalls no stream."""
+    table = await _unless_gone(request, jobs(request).run(read_table, text, fmt))
+    if table is None:
+        raise ClientGone
+    return table
 
 
 def _plan(req: s.IdentRequest, sine: float | None) -> wf.Plan:

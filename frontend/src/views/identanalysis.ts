@@ -5,11 +5,12 @@
 import { ApiError, identify } from "../api";
 import { fill, h } from "../dom";
 import { FieldSet, NumberField } from "../forms";
-import { handOver, parseModels } from "../ident";
+import { columnNames, dataSummary, fileRecord, handOver, parseModels, tooLarge } from "../ident";
 import { chart, purge, type Series } from "../plot";
 import type { FileData, IdentModelOut, IdentOut, IdentRequest, PlantDetail, RunData } from "../protocol.gen";
 import { fmt } from "../units";
 import { downloadButton, showApiError } from "./common";
+import { ValidationFile } from "./identvalidation";
 
 /** Where the data come from: a run (channels by name) or a file chosen in the panel. */
 export type Source = { kind: "run"; runId: string } | { kind: "file" };
@@ -22,6 +23,7 @@ export class IdentAnalysis {
   private readonly columns: { input: HTMLInputElement; output: HTMLInputElement } | null = null;
   private readonly detrend: HTMLSelectElement;
   private readonly checks: Record<"correlation" | "spectral" | "arx" | "n4sid", HTMLInputElement>;
+  private readonly validation: ValidationFile;
   private readonly models: HTMLInputElement;
   private readonly modelsMsg = h("small.error", { role: "alert", "data-testid": "models-error" });
   private readonly msg = h("p.error", { role: "alert", "data-testid": "ident-error" });
@@ -49,6 +51,8 @@ export class IdentAnalysis {
     this.checks = { correlation, spectral, arx, n4sid };
     this.detrend = h("select", { id: `${pre}-detrend` }, h("option", { value: "mean" }, "remove the mean (MATLAB's default)"), h("option", { value: "linear" }, "remove a straight line"), h("option", { value: "none" }, "keep as recorded"));
     this.models = h("input.mono", { id: `${pre}-models`, value: "arx:4,4,1; armax:2,2,2,1; n4sid", spellcheck: false, autocomplete: "off", oninput: () => this.checkModels() });
+    const split = f.add(new NumberField({ idPrefix: pre, field: "split", label: "Estimation share (the rest validates)", value: 0.5, min: 0, max: 1, minExclusive: true, maxExclusive: true, step: 0.05 }));
+    this.validation = new ValidationFile(pre, split, source.kind === "run" ? "columns u and the output(s) above at this run's sample time, e.g. another run's CSV download" : "the same columns and sample time as the data file");
     const sourceBox: HTMLElement[] = [];
     if (source.kind === "run") {
       const outputs = plant.outputs.map((o) => h("option", { value: o.name }, `${o.label} (${o.unit})`));
@@ -69,7 +73,8 @@ export class IdentAnalysis {
       { novalidate: true, "aria-label": "identification analysis", onsubmit: (ev: Event) => (ev.preventDefault(), void this.run()) },
       h("h2", source.kind === "run" ? "Identify a model from this run" : "Identify a model from a data file"),
       ...sourceBox,
-      h("div.grid", f.add(new NumberField({ idPrefix: pre, field: "split", label: "Estimation share (the rest validates)", value: 0.5, min: 0, max: 1, minExclusive: true, maxExclusive: true, step: 0.05 })).root, h("div.field", h("label", { for: `${pre}-detrend` }, "Detrend (each part)"), this.detrend)),
+      this.validation.root,
+      h("div.grid", split.root, h("div.field", h("label", { for: `${pre}-detrend` }, "Detrend (each part)"), this.detrend)),
       h("fieldset", h("legend", "Analyses"), corrLabel, specLabel, arxLabel, h("div.grid", num("arx_search.na.0", "na from", 1, 0, 50), num("arx_search.na.1", "na to", 10, 0, 50), num("arx_search.nb.0", "nb from", 1, 1, 50), num("arx_search.nb.1", "nb to", 10, 1, 50), num("arx_search.nk.0", "nk from", 1, 0, 50), num("arx_search.nk.1", "nk to", 10, 0, 50)), n4sidLabel, h("div.grid", num("n4sid_orders.0", "order from", 1, 1, 99), num("n4sid_orders.1", "order to", 10, 1, 99), num("horizon", "horizon s (0: default)", 0, 0, 100))),
       h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values); separate with ;"), this.modelsMsg),
       h("div.actions", h("button.primary", { type: "submit" }, "Identify"), this.progress, this.stage),
@@ -89,28 +94,12 @@ export class IdentAnalysis {
     const v = this.fields.values();
     const models = this.checkModels();
     if (!v || !models.ok) return null;
+    const records = await this.records(v);
+    if (!records) return null;
     const span = (a: string): [number, number] => [v.get(`${a}.0`)!, v.get(`${a}.1`)!];
-    let data: RunData | FileData;
-    if (this.source.kind === "run") {
-      const out = this.output!.value;
-      data = { source: "run", run: this.source.runId, input: ["u"], output: (out === "*" ? this.plant.outputs.map((o) => o.name) : [out]) as RunData["input"] };
-    } else {
-      const file = this.fileInput!.files?.[0];
-      if (!file) {
-        fill(this.msg, "Choose a data file first.");
-        return null;
-      }
-      if (file.size > 16 << 20) {
-        fill(this.msg, `${file.name} is ${(file.size / 2 ** 20).toFixed(1)} MiB: the limit is 16 MiB.`);
-        return null;
-      }
-      const names = (s: string) => s.split(",").map((x) => x.trim()).filter(Boolean) as FileData["input"];
-      const Ts = v.get("data.Ts")!;
-      data = { source: "file", name: file.name, format: file.name.toLowerCase().endsWith(".json") ? "json" : "csv", text: await file.text(), input: names(this.columns!.input.value), output: names(this.columns!.output.value), Ts: Ts > 0 ? Ts : null };
-    }
     return {
-      data,
-      split: v.get("split")!,
+      ...records,
+      ...(records.validation ? {} : { split: v.get("split")! }),
       detrend: this.detrend.value as "mean" | "linear" | "none",
       correlation: this.checks.correlation.checked,
       spectral: this.checks.spectral.checked,
@@ -119,6 +108,32 @@ export class IdentAnalysis {
       horizon: v.get("horizon")! > 0 ? v.get("horizon")! : null,
       models: models.models,
     };
+  }
+
+  /** The data (the run, or the chosen file) and the validation file if one is chosen, with
+   * the data's columns (a run's sample time: from the file); null with the reason shown. */
+  private async records(v: Map<string, number>): Promise<{ data: RunData | FileData; validation: FileData | null } | null> {
+    const file = this.fileInput?.files?.[0] ?? null;
+    const vfile = this.validation.file;
+    if (this.source.kind === "file" && !file) {
+      fill(this.msg, "Choose a data file first.");
+      return null;
+    }
+    const large = tooLarge([file, vfile].filter((x) => x !== null));
+    if (large) {
+      fill(this.msg, large);
+      return null;
+    }
+    let data: RunData | FileData;
+    if (this.source.kind === "run") {
+      const out = this.output!.value;
+      data = { source: "run", run: this.source.runId, input: ["u"], output: (out === "*" ? this.plant.outputs.map((o) => o.name) : [out]) as FileData["output"] };
+    } else {
+      const Ts = v.get("data.Ts")!;
+      data = fileRecord(file!.name, await file!.text(), columnNames(this.columns!.input.value), columnNames(this.columns!.output.value), Ts > 0 ? Ts : null);
+    }
+    const Ts = data.source === "file" ? (data.Ts ?? null) : null;
+    return { data, validation: vfile ? fileRecord(vfile.name, await vfile.text(), data.input!, data.output!, Ts) : null };
   }
 
   private async run(): Promise<void> {
@@ -165,7 +180,7 @@ export class IdentAnalysis {
     // data with the split
     const split = d.estimation * d.Ts + d.t[0];
     const dataDiv = this.chartBox("ident-data");
-    sections.push(h("section.panel.wide", h("h2", "Data"), h("p", `${d.N.toLocaleString("en")} samples at Ts = ${fmt(d.Ts * 1000)} ms; estimation: the first ${d.estimation.toLocaleString("en")} (to t = ${fmt(split)} s), validation: the rest; detrended: ${d.trend}.`), dataDiv));
+    sections.push(h("section.panel.wide", h("h2", "Data"), h("p", { "data-testid": "ident-data-summary" }, dataSummary(d, req.validation?.source === "file" ? (req.validation.name ?? null) : null)), dataDiv));
     const dataSeries: Series[] = [];
     d.y.forEach((y, i) => dataSeries.push({ x: d.t, y, name: yName(i) }));
     d.u.forEach((u, i) => dataSeries.push({ x: d.t, y: u, name: `${d.input_names[i]} (${d.input_units[i] || "–"})`, axis: 2 }));
@@ -220,8 +235,8 @@ export class IdentAnalysis {
       h(
         "tr",
         h("th", { scope: "row" }, m.name),
-        h("td", m.fit.validation_simulation.map((x) => `${fmt(x)} %`).join(", ")),
-        h("td", m.fit.validation_simulation_x0.map((x) => `${fmt(x)} %`).join(", ")),
+        h(m.fit.headline_x0 === "zero" ? "td.headline" : "td", { "data-testid": `fit-zero-${i}` }, m.fit.validation_simulation.map((x) => `${fmt(x)} %`).join(", ")),
+        h(m.fit.headline_x0 === "estimated" ? "td.headline" : "td", { "data-testid": `fit-x0-${i}`, title: m.fit.headline_x0 === "estimated" ? m.fit.headline_why : "" }, m.fit.validation_simulation_x0.map((x) => `${fmt(x)} %`).join(", ")),
         h("td", m.fit.validation_one_step.map((x) => `${fmt(x)} %`).join(", ")),
         h("td", m.stable ? "stable" : "unstable"),
         h("td", h("a.button", { href: `/plants/${this.plant.id}/design?model=identified`, "data-link": "", "data-testid": `use-model-${i}`, onclick: () => handOver(this.plant.id, out, i, source) }, "Use this model"), " ", h("button.link", { type: "button", onclick: () => this.saveModel(m) }, "JSON")),
@@ -232,7 +247,12 @@ export class IdentAnalysis {
     const tv = d.t.filter((_, k) => k * d.step >= n0);
     const series: Series[] = [];
     d.y.forEach((y, i) => series.push({ x: tv, y: y.slice(y.length - tv.length), name: `measured ${d.output_names[i]}` }));
-    for (const m of models) m.simulated.forEach((y, i) => series.push({ x: tv, y: y.slice(0, tv.length), name: `${m.name}${d.output_names.length > 1 ? " " + d.output_names[i] : ""}`, dash: "dash" }));
+    for (const m of models) {
+      // the plot shows the fit the table leads with: from x₀ = 0, or from the fitted x₀
+      const fitted = m.fit.headline_x0 === "estimated";
+      (fitted ? m.simulated_x0 : m.simulated).forEach((y, i) => series.push({ x: tv, y: y.slice(0, tv.length), name: `${m.name}${d.output_names.length > 1 ? " " + d.output_names[i] : ""}${fitted ? " (x₀ fitted)" : ""}`, dash: "dash" }));
+    }
+    const why = models.filter((m) => m.fit.headline_x0 === "estimated").map((m) => h("li", `${m.name}: ${m.fit.headline_why}.`));
     const residDivs: HTMLElement[] = [];
     const residBlocks = models.flatMap((m) => {
       const r = m.residuals;
@@ -258,7 +278,8 @@ export class IdentAnalysis {
       "section.panel.wide",
       h("h2", "Models on the validation data"),
       h("table.params", { "data-testid": "ident-models" }, h("thead", h("tr", h("th", "model"), h("th", "fit, simulated (x₀ = 0)"), h("th", "fit, simulated (x₀ fitted)"), h("th", "fit, one step ahead"), h("th", "poles"), h("th", ""))), h("tbody", ...rows)),
-      h("p.hint", "Fit = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) on the validation part. Use this model: its transfer function and step response go to the controller design view."),
+      h("p.hint", `Fit = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) on the ${d.validation === "record" ? "separate validation record" : "validation part"}; the bold one is each model's headline, and the one plotted: from x₀ = 0 when every mode decays within the record, else from the fitted initial state. Use this model: its transfer function and step response go to the controller design view.`),
+      why.length ? h("ul.hint", { "data-testid": "ident-headline-why" }, ...why) : "",
       compareDiv,
       ...residBlocks,
     );
