@@ -251,6 +251,7 @@ export interface OrderRow {
   order: number;
   loss: number | null;
   mdl: number | null;
+  aic: number | null;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

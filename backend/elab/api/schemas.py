@@ -833,6 +833,7 @@ class OrderRow(Model):
     order: int
     loss: Num
     mdl: Num
+    aic: Num
 
 
 class N4sidOrdersOut(Model):

@@ -176,3 +176,57 @@ def require_exciting(u: Array, order: int, field: str = "u") -> None:
                 f"an input that excites the system: persistently exciting of "
                 f"order ≥ {order} (e.g. PRBS, a chirp or white noise)",
             )
+
+
+FROZEN = 20  # an output unchanged this many samples (and a twentieth of the data) …
+CLIPPED = 0.01  # … or a channel at its extreme for this share of the samples, is said
+
+
+def suspicious(z: IdData) -> list[str]:
+    """What in the record a linear model cannot describe, as notes: an output frozen
+    (the same value over a long stretch while the input moves: a stuck sensor, a dead
+    zone, a lost connection) and a channel clipped (sitting at its largest or smallest
+    value in runs: saturation of an actuator, a sensor's range, a converter's). Signals of
+    a few levels (a PRBS, steps) sit at their extremes by design and are not suspected."""
+    notes = []
+    span = max(FROZEN, z.N // 20)
+    moving = np.any(np.diff(z.u, axis=0) != 0, axis=1)  # the input changes between t, t+1
+    for j, name in enumerate(z.output_names or [f"y{j + 1}" for j in range(z.ny)]):
+        start, length = _longest_run(z.y[:, j])
+        if length >= span and moving[start : start + length - 1].any():
+            notes.append(
+                f"{name} stays at {z.y[start, j]:.6g} for {length} samples (t = "
+                f"{start * z.Ts:g} … {(start + length - 1) * z.Ts:g} s) while the input "
+                "changes: a stuck sensor or a dead zone? A linear model fits it as a plant "
+                "that did not respond"
+            )
+    channels = [(n, z.y[:, j]) for j, n in enumerate(z.output_names or [])]
+    channels += [(n, z.u[:, j]) for j, n in enumerate(z.input_names or [])]
+    for name, x in channels:
+        if np.unique(x).size <= 20:  # a few levels: by design
+            continue
+        for which, edge in (("largest", x.max()), ("smallest", x.min())):
+            at = x == edge
+            share = float(at.mean())
+            if share >= CLIPPED and _longest_run(at.astype(np.float64), value=1.0)[1] >= 3:
+                notes.append(
+                    f"{name} sits at its {which} value {edge:.6g} for {100 * share:.1f} % of "
+                    "the samples: clipped or saturated? A linear model does not describe "
+                    "the plant there"
+                )
+    return notes
+
+
+def _longest_run(x: Array, value: float | None = None) -> tuple[int, int]:
+    """Start and length of the longest run of equal consecutive values (of ``value`` if
+    given)."""
+    change = np.flatnonzero(np.diff(x) != 0) + 1
+    starts = np.r_[0, change]
+    lengths = np.diff(np.r_[starts, x.shape[0]])
+    if value is not None:
+        keep = x[starts] == value
+        if not keep.any():
+            return 0, 0
+        starts, lengths = starts[keep], lengths[keep]
+    k = int(np.argmax(lengths))
+    return int(starts[k]), int(lengths[k])

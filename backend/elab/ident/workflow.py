@@ -23,7 +23,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
-from elab.ident.data import IdData, require_varying
+from elab.ident.data import IdData, require_varying, suspicious
 from elab.ident.models import LinearModel
 from elab.ident.nonparametric import cra, sine_response, spa
 from elab.ident.pem import C_RADIUS, armax, oe
@@ -150,6 +150,9 @@ def run(
     out = Result(
         data=_data_view(z, ze.N) | {"validation": "split" if validation is None else "record"}
     )
+    out.notes += suspicious(data)  # on the data as given: detrending moves the edges
+    if validation is not None:
+        out.notes += [f"validation record: {n}" for n in suspicious(validation)]
     report("data", 0.02)
     if not siso and (plan.correlation or plan.spectral or plan.sine_hz):
         out.notes.append(

@@ -9,10 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.signal
 
 from elab.cli import main
 from elab.errors import InvalidInput
-from elab.ident import IdData
+from elab.ident import IdData, iddata
 from elab.ident import workflow as wf
 
 N = 400
@@ -181,3 +182,24 @@ def test_a_separate_validation_record_is_detrended_with_the_estimation_records_m
     with pytest.raises(InvalidInput, match=r"sample time 0\.1 s") as e:
         wf.run(z1, plan("arx:2,2,1"), validation=z2)
     assert e.value.field == "validation.Ts"
+
+
+def test_a_frozen_output_and_a_clipped_channel_are_said() -> None:
+    """Issue 16: segments a linear model cannot describe are detected and said — an
+    output stuck while the input moves, a channel clipped at its extreme — and the
+    two-level input of a PRBS experiment (at its extremes by design) is not suspected."""
+    from elab.ident import workflow as wf
+
+    rng = np.random.default_rng(4)
+    u = np.sign(rng.standard_normal(N))  # two levels: not "clipped"
+    y = scipy.signal.lfilter([0, 0.5], [1, -0.8], u) + 0.01 * rng.standard_normal(N)
+    plan = wf.Plan(models=(wf.parse_model("arx:1,1,1"),), correlation=False, spectral=False)
+    assert not any("stays at" in n or "sits at" in n for n in wf.run(iddata(y, u, 0.1), plan).notes)
+    frozen = y.copy()
+    frozen[100:160] = frozen[100]  # 60 samples: a stuck sensor
+    notes = wf.run(iddata(frozen, u, 0.1, output_names=("y",)), plan).notes
+    assert any(n.startswith("y stays at") and "60 samples (t = 10 … 15.9 s)" in n for n in notes)
+    smooth = scipy.signal.lfilter([0, 0.2], [1, -0.9], rng.standard_normal(N))
+    clipped = np.clip(smooth, None, np.quantile(smooth, 0.97))  # the top 3 % cut off
+    notes = wf.run(iddata(y, clipped, 0.1, input_names=("u",)), plan).notes
+    assert any(n.startswith("u sits at its largest value") and "3.0 %" in n for n in notes)
