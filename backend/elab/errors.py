@@ -58,8 +58,33 @@ class NotFound(ElabError, LookupError):
 
 
 def _short(value: Any, limit: int = 80) -> str:
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    text = _readable(value)
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def _readable(value: Any, items: int = 8) -> str:
+    """A value as a user would write it: numbers plainly (−8+6j, not ``(-8+6j)``), arrays
+    and sequences as lists (not ``array([ -8.+6.j, …])``), nothing as "nothing"."""
+    if value is None:
+        return "nothing"
+    if hasattr(value, "tolist") and callable(value.tolist):  # numpy arrays and scalars
+        return _readable(value.tolist(), items)
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, complex) and value.imag == 0:
+        return _readable(value.real)
+    if isinstance(value, complex):
+        re, im = _readable(value.real), _readable(abs(value.imag))
+        return f"{re}{'-' if value.imag < 0 else '+'}{im}j"
+    if isinstance(value, float):
+        return repr(int(value)) if value.is_integer() and abs(value) < 1e15 else repr(value)
+    if isinstance(value, list | tuple):
+        shown = [_readable(v, items) for v in value[:items]]
+        more = ", …" if len(value) > items else ""
+        return (
+            f"[{', '.join(shown)}{more}] ({len(value)} values)" if more else f"[{', '.join(shown)}]"
+        )
+    return repr(value)
 
 
 class Conflict(ElabError, RuntimeError):

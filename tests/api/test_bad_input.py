@@ -94,6 +94,26 @@ def test_unknown_ids_are_404(server: Server) -> None:
         assert c.get("/nowhere").json()["error"]["code"] == "not_found"
 
 
+def test_a_browser_at_an_unknown_address_gets_the_app_with_404(server: Server) -> None:
+    """Issue 15: unknown URLs showed raw JSON; a browser (Accept: text/html) now gets the
+    app, whose router says "Page not found", with the 404 status. API paths and other
+    clients keep the JSON error."""
+    import httpx
+
+    from elab.api.app import STATIC
+
+    html = {"accept": "text/html,application/xhtml+xml"}
+    r = httpx.get(server.url + "/no/such/page", headers=html, timeout=30)
+    assert r.status_code == 404
+    if not (STATIC / "index.html").is_file():
+        pytest.skip("the app is not built (make build): only the JSON error is there")
+    assert r.headers["content-type"].startswith("text/html") and "<script" in r.text
+    api = httpx.get(server.url + "/api/v1/no-such-thing", headers=html, timeout=30)
+    assert api.status_code == 404 and api.json()["error"]["code"] == "not_found"
+    plain = httpx.get(server.url + "/no/such/page", timeout=30)
+    assert plain.status_code == 404 and plain.json()["error"]["code"] == "not_found"
+
+
 def test_illegal_transitions_are_409(server: Server) -> None:
     with server.client() as c:
         rid = c.post("/runs", json={"plant": "belt_conveyor", "duration": 30}).json()["id"]

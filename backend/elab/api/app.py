@@ -119,6 +119,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
         exception_handlers={ElabError: _error, ValidationError: _error, HTTPException: _http_error},
     )
     app.state.settings = settings
+    app.state.index = STATIC / "index.html" if (STATIC / "index.html").is_file() else None
     return app
 
 
@@ -161,6 +162,15 @@ async def _error(request: Request, exc: Exception) -> Response:
 
 async def _http_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, HTTPException)
+    index: Path | None = getattr(request.app.state, "index", None)
+    if (
+        exc.status_code == 404
+        and index is not None
+        and request.method in ("GET", "HEAD")
+        and not request.url.path.startswith(API + "/")
+        and "text/html" in request.headers.get("accept", "")
+    ):  # a browser at an unknown address: the app, which says "Page not found"
+        return FileResponse(index, status_code=404, headers={"cache-control": "no-cache"})
     code = {404: "not_found", 405: "invalid"}.get(exc.status_code, "invalid")
     return JSONResponse(
         {

@@ -74,7 +74,8 @@ def read_csv(text: str) -> Table:
     body = [ln for ln in lines if ln.strip() and not ln.startswith("#")]
     if not body:
         raise InvalidInput("data", "no rows", "CSV with one row of numbers per sample")
-    rows = [_cells(ln, i + 1) for i, ln in enumerate(body)]
+    sep = _separator(body[:20])
+    rows = [_cells(ln, i + 1, sep) for i, ln in enumerate(body)]
     names: list[str]
     if _numeric(rows[0]):
         names = [f"c{i + 1}" for i in range(len(rows[0]))]
@@ -89,10 +90,16 @@ def read_csv(text: str) -> Table:
     data = np.empty((len(rows), len(names)))
     for i, row in enumerate(rows):
         if len(row) != len(names):
+            comma = (
+                " (if the file writes decimal commas, as 1,5, its columns must be separated "
+                "by semicolons or tabs: a comma cannot be both)"
+                if sep == ","
+                else ""
+            )
             raise InvalidInput(
                 f"data row {i + 1}",
                 f"{len(row)} values",
-                f"{len(names)} values, one per column ({', '.join(names)})",
+                f"{len(names)} values, one per column ({', '.join(names)}){comma}",
             )
         try:
             data[i] = [float(v) for v in row]
@@ -228,12 +235,36 @@ def _no_constant(name: str) -> float:
     raise InvalidInput("data", name, "finite numbers (JSON has no NaN or Infinity)")
 
 
-def _cells(line: str, row: int) -> list[str]:
-    """The values of line ``row`` (of those not comments): comma-separated (quotes allowed),
-    else whitespace-separated (tab or space, as MATLAB's and DaISy's ``.dat`` files);
-    trailing empty cells dropped."""
+def _separator(lines: list[str]) -> str | None:
+    """How the columns are separated: semicolons where every line has them, tabs where
+    every line has them and the numbers decimal commas (the CSV of spreadsheets in
+    decimal-comma locales), else commas where a line has one, else whitespace (None:
+    MATLAB's and DaISy's ``.dat`` files)."""
+    commas = any("," in ln for ln in lines)
+    if all(";" in ln for ln in lines):
+        return ";"
+    if commas and all("\t" in ln for ln in lines):  # tabs and decimal commas
+        return "\t"
+    return "," if commas else None
+
+
+DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+([eE][+-]?\d+)?")
+
+
+def _cells(line: str, row: int, sep: str | None = None) -> list[str]:
+    """The values of line ``row`` (of those not comments), separated by ``sep``: commas
+    (quotes allowed), semicolons or tabs (where a number's decimal comma is read as a
+    point: 1,5 is 1.5), or whitespace; trailing empty cells dropped."""
     try:
-        cells = next(csv.reader([line])) if "," in line else line.split()
+        if sep == ",":
+            cells = next(csv.reader([line]))
+        elif sep in (";", "\t"):
+            cells = next(csv.reader([line], delimiter=sep))
+            cells = [
+                c.replace(",", ".") if DECIMAL_COMMA.fullmatch(c.strip()) else c for c in cells
+            ]
+        else:
+            cells = next(csv.reader([line])) if "," in line else line.split()
     except csv.Error as exc:  # e.g. a field longer than the csv module's 128 KiB limit
         raise InvalidInput(f"data line {row}", line[:60], f"CSV cells ({exc})") from None
     cells = [c.strip() for c in cells]

@@ -99,3 +99,21 @@ def test_unknown_columns_and_nan_are_refused() -> None:
         read_table(b"u,y\n1,2\n3,nan\n", "csv")
     with pytest.raises(InvalidInput, match=r"data\.y: .*finite"):
         read_table(b'{"Ts": 1, "u": [1, 2], "y": [1, 1e999]}', "json")
+
+
+def test_semicolon_and_decimal_comma_files_are_read() -> None:
+    """Issue 15: a spreadsheet's CSV in a decimal-comma locale (semicolons, or tabs,
+    between columns; 1,5 for 1.5) is read; a comma-separated file with decimal commas,
+    which cannot be told apart, is explained instead of "got '4 values'"."""
+    from elab.ident.files import read_csv
+
+    for text in (
+        "t;u;y\n0,0;1,5;2,25\n0,1;1,6;-2,5e-1\n",
+        "t\tu\ty\n0,0\t1,5\t2,25\n0,1\t1,6\t-2,5e-1\n",
+    ):
+        t = read_csv(text)
+        assert t.names == ("t", "u", "y")
+        assert t.data.tolist() == [[0.0, 1.5, 2.25], [0.1, 1.6, -0.25]]
+    assert read_csv("u;y\n1.5;2\n1.75;3\n").data.tolist() == [[1.5, 2.0], [1.75, 3.0]]
+    with pytest.raises(InvalidInput, match="decimal commas, as 1,5, its columns must be separated"):
+        read_csv("u,y\n1,5,2,25\n1,6,2,5\n")
