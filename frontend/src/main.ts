@@ -49,6 +49,7 @@ function whoAmI(): HTMLElement {
 
 const main = shell();
 const router = new Router(main, (root) => {
+  document.title = "Page not found · E-Lab";
   root.append(h("header.page", h("h1", "Page not found"), h("p", `Nothing lives at ${location.pathname}. `, link("/", "Go to the start page"), ".")));
 });
 router

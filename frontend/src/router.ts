@@ -47,6 +47,7 @@ export class Router {
     const path = location.pathname;
     const query = new URLSearchParams(location.search);
     this.root.replaceChildren();
+    document.title = "E-Lab"; // a view with a header names the tab after itself
     window.scrollTo(0, 0);
     for (const r of this.routes) {
       const m = r.pattern.exec(path);

@@ -23,7 +23,9 @@ export const EXPERIMENTS: Record<string, { title: string; blurb: string }> = {
   design: { title: "Controller design", blurb: "Design state feedback by LQR or pole placement, compare with the predefined controller, run it." },
 };
 
+/** The page's header, which also names the browser tab after the page. */
 export function pageHeader(title: string, crumbs: [string, string][] = [], ...extra: (Node | string)[]): HTMLElement {
+  document.title = `${title} · E-Lab`;
   const nav = h("nav.crumbs", { "aria-label": "breadcrumbs" }, link("/", "E-Lab"));
   for (const [href, text] of crumbs) nav.append(" / ", link(href, text));
   return h("header.page", nav, h("h1", title), ...extra);

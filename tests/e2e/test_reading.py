@@ -1,0 +1,21 @@
+"""Reading the app (issue 15): an unknown address shows the app's "Page not found" with a
+404, and every view names its browser tab."""
+
+from __future__ import annotations
+
+from playwright.sync_api import Page, expect
+
+
+def test_unknown_addresses_and_page_titles(page: Page) -> None:
+    answer = page.goto("/no/such/page")
+    assert answer is not None and answer.status == 404
+    expect(page.get_by_role("heading", name="Page not found")).to_be_visible()
+    assert page.title() == "Page not found · E-Lab"
+    page.goto("/plants/flexible_link/nonsense")  # under a real path: the app's router says it
+    expect(page.get_by_role("heading", name="Page not found")).to_be_visible()
+    page.goto("/plants/flexible_link/identification")
+    expect(page.get_by_role("heading", level=1)).to_contain_text("identification")
+    assert page.title().endswith(": identification · E-Lab") and page.title() != "E-Lab"
+    page.goto("/runs")
+    expect(page.get_by_role("heading", name="Runs", level=1)).to_be_visible()
+    assert page.title() == "Runs · E-Lab"
