@@ -19,3 +19,17 @@ def test_unknown_addresses_and_page_titles(page: Page) -> None:
     page.goto("/runs")
     expect(page.get_by_role("heading", name="Runs", level=1)).to_be_visible()
     assert page.title() == "Runs · E-Lab"
+
+
+def test_plant_pages_speak_to_students_and_promise_no_rig(page: Page) -> None:
+    """Issue 15: "seed §4.1.1"-style jargon on the plant pages, and a "real rig" on the
+    home card before one is connected. The source is cited as a source ([1], listed)."""
+    page.goto("/")
+    expect(page.get_by_role("heading", level=1)).to_be_visible()
+    assert "real rig" not in page.locator("main").inner_text().lower()
+    for plant in ("flexible_link", "double_pendulum", "belt_conveyor"):
+        page.goto(f"/plants/{plant}")
+        expect(page.get_by_role("heading", name="Source")).to_be_visible()
+        text = page.locator("main").inner_text()
+        assert "seed" not in text.lower(), plant
+        assert "[1]" in text

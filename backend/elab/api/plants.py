@@ -34,7 +34,9 @@ def _summary(p: Plant) -> s.PlantSummary:
         id=p.id,
         name=p.name,
         summary=p.summary,
-        modes=list(p.modes),
+        # what this server can run: no rig is connected yet (the flexible link's rig comes
+        # with the rig engine), so the lab does not offer — or promise — one
+        modes=[m for m in p.modes if m != "rig"],
         experiments=list(p.experiments),
     )
 

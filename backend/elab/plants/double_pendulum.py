@@ -63,7 +63,7 @@ PLANT = Plant(
     predefined=StateFeedback(
         K=(-1.0, 17549.1681, -4772.05208, -32.9730917, 3063.80861, 756.623012)
     ),
-    predefined_design="LQR, Q = diag(100, 5e9, 5e9, 1, 1, 1), R = 100 (seed §4.2.3)",
+    predefined_design="LQR, Q = diag(100, 5e9, 5e9, 1, 1, 1), R = 100",
     sensors=Sensors(quantum=(ENCODER_QUANTUM,) * 3, noise_std=(2e-4,) * 3),
     signal=SignalDefaults(kind="step", amplitude=math.radians(10), duration=10.0),
     operating_point=frozen_matrix([[0, 0, math.pi, 0, 0, 0]])[0],
@@ -77,7 +77,7 @@ PLANT = Plant(
         VelocityFilter(5, 2, 100.0),
     ),
     notes=(
-        "The seed offers no identification of this plant on hardware: only its linearised "
-        "model exists. Identification here runs on that model in closed loop.",
+        "There is no hardware for this plant, only its linearised model: identification "
+        "here runs on that model, in closed loop.",
     ),
 )

@@ -47,7 +47,7 @@ PLANT = Plant(
     reference_output=0,
     reference_state=0,
     predefined=StateFeedback(K=(20.0, -93.5614, 3.3621, 0.9623), estimate="velocity_filters"),
-    predefined_design="LQR, Q = diag(400, 10000, 3, 2), R = 1 (seed eq. 4.6)",
+    predefined_design="LQR, Q = diag(400, 10000, 3, 2), R = 1",
     sensors=Sensors(quantum=(ENCODER_QUANTUM, ENCODER_QUANTUM), noise_std=(2e-4, 2e-4)),
     signal=SignalDefaults(kind="square", amplitude=math.radians(30), period=4.0, duration=10.0),
     operating_point=frozen_matrix([[0, 0, 0, 0]])[0],
