@@ -55,10 +55,16 @@ export function saveText(filename: string, text: string, type = "text/csv"): voi
 }
 
 /** Columns → CSV text with a header line (null, a value that is not finite: an empty cell). */
+/** A number for a CSV cell: 15 significant digits, so float noise (6.9590000000000005,
+ * 0.30000000000000004) reads as the decimal it stands for. */
+export function cell(x: number): string {
+  return Number.isFinite(x) ? String(Number(x.toPrecision(15))) : String(x);
+}
+
 export function csv(header: string[], columns: ArrayLike<number | null>[]): string {
   const n = Math.max(0, ...columns.map((c) => c.length));
   const lines = [header.join(",")];
-  for (let i = 0; i < n; i++) lines.push(columns.map((c) => (i < c.length && c[i] !== null ? String(c[i]) : "")).join(","));
+  for (let i = 0; i < n; i++) lines.push(columns.map((c) => (i < c.length && c[i] !== null ? cell(c[i] as number) : "")).join(","));
   return lines.join("\n") + "\n";
 }
 

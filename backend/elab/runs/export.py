@@ -170,8 +170,16 @@ def iter_csv(rec: Recording, rows: int = 8192) -> Iterator[str]:
     yield "".join(lines)
     row = ",".join(["%r"] * (1 + len(rec.channels))) + "\n"
     for i0, data in rec.parts(rows):
-        part = np.column_stack([rec.t(i0, i0 + data.shape[0]), data])
+        part = np.column_stack([_clean_times(rec.t(i0, i0 + data.shape[0]), rec.Ts), data])
         yield (row * part.shape[0]) % tuple(part.ravel().tolist())
+
+
+def _clean_times(t: np.ndarray, Ts: float) -> np.ndarray:
+    """k·Ts without the float noise of the product (6.959, not 6.9590000000000005): rounded
+    to six decimals below the sample time's, far inside one sample."""
+    if not (Ts > 0 and np.isfinite(Ts)):
+        return t
+    return np.round(t, max(0, 6 - int(np.floor(np.log10(Ts)))))
 
 
 def to_json(data: Table | Recording) -> bytes:

@@ -63,8 +63,10 @@ def test_csv_round_trip_is_exact() -> None:
     table = make_table()
     _, names, got = parse_csv(to_csv(table))
     assert names == ["t", "r", "u", "theta", "x_theta_dot"]
-    assert np.array_equal(got[:, 0], table.t)  # t = (k0 + i)·Ts, bit for bit
-    assert np.array_equal(got[:, 1:], table.data)
+    # t = (k0 + i)·Ts as clean decimals (issue 15: 6.9590000000000005 read as noise)
+    assert np.allclose(got[:, 0], table.t, rtol=0, atol=1e-12)
+    assert all(len(repr(t)) <= 6 for t in got[:, 0].tolist())  # 1.234, 1.24, …
+    assert np.array_equal(got[:, 1:], table.data)  # the data bit for bit
 
 
 def test_csv_header_names_the_run_its_changes_and_units() -> None:
@@ -132,7 +134,9 @@ def test_csv_of_samples_keeps_the_cli_header() -> None:
     ]
     assert comments[3].startswith("# units: t [s], r [rad], u [V], theta [rad]")
     assert names[:3] == ["t", "r", "u"] and len(names) == 3 + plant.ny + plant.nx
-    assert np.array_equal(got, np.column_stack([c for _, c in samples.channels()]))
+    want = np.column_stack([c for _, c in samples.channels()])
+    assert np.array_equal(got[:, 1:], want[:, 1:])  # the data bit for bit; t clean decimals
+    assert np.allclose(got[:, 0], want[:, 0], rtol=0, atol=1e-12)
     assert text == to_csv(
         table_from_samples(samples, {"plant": "flexible_link", "generator": "elab simulate"})
     )
