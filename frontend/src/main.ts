@@ -1,19 +1,12 @@
 // E-Lab in the browser: the routes, the shell (header, classroom mode) and the views.
-import "katex/dist/katex.min.css";
+// The home page is in this bundle; every other view loads with its first visit, so the
+// home page does not wait for plotly.js and KaTeX (5 MB) — issue 15.
 import "./style.css";
 import { identityLabel } from "./access";
 import { fill, h, link } from "./dom";
 import { identity } from "./identity";
-import { plotSettings } from "./plot";
-import { Router } from "./router";
-import { accountPage } from "./views/account";
-import { analysisPage } from "./views/analysis";
-import { designPage } from "./views/design";
+import { Router, type View } from "./router";
 import { home } from "./views/home";
-import { identificationPage } from "./views/identification";
-import { plantPage } from "./views/plant";
-import { runPage } from "./views/run";
-import { runsPage } from "./views/runs";
 
 const CLASSROOM = "elab.classroom";
 
@@ -52,16 +45,27 @@ const router = new Router(main, (root) => {
   document.title = "Page not found · E-Lab";
   root.append(h("header.page", h("h1", "Page not found"), h("p", `Nothing lives at ${location.pathname}. `, link("/", "Go to the start page"), ".")));
 });
+// debugging and benchmark knobs, for the console and tests/bench/liveplot.py: the plot's
+// settings once a view that plots has loaded
+const knobs: { plotSettings?: object } = {};
+(window as unknown as { elab: object }).elab = knobs;
+
+/** A view loaded on first use; ``plots``: it draws plots, so the plot's knobs appear. */
+function lazy(load: () => Promise<View>, plots = false): View {
+  return async (root, params, query) => {
+    const view = await load();
+    if (plots && !knobs.plotSettings) knobs.plotSettings = (await import("./plot")).plotSettings;
+    return view(root, params, query);
+  };
+}
+
 router
   .add("/", home)
-  .add("/plants/:id", plantPage)
-  .add("/plants/:id/analysis", analysisPage)
-  .add("/plants/:id/identification", identificationPage)
-  .add("/plants/:id/design", designPage)
-  .add("/runs", runsPage)
-  .add("/runs/:id", runPage)
-  .add("/account", accountPage);
+  .add("/plants/:id", lazy(async () => (await import("./views/plant")).plantPage))
+  .add("/plants/:id/analysis", lazy(async () => (await import("./views/analysis")).analysisPage, true))
+  .add("/plants/:id/identification", lazy(async () => (await import("./views/identification")).identificationPage, true))
+  .add("/plants/:id/design", lazy(async () => (await import("./views/design")).designPage, true))
+  .add("/runs", lazy(async () => (await import("./views/runs")).runsPage))
+  .add("/runs/:id", lazy(async () => (await import("./views/run")).runPage, true))
+  .add("/account", lazy(async () => (await import("./views/account")).accountPage));
 void router.render();
-
-// debugging and benchmark knobs, for the console and tests/bench/liveplot.py
-(window as unknown as { elab: object }).elab = { plotSettings };

@@ -1,4 +1,5 @@
 // Plant descriptions: markdown with TeX math ($…$ inline, $$…$$ display) → HTML.
+import "katex/dist/katex.min.css";
 import katex from "katex";
 import { marked } from "marked";
 

@@ -62,6 +62,7 @@ def _task_seconds(metrics: dict[str, list[dict[str, float]]]) -> tuple[float, fl
 
 def _measure(page: Page, base_url: str, decimate: bool) -> PlotFigures:
     page.goto(base_url + "/plants/flexible_link/analysis")
+    page.wait_for_function("window.elab.plotSettings !== undefined")  # the view loads lazily
     page.evaluate(f"window.elab.plotSettings.decimate = {str(decimate).lower()}")
     page.locator("#f-duration").fill(str(DURATION))
     page.get_by_role("button", name="Start").click()

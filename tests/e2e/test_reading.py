@@ -33,3 +33,25 @@ def test_plant_pages_speak_to_students_and_promise_no_rig(page: Page) -> None:
         text = page.locator("main").inner_text()
         assert "seed" not in text.lower(), plant
         assert "[1]" in text
+
+
+def test_the_home_page_loads_no_plotly_and_pages_fit_a_phone(page: Page) -> None:
+    """Issue 15 (item 8): every page loaded one 5 MB script (plotly and KaTeX), about 5 s
+    per cold page here; the home page now loads neither, the views load with their first
+    visit. At 390 px width no page scrolls sideways."""
+    scripts: list[str] = []
+    page.on("request", lambda r: scripts.append(r.url) if r.resource_type == "script" else None)
+    page.goto("/")
+    expect(page.get_by_role("heading", level=1)).to_be_visible()
+    page.wait_for_load_state("networkidle")
+    assert scripts and not [u for u in scripts if "/plot-" in u or "/markdown-" in u], scripts
+    page.goto("/plants/flexible_link/analysis")
+    expect(page.locator(".js-plotly-plot, [data-testid]").first).to_be_attached()
+    assert any("/plot-" in u for u in scripts)  # the view brought the plot with it
+    page.set_viewport_size({"width": 390, "height": 800})
+    for path in ("/", "/plants/flexible_link", "/plants/flexible_link/analysis", "/runs"):
+        page.goto(path)
+        expect(page.locator("header.page h1")).to_be_visible()
+        page.wait_for_timeout(300)
+        width = page.evaluate("document.documentElement.scrollWidth")
+        assert width <= 390, (path, width)
