@@ -12,17 +12,20 @@ import sys
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from elab import design
 from elab.errors import ElabError, InvalidInput
 from elab.laws import PID, CodeController, ControlLaw, OpenLoop, StateFeedback
 from elab.plants import PLANTS, Plant, get_plant
-from elab.runs.export import describe, to_csv
-from elab.sim import RunSpec, make_signal, simulate
 
+# Each command imports what it needs: elab.design and elab.sim bring python-control,
+# scipy.signal and numba (over a second of imports), which `elab identify` does not need.
+if TYPE_CHECKING:
+    from elab.sim import RunSpec
+
+ANALYSES = ("correlation", "spectral")  # elab identify --analyses
 UNITS = {"deg": math.pi / 180, "rad": 1.0, "mm": 1e-3, "m": 1.0, "V": 1.0, "s": 1.0, "Hz": 1.0}
 
 
@@ -94,6 +97,8 @@ def parse_law(text: str, plant: Plant, estimate: str) -> ControlLaw:
             raise InvalidInput("controller.pid", arg, "1 to 3 gains: Kp[,Ki[,Kd]]")
         return PID(*gains)
     if kind == "lqr":
+        from elab import design
+
         q, _, r = arg.partition(";")
         K = design.design_lqr(plant, parse_vector(q, "Q"), parse_quantity(r or "1", "R")).K
         return StateFeedback(tuple(float(k) for k in np.ravel(K)), estimate)  # type: ignore[arg-type]
@@ -119,6 +124,8 @@ def cmd_plants(args: argparse.Namespace) -> str:
 def _closed_loop_figures(plant: Plant) -> tuple[Any, Any, Any]:
     """Stability, step metrics (10 % of the default reference) and margins of the
     predefined loop, continuous and unsaturated."""
+    from elab import design
+
     cl = design.closed_loop(plant, plant.predefined)
     stab = design.stability(cl.A)
     step = design.step_response(
@@ -129,6 +136,9 @@ def _closed_loop_figures(plant: Plant) -> tuple[Any, Any, Any]:
 
 
 def cmd_analyze(args: argparse.Namespace) -> str:
+    from elab import design
+    from elab.runs.export import describe
+
     plant = get_plant(args.plant)
     a = design.analyze(plant)
     cl_stab, info, m = _closed_loop_figures(plant)
@@ -200,6 +210,8 @@ def _margins_text(m: Any) -> str:
 
 
 def cmd_design(args: argparse.Namespace) -> str:
+    from elab import design
+
     plant = get_plant(args.plant)
     if args.method == "lqr":
         if args.Q is None:
@@ -230,6 +242,9 @@ def cmd_design(args: argparse.Namespace) -> str:
 
 
 def cmd_simulate(args: argparse.Namespace) -> str:
+    from elab.runs.export import describe, to_csv
+    from elab.sim import RunSpec, make_signal, simulate
+
     plant = get_plant(args.plant)
     law = parse_law(args.controller, plant, args.estimate)
     params: dict[str, Any] = {"amplitude": parse_quantity(args.amplitude, "signal.amplitude")}
@@ -555,13 +570,38 @@ def _add_identify(sub: Any) -> None:
     p.add_argument("--detrend", default="mean", choices=["mean", "linear", "none"])
     p.add_argument("--horizon", type=int, help="subspace block rows")
     p.add_argument("--sine", type=float, help="sine analysis at this frequency (Hz)")
+    p.add_argument(
+        "--analyses",
+        help="non-parametric analyses to run, comma-separated: "
+        + ", ".join(ANALYSES)
+        + ", all or none (default: all when no --model, --search or --sine is given, "
+        "else none)",
+    )
     p.add_argument("--json", action="store_true", help="every result as JSON")
     p.set_defaults(func=cmd_identify)
+
+
+def parse_analyses(text: str | None, asked: bool) -> frozenset[str]:
+    """``--analyses``: the analyses named (``all``, ``none``, or a comma-separated subset
+    of :data:`ANALYSES`); not given, all of them when nothing else was ``asked`` for
+    (a bare ``elab identify FILE`` shows the delay and the spectrum), else none."""
+    if text is None:
+        return frozenset() if asked else frozenset(ANALYSES)
+    names = {n.strip() for n in text.split(",") if n.strip()}
+    allowed = f"{', '.join(ANALYSES)} (comma-separated), all or none"
+    if not names or not names <= {*ANALYSES, "all", "none"}:
+        raise InvalidInput("--analyses", text, allowed)
+    if len(names) > 1 and names & {"all", "none"}:
+        raise InvalidInput("--analyses", text, allowed)
+    return frozenset(ANALYSES) if names == {"all"} else frozenset(names - {"none"})
 
 
 def cmd_identify(args: argparse.Namespace) -> str:
     from elab.ident import workflow as wf
     from elab.ident.files import read_table
+
+    asked = bool(args.model or args.search or args.sine is not None)
+    analyses = parse_analyses(args.analyses, asked)
 
     def dataset(name: str, field: str) -> Any:
         path = Path(name)
@@ -586,6 +626,8 @@ def cmd_identify(args: argparse.Namespace) -> str:
             raise InvalidInput("search", text, "arx:na1-na2,nb1-nb2,nk1-nk2 or n4sid:n1-n2")
     plan = wf.Plan(
         models=tuple(wf.parse_model(m) for m in args.model),
+        correlation="correlation" in analyses,
+        spectral="spectral" in analyses,
         detrend=args.detrend,
         split=args.split,
         sine_hz=args.sine,
@@ -633,6 +675,14 @@ def _identify_text(data: Any, result: Any) -> str:
                 if delay is not None
                 else "no delay found (no impulse-response coefficient is significant)"
             )
+        )
+    if "spectral" in a:
+        sp = a["spectral"]
+        peak = int(np.argmax(sp["magnitude"]))
+        lines.append(
+            f"spectral analysis (lag window {sp['window']}): |G| = {sp['magnitude'][0]:.4g} at "
+            f"{sp['omega'][0]:.4g} rad/s, largest {sp['magnitude'][peak]:.4g} at "
+            f"{sp['omega'][peak]:.4g} rad/s (--json: all {len(sp['omega'])} frequencies)"
         )
     for s in ([a["arx_search"]] if "arx_search" in a else []) + a.get("arx_search_outputs", []):
         best = min(s["rows"], key=lambda r: r[3])

@@ -161,6 +161,12 @@ def controllers_section() -> str:
     return bench_controllers()
 
 
+def cli_section() -> str:
+    from tests.bench.cli import bench_cli
+
+    return bench_cli()
+
+
 #: name → function returning the section's markdown, in document order
 SECTIONS: dict[str, Callable[[], str]] = {
     "engine": engine_section,
@@ -169,6 +175,7 @@ SECTIONS: dict[str, Callable[[], str]] = {
     "liveplot": live_plot_section,
     "ident": ident_section,
     "controllers": controllers_section,
+    "cli": cli_section,
 }
 OUT = ROOT / "docs" / "benchmarks.md"
 

@@ -152,3 +152,50 @@ def test_quantities_take_units() -> None:
     assert parse_quantity("30deg") == pytest.approx(math.radians(30))
     assert parse_quantity("250mm") == pytest.approx(0.25)
     assert parse_quantity("-2.5") == -2.5
+
+
+DRYER = Path(__file__).resolve().parents[1] / "reference" / "ident" / "dryer.dat"
+IDENTIFY = ["identify", str(DRYER), "--input", "c1", "--output", "c2", "--Ts", "0.08"]
+
+
+@pytest.mark.parametrize(
+    ("extra", "correlation", "spectral"),
+    [
+        ((), True, True),  # nothing asked: the analyses, to start with
+        (("--model", "arx:2,2,3"), False, False),  # a model alone: that model
+        (("--search", "arx:1-2,1-2,3"), False, False),
+        (("--sine", "0.5"), False, False),
+        (("--model", "arx:2,2,3", "--analyses", "correlation"), True, False),
+        (("--model", "arx:2,2,3", "--analyses", "spectral"), False, True),
+        (("--model", "arx:2,2,3", "--analyses", "all"), True, True),
+        (("--analyses", "spectral, correlation"), True, True),
+        (("--analyses", "none"), False, False),
+    ],
+)
+def test_identify_runs_only_the_analyses_asked_for(
+    capsys: pytest.CaptureFixture[str], extra: tuple[str, ...], correlation: bool, spectral: bool
+) -> None:
+    code, out, err = run(capsys, *IDENTIFY, *extra)
+    assert code == 0, err
+    # the hair dryer's delay is 3 samples (tests/reference/ident/README.md)
+    assert ("correlation analysis: delay 3 samples" in out) is correlation
+    assert ("spectral analysis (lag window 30)" in out) is spectral
+    code, out, err = run(capsys, *IDENTIFY, *extra, "--json")
+    assert code == 0, err
+    result = json.loads(out)
+    a = result["analyses"]  # the wire has every key: null when not run
+    assert (a["correlation"] is not None, a["spectral"] is not None) == (correlation, spectral)
+    models = [m["name"] for m in result["models"]]
+    assert models == (["arx 2 2 3"] if "arx:2,2,3" in extra else [])
+
+
+@pytest.mark.parametrize("value", ["fourier", "", ",", "all,none", "correlation,none", "Spectral"])
+def test_identify_names_a_bad_analyses_value(
+    capsys: pytest.CaptureFixture[str], value: str
+) -> None:
+    code, out, err = run(capsys, *IDENTIFY, "--analyses", value)
+    assert code == 2 and out == ""
+    assert err == (
+        f"error: --analyses: got {value!r}; allowed: correlation, spectral (comma-separated), "
+        "all or none\n"
+    )

@@ -12,14 +12,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
 from elab.ident.data import IdData
+
+if TYPE_CHECKING:  # imported where used: python-control costs about a second of imports
+    import control as ct
 
 Array = NDArray[np.float64]
 X0_RCOND = 1e-8  # singular values of the observability matrix below this share are cut
@@ -88,12 +90,18 @@ class LinearModel:
     parameters: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        A = np.atleast_2d(np.asarray(self.A, dtype=float))
+        A = np.asarray(self.A, dtype=float)
+        A = np.zeros((0, 0)) if A.size == 0 else np.atleast_2d(A)
         n = A.shape[0]
-        B = np.asarray(self.B, dtype=float).reshape(n, -1)
-        C = np.asarray(self.C, dtype=float).reshape(-1, n)
-        ny, nu = C.shape[0], B.shape[1]
-        D = np.asarray(self.D, dtype=float).reshape(ny, nu)
+        if n == 0:  # a static model (ARX with na = 0 and one b): y = D u + e
+            D = np.atleast_2d(np.asarray(self.D, dtype=float))
+            ny, nu = D.shape
+            B, C = np.zeros((0, nu)), np.zeros((ny, 0))
+        else:
+            B = np.asarray(self.B, dtype=float).reshape(n, -1)
+            C = np.asarray(self.C, dtype=float).reshape(-1, n)
+            ny, nu = C.shape[0], B.shape[1]
+            D = np.asarray(self.D, dtype=float).reshape(ny, nu)
         K = np.asarray(self.K, dtype=float).reshape(n, ny)
         lam = np.asarray(self.noise_variance, dtype=float).reshape(ny, ny)
         for name, v in (("A", A), ("B", B), ("C", C), ("D", D), ("K", K)):
@@ -156,11 +164,42 @@ class LinearModel:
         yh[: h - 1] = xh[: h - 1] @ C.T + u[: h - 1] @ D.T  # too early: one step ahead
         return yh
 
+    def transfer_functions(self) -> list[list[tuple[Array, Array]]]:
+        """The deterministic part's transfer functions Gᵢⱼ(z) = num/den, [output i][input
+        j], coefficients in descending powers of z, by the matrix determinant lemma:
+
+            Gᵢⱼ(z) = cᵢ (zI − A)⁻¹ bⱼ + dᵢⱼ
+                   = (det(zI − A + bⱼ cᵢ) + (dᵢⱼ − 1) det(zI − A)) / det(zI − A)
+
+        — the arithmetic of ``scipy.signal.ss2tf``, which python-control's ``ss2tf`` runs
+        without slycot, with its trimming of leading zeros: :meth:`to_tf` gives the same
+        coefficients as a python-control object, this needs no python-control.
+        """
+        if self.n == 0:  # a static gain
+            return [
+                [(_trim(self.D[i, [j]]), np.ones(1)) for j in range(self.nu)]
+                for i in range(self.ny)
+            ]
+        den = np.poly(self.A)  # det(zI − A)
+        out = []
+        for i in range(self.ny):
+            row = []
+            for j in range(self.nu):
+                lemma = np.poly(self.A - np.outer(self.B[:, j], self.C[i]))
+                row.append((_trim(lemma + (self.D[i, j] - 1) * den), _trim(den)))
+            out.append(row)
+        return out
+
     def to_control(self) -> ct.StateSpace:
         """The deterministic part (u → y) as a python-control discrete state space."""
+        import control as ct
+
         return ct.ss(self.A, self.B, self.C, self.D, self.Ts)
 
     def to_tf(self) -> ct.TransferFunction:
+        """:meth:`to_control` as a python-control transfer function."""
+        import control as ct
+
         return ct.ss2tf(self.to_control())
 
     def _inputs(self, u: Array) -> Array:
@@ -170,3 +209,9 @@ class LinearModel:
         if u.ndim != 2 or u.shape[1] != self.nu:
             raise InvalidInput("u", f"shape {u.shape}", f"N × {self.nu} inputs")
         return u
+
+
+def _trim(p: NDArray[np.floating[Any]]) -> Array:
+    """``p`` without its leading zero coefficients (``[0.0]`` if all are zero)."""
+    nonzero = np.flatnonzero(p)
+    return np.asarray(p[nonzero[0] :] if nonzero.size else np.zeros(1), dtype=np.float64)

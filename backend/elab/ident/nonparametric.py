@@ -24,7 +24,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import scipy.signal
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
@@ -55,6 +54,8 @@ def cra(
     data: IdData, max_lag: int = 30, prewhiten_order: int = 10, k_sigma: float = 3.0
 ) -> Correlation:
     """Impulse response estimate of a single-input single-output data set."""
+    import scipy.signal  # here: 0.7 s of imports that ARX and n4sid models do without
+
     if data.ny != 1 or data.nu != 1:
         raise InvalidInput(
             "data",

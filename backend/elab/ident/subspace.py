@@ -31,9 +31,7 @@ from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 import numpy as np
-import scipy.fft
 import scipy.linalg
-import scipy.signal
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
@@ -393,13 +391,31 @@ def _fft_regressors(A: Array, C: Array, u: Array) -> tuple[Array, list[Array]]:
     late, Σ_{j<t} C A^{t−1−j} u_k(j), by FFT."""
     N, ny, n = u.shape[0], C.shape[0], A.shape[0]
     h = observability(A, C, N)
-    L = scipy.fft.next_fast_len(2 * N - 1, real=True)
-    H = scipy.fft.rfft(h.reshape(N, ny * n), L, axis=0)
+    L = _fast_len(2 * N - 1)
+    H = np.fft.rfft(h.reshape(N, ny * n), L, axis=0)
     forced = []
     for k in range(u.shape[1]):
-        Uk = scipy.fft.rfft(np.r_[0.0, u[:-1, k]], L)
-        forced.append(scipy.fft.irfft(H * Uk[:, None], L, axis=0)[:N].reshape(N, ny, n))
+        Uk = np.fft.rfft(np.r_[0.0, u[:-1, k]], L)
+        forced.append(np.fft.irfft(H * Uk[:, None], L, axis=0)[:N].reshape(N, ny, n))
     return h, forced
+
+
+def _fast_len(n: int) -> int:
+    """The least 2ᵃ 3ᵇ 5ᶜ ≥ ``n``: a length the FFT transforms fast, as
+    ``scipy.fft.next_fast_len(n, real=True)`` (numpy's FFT is the same pocketfft, and
+    scipy.fft costs 65 ms of imports through scipy.special)."""
+    best = 1 << max(n - 1, 0).bit_length()  # the power of 2
+    p5 = 1
+    while p5 < best:
+        p35 = p5
+        while p35 < best:
+            p = p35
+            while p < n:
+                p *= 2
+            best = min(best, p)
+            p35 *= 3
+        p5 *= 5
+    return best
 
 
 def _simulate_fast(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> Array:
@@ -412,9 +428,11 @@ def _convolved(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> A
     N = u.shape[0]
     h = observability(A, C, N)
     y = h @ x0 + u @ D.T
+    L = _fast_len(2 * N - 1)  # as scipy.signal.fftconvolve pads
     for k in range(u.shape[1]):
         hb = h @ B[:, k]  # (N, ny) impulse response C A^t b_k
-        conv = scipy.signal.fftconvolve(hb, u[:, k][:, None], axes=0)[:N]
+        Uk = np.fft.rfft(u[:, k], L)
+        conv = np.fft.irfft(np.fft.rfft(hb, L, axis=0) * Uk[:, None], L, axis=0)[:N]
         y[1:] += conv[:-1]
     return np.asarray(y, dtype=np.float64)
 

@@ -17,7 +17,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
-import control as ct
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
@@ -53,9 +52,8 @@ class ModelRequest:
 
     @property
     def name(self) -> str:
-        return f"{self.kind} " + " ".join(
-            str(self.orders[k]) for k in KINDS[self.kind] if self.orders.get(k)
-        )
+        given = [k for k in KINDS[self.kind] if self.kind != "n4sid" or self.orders.get(k)]
+        return f"{self.kind} " + " ".join(str(self.orders[k]) for k in given)
 
 
 @dataclass(frozen=True)
@@ -186,7 +184,8 @@ def run(
             out.analyses["arx_search"] = searches[0]
         else:  # one search per output
             out.analyses["arx_search_outputs"] = searches
-    if plan.n4sid_orders is not None or any(m.kind == "n4sid" for m in plan.models):
+    chosen = [m for m in plan.models if m.kind == "n4sid" and not m.orders.get("order")]
+    if plan.n4sid_orders is not None or chosen:  # the order table: asked for, or needed
         sub = decompose(ze, plan.horizon)
         orders = plan.n4sid_orders or range(1, min(10, sub.max_order) + 1)
         best, rows, why = choose_order(sub, orders)
@@ -322,8 +321,8 @@ def _estimate(
         if r.kind == "oe":
             return oe(ze, o["nb"], o["nf"], o["nk"])
         own = o.get("horizon") or None
-        if own is not None and own != sub.horizon:
-            sub = decompose(ze, own)
+        if sub is None or (own is not None and own != sub.horizon):
+            sub = decompose(ze, own or horizon)
         return n4sid(ze, o.get("order") or best, sub=sub)
     except InvalidInput as exc:
         raise InvalidInput(f"models[{i}].{exc.field}", exc.value, exc.allowed) from None
@@ -391,13 +390,9 @@ def _headline(m: LinearModel, N: int) -> dict[str, str]:
 
 def _tf(m: LinearModel) -> list[list[dict[str, list[float]]]]:
     """Discrete transfer functions, [output][input], coefficients in powers of z."""
-    tf = m.to_tf()
     return [
-        [
-            {"num": np.ravel(tf.num[i][j]).tolist(), "den": np.ravel(tf.den[i][j]).tolist()}
-            for j in range(m.nu)
-        ]
-        for i in range(m.ny)
+        [{"num": num.tolist(), "den": den.tolist()} for num, den in row]
+        for row in m.transfer_functions()
     ]
 
 
@@ -411,22 +406,18 @@ def _continuous(m: LinearModel) -> dict[str, Any] | None:
     ):
         return None
     try:
-        c = _d2c_zoh(m)  # python-control 0.10 has c2d but no d2c
+        Ac, Bc = _d2c_zoh(m)  # python-control 0.10 has c2d but no d2c
     except (ValueError, np.linalg.LinAlgError):
         return None
-    A = np.real_if_close(np.asarray(c.A))
+    A = np.real_if_close(Ac)
     if np.iscomplexobj(A):
         return None
-    return {
-        "A": A.tolist(),
-        "B": np.asarray(c.B).tolist(),
-        "C": np.asarray(c.C).tolist(),
-        "D": np.asarray(c.D).tolist(),
-    }
+    return {"A": A.tolist(), "B": Bc.tolist(), "C": m.C.tolist(), "D": m.D.tolist()}
 
 
-def _d2c_zoh(m: LinearModel) -> ct.StateSpace:
-    """Inverse of the zero-order hold: [[A, B], [0, I]] = expm(Ts [[Ac, Bc], [0, 0]])."""
+def _d2c_zoh(m: LinearModel) -> tuple[Array, Array]:
+    """Ac, Bc of the inverse of the zero-order hold: [[A, B], [0, I]] = expm(Ts [[Ac, Bc],
+    [0, 0]]); C and D carry over."""
     n, nu = m.n, m.nu
     M = np.zeros((n + nu, n + nu))
     M[:n, :n], M[:n, n:], M[n:, n:] = m.A, m.B, np.eye(nu)
@@ -434,7 +425,7 @@ def _d2c_zoh(m: LinearModel) -> ct.StateSpace:
     if np.max(np.abs(np.imag(L))) > 1e-8:
         raise ValueError("no real logarithm")
     L = np.real(L)
-    return ct.ss(L[:n, :n], L[:n, n:], m.C, m.D)
+    return L[:n, :n], L[:n, n:]
 
 
 def _thin(a: Array) -> list[list[float]]:

@@ -89,12 +89,12 @@ def test_a_short_record_is_judged_by_what_was_asked(
 ) -> None:
     """40 samples: before, n4sid:4 was refused for the correlation analysis's prewhitening.
     Now the order is refused for what it is, and a model that fits is fitted with the
-    correlation analysis skipped and said so."""
+    correlation analysis (asked for beside it) skipped and said so."""
     u = noise(40)
     path = write(tmp_path / "s.csv", u, system(u))
     code, _, err = cli(capsys, path, "--model", "n4sid:4")
     assert code == 2 and "models[0].order: got 4" in err and "prewhitening" not in err
-    code, out, _ = cli(capsys, path, "--model", "arx:1,2,1")
+    code, out, _ = cli(capsys, path, "--model", "arx:1,2,1", "--analyses", "correlation")
     assert code == 0 and "arx 1 2 1: validation fit" in out
     assert "note: correlation analysis skipped" in out
     code, _, err = cli(capsys, path)  # the correlation analysis was all that was asked
@@ -119,8 +119,9 @@ def test_the_horizon_range_is_the_one_the_input_supports(
     code, _, err = cli(capsys, path, "--model", "n4sid:2,20")
     assert code == 2 and "an integer in 2 … 3 for this input" in err
     code, out, _ = cli(capsys, path, "--model", "n4sid:2")  # the default horizon adapts
-    assert code == 0 and "subspace (horizon 3)" in out
+    assert code == 0 and "n4sid 2: validation fit" in out
     z = IdData(system(u)[:, None], u[:, None], 0.1)
+    assert wf.run(z, plan("n4sid:2")).models[0]["orders"]["horizon"] == 3
     with pytest.raises(InvalidInput) as e:
         wf.run(z, plan("n4sid:2,20"))
     assert e.value.field == "models[0].horizon"
@@ -203,3 +204,20 @@ def test_a_frozen_output_and_a_clipped_channel_are_said() -> None:
     clipped = np.clip(smooth, None, np.quantile(smooth, 0.97))  # the top 3 % cut off
     notes = wf.run(iddata(y, clipped, 0.1, input_names=("u",)), plan).notes
     assert any(n.startswith("u sits at its largest value") and "3.0 %" in n for n in notes)
+
+
+def test_a_static_model_and_an_explicit_order_need_no_more(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """ARX [0 1 0] is a static gain (no state): it crashed the CLI with a ValueError.
+    And an n4sid model of a given order does not make the workflow compute the order table
+    for orders 1 … 10 that nobody asked for."""
+    u = noise()
+    y = 0.7 * u + 0.01 * noise(seed=1)
+    code, out, err = cli(capsys, write(tmp_path / "s.csv", u, y), "--model", "arx:0,1,0")
+    assert code == 0 and err == "" and "arx 0 1 0: validation fit" in out
+    plan = wf.Plan(models=(wf.parse_model("n4sid:2"),), correlation=False, spectral=False)
+    result = wf.run(iddata(system(u), u, 0.1), plan)
+    assert "n4sid_orders" not in result.analyses and result.models[0]["name"] == "n4sid 2"
+    plan = wf.Plan(models=(wf.parse_model("n4sid"),), correlation=False, spectral=False)
+    assert "n4sid_orders" in wf.run(iddata(system(u), u, 0.1), plan).analyses  # needed there
