@@ -73,6 +73,12 @@ class LTIController:
     at the run's sample time); a number is the controller's own sample time,
     which must equal the run's. ``ff_num/ff_den``: a feed-forward transfer
     function from the reference to u, added (in the same time domain).
+
+    ``B_r`` (n × 1) and ``D_r`` (1 × 1), with a state space only: the reference's own way
+    into the controller, :math:`\\xi' = A \\xi + B e + B_r r,\\ u = C \\xi + D e + D_r r`
+    (two degrees of freedom in one realisation, e.g. an observer whose estimate r does not
+    excite; a separate feed-forward of the same dynamics would be unstable wherever the
+    controller alone is).
     """
 
     num: tuple[float, ...] | None = None
@@ -84,6 +90,8 @@ class LTIController:
     dt: float | None = None
     ff_num: tuple[float, ...] | None = None
     ff_den: tuple[float, ...] | None = None
+    B_r: tuple[tuple[float, ...], ...] | None = None
+    D_r: tuple[tuple[float, ...], ...] | None = None
 
 
 @dataclass(frozen=True)

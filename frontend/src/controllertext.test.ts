@@ -19,11 +19,13 @@ describe("lawText", () => {
   });
 
   it("writes an LTI controller as num/den or A, B, C, D, continuous or discrete", () => {
-    const tf = lawText({ kind: "lti", num: [1, 2], den: [1, 0.5], A: null, B: null, C: null, D: null, dt: 0.001, ff_num: null, ff_den: null });
+    const tf = lawText({ kind: "lti", num: [1, 2], den: [1, 0.5], A: null, B: null, C: null, D: null, dt: 0.001, ff_num: null, ff_den: null, B_r: null, D_r: null });
     expect(tf).toEqual({ kind: "LTI controller on e = r − y, discrete, dt = 1 ms", law: "num = [1, 2], den = [1, 0.5]" });
-    const ss = lawText({ kind: "lti", num: null, den: null, A: [[-1, 0], [0, -2]], B: [[1], [1]], C: [[3, 4]], D: [[0]], dt: null, ff_num: [1], ff_den: [0.1, 1] });
+    const ss = lawText({ kind: "lti", num: null, den: null, A: [[-1, 0], [0, -2]], B: [[1], [1]], C: [[3, 4]], D: [[0]], dt: null, ff_num: [1], ff_den: [0.1, 1], B_r: null, D_r: null });
     expect(ss.kind).toMatch(/continuous/);
     expect(ss.law).toBe("A = [-1, 0; 0, -2], B = [1; 1], C = [3, 4], D = [0]; feed-forward ff_num = [1], ff_den = [0.1, 1]");
+    const twoDof = lawText({ kind: "lti", num: null, den: null, A: [[0.5]], B: [[-1]], C: [[2]], D: [[0]], dt: 0.001, ff_num: null, ff_den: null, B_r: [[1.5]], D_r: [[3]] });
+    expect(twoDof.law).toBe("A = [0.5], B = [-1], C = [2], D = [0]; reference input B_r = [1.5], D_r = [3]");
   });
 
   it("names open loop and the predefined controller", () => {

@@ -39,7 +39,8 @@ export function lawText(c: ControllerOut): LawText {
       const time = c.dt === null ? "continuous (Tustin at the run's sample time)" : `discrete, dt = ${fmt(c.dt * 1000)} ms`;
       const law = c.num && c.den ? `num = ${vector(c.num)}, den = ${vector(c.den)}` : `A = ${matrix(c.A ?? [])}, B = ${matrix(c.B ?? [])}, C = ${matrix(c.C ?? [])}, D = ${matrix(c.D ?? [])}`;
       const ff = c.ff_num && c.ff_den ? `; feed-forward ff_num = ${vector(c.ff_num)}, ff_den = ${vector(c.ff_den)}` : "";
-      return { kind: `LTI controller on e = r − y, ${time}`, law: law + ff };
+      const own = c.B_r || c.D_r ? `; reference input B_r = ${matrix(c.B_r ?? [])}, D_r = ${matrix(c.D_r ?? [])}` : "";
+      return { kind: `LTI controller on e = r − y, ${time}`, law: law + ff + own };
     }
     case "open_loop":
       return { kind: "open loop", law: "u = r" };

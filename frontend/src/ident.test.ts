@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
-import { columnNames, dataSummary, discreteStep, fileRecord, parseModels, tooLarge } from "./ident";
-import type { IdentDataOut } from "./protocol.gen";
+import { columnNames, dataSummary, fileRecord, modelBody, parseModels, tooLarge } from "./ident";
+import type { IdentDataOut, IdentOut } from "./protocol.gen";
 
 /** ``text`` is refused with a message containing ``part``. */
 function failsWith(text: string, part: string): void {
@@ -34,10 +34,27 @@ describe("parseModels", () => {
   });
 });
 
-describe("discreteStep", () => {
-  it("is the step response of y(k+1) = 0.5 y(k) + u(k)", () => {
-    const y = discreteStep({ A: [[0.5]], B: [[1]], C: [[1]], D: [[0]] }, 5)[0];
-    expect(y).toEqual([0, 1, 1.5, 1.75, 1.875]);
+describe("modelBody", () => {
+  it("is POST /models's body: the model's state space with the data's names and units", () => {
+    const ss = { A: [[0.5]], B: [[1]], C: [[1]], D: [[0]], K: [[0.1]], Ts: 0.08 };
+    const out = {
+      data: { Ts: 0.08, input_names: ["c1"], input_units: [""], output_names: ["c2"], output_units: ["V"] },
+      models: [{ name: "arx 1 1 1", kind: "arx", ss, fit: { headline: [89.5] } }],
+    } as unknown as IdentOut;
+    expect(modelBody("flexible_link", out, 0, "dryer.dat")).toEqual({
+      plant: "flexible_link",
+      name: "arx 1 1 1",
+      Ts: 0.08,
+      A: [[0.5]],
+      B: [[1]],
+      C: [[1]],
+      D: [[0]],
+      input: { name: "c1", unit: "" },
+      outputs: [{ name: "c2", unit: "V" }],
+      source: "dryer.dat",
+      kind: "arx",
+      fit: [89.5],
+    });
   });
 });
 

@@ -1,7 +1,7 @@
 // Identification helpers without DOM: the model list in the CLI's syntax
 // (`arx:4,4,3; n4sid:4`), uploaded files as request records, the data set in words, and
-// the hand-over of an identified model to the design view.
-import type { ArmaxSpec, ArxSpec, FileData, IdentDataOut, IdentOut, N4SidSpec, OeSpec } from "./protocol.gen";
+// an identified model as the server keeps it for design.
+import type { ArmaxSpec, ArxSpec, FileData, IdentDataOut, IdentOut, ModelCreate, N4SidSpec, OeSpec } from "./protocol.gen";
 import { fmt } from "./units";
 
 export type ModelSpec = ArxSpec | ArmaxSpec | OeSpec | N4SidSpec;
@@ -83,68 +83,25 @@ export function dataSummary(d: IdentDataOut, validationName: string | null = nul
   return `${head}; estimation: all ${n(d.estimation)} of the data, validation: the ${n(d.N - d.estimation)} of ${record} (drawn after them, from t = ${fmt(split)} s); ${trend}.`;
 }
 
-/** What the design view receives from "Use this model". */
-export interface HandedModel {
-  name: string;
-  source: string;
-  Ts: number;
-  input: string;
-  output: string[];
-  units: string[];
-  fit: (number | null)[];
-  ss: { A: number[][]; B: number[][]; C: number[][]; D: number[][] };
-  tf: { num: number[]; den: number[] }[][];
-  poles: number[][];
-}
-
-export function handOver(plantId: string, out: IdentOut, index: number, source: string): HandedModel {
+/** "Use this model": the body of `POST /models` for model `index` of an identification's
+ * result — its discrete state space, the data's names and units, where it came from and
+ * its headline fit. The server keeps it and gives it an id and a design page to share. */
+export function modelBody(plantId: string, out: IdentOut, index: number, source: string): ModelCreate {
   const m = out.models[index];
   const d = out.data;
-  const model: HandedModel = {
+  type Matrix = ModelCreate["A"];
+  return {
+    plant: plantId,
     name: m.name,
-    source,
     Ts: d.Ts,
-    input: d.input_names[0],
-    output: d.output_names,
-    units: d.output_units,
+    A: m.ss.A as Matrix,
+    B: m.ss.B as Matrix,
+    C: m.ss.C as Matrix,
+    D: m.ss.D as Matrix,
+    input: { name: d.input_names[0], unit: d.input_units[0] ?? "" },
+    outputs: d.output_names.map((name, i) => ({ name, unit: d.output_units[i] ?? "" })) as ModelCreate["outputs"],
+    source: source.slice(0, 200),
+    kind: m.kind,
     fit: m.fit.headline,
-    ss: m.ss,
-    tf: m.tf,
-    poles: m.poles,
   };
-  sessionStorage.setItem(`elab.model.${plantId}`, JSON.stringify(model));
-  return model;
-}
-
-export function handedModel(plantId: string): HandedModel | null {
-  const text = sessionStorage.getItem(`elab.model.${plantId}`);
-  if (!text) return null;
-  try {
-    return JSON.parse(text) as HandedModel;
-  } catch {
-    return null;
-  }
-}
-
-/** Step response of a discrete state space (x₀ = 0), `n` samples, every output. */
-export function discreteStep(ss: HandedModel["ss"], n: number): number[][] {
-  const nx = ss.A.length;
-  const ny = ss.C.length;
-  let x = new Array<number>(nx).fill(0);
-  const y: number[][] = Array.from({ length: ny }, () => []);
-  for (let k = 0; k < n; k++) {
-    for (let i = 0; i < ny; i++) {
-      let s = ss.D[i][0];
-      for (let j = 0; j < nx; j++) s += ss.C[i][j] * x[j];
-      y[i].push(s);
-    }
-    const next = new Array<number>(nx).fill(0);
-    for (let i = 0; i < nx; i++) {
-      let s = ss.B[i][0];
-      for (let j = 0; j < nx; j++) s += ss.A[i][j] * x[j];
-      next[i] = s;
-    }
-    x = next;
-  }
-  return y;
 }

@@ -136,6 +136,10 @@ def test_a_live_run_switches_to_an_uploaded_controller(server: Server) -> None:
         both = {"controller_id": cid, "controller": {"kind": "predefined"}}
         r = c.post(f"/runs/{rid}/params", json=both)
         assert r.status_code == 422 and r.json()["error"]["field"] == "controller_id"
+        # back to the predefined gains, so that the upload over the websocket changes them
+        # (a change that changes nothing is not applied)
+        r = c.post(f"/runs/{rid}/params", json={"controller": {"kind": "predefined"}})
+        assert [d["field"] for d in r.json()["changed"]] == ["controller.K.0"]
 
         async def over_the_websocket() -> dict[str, object]:
             w = await Watcher.open(server.ws_url, rid, as_=c)

@@ -21,7 +21,9 @@ from starlette.staticfiles import StaticFiles
 from elab.api import (  # noqa: F401  (registers their endpoints)
     access,
     controllers,
+    designs,
     ident,
+    models,
     plants,
     runs,
 )
@@ -63,6 +65,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
         manager = RunManager(store, engine, MsgpackCodec(), limits=settings.limits)
         app.state.manager = manager
         app.state.controllers = store
+        app.state.models = store
         app.state.authority = Authority(
             load_secret(settings.secret, settings.data_dir),
             store,

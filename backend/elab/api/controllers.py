@@ -55,6 +55,7 @@ def store(conn: HTTPConnection) -> ControllerStore:
     "/plants/{plant_id}/controller-template",
     "A controller file to edit: the plant's predefined controller, every field explained",
     response="file",
+    files=tuple(dict.fromkeys(MEDIA.values())),
     params=(
         Param("plant_id", "path", "plant id", required=True),
         Param(

@@ -151,11 +151,17 @@ def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict
     if e.response is None:
         content = {}
     elif e.response == "file":
+        media = e.files or ("text/csv", "application/x-matlab-data", "application/json")
         content = {
             m: {"schema": {"type": "string", "format": "binary"}}
-            for m in ("text/csv", "application/x-matlab-data")
+            for m in media
+            if m != "application/json"
         }
-        content["application/json"] = {"schema": ref[id(s.RecordingOut), "serialization"]}
+        if "application/json" in media:  # a recording, or a file's JSON document
+            json_schema = (
+                {"type": "object"} if e.files else ref[id(s.RecordingOut), "serialization"]
+            )
+            content["application/json"] = {"schema": json_schema}
     else:
         content = {"application/json": {"schema": ref[id(e.response), "serialization"]}}
     if e.stream is not None:  # with Accept: application/x-ndjson, one such object per line
@@ -195,6 +201,14 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.BodeList, "serialization"),
     (s.StepOut, "serialization"),
     (s.DesignOut, "serialization"),
+    (s.ModelCreate, "validation"),
+    (s.IdentifiedModel, "serialization"),
+    (s.IdentifiedModelList, "serialization"),
+    (s.ModelDesignRequest, "validation"),
+    (s.ModelDesignOut, "serialization"),
+    (s.LoopRequest, "validation"),
+    (s.LoopOut, "serialization"),
+    (s.ControllerFileRequest, "validation"),
     (s.ErrorBody, "serialization"),
     (s.ServerMessage, "serialization"),
     (s.IdentRequest, "validation"),

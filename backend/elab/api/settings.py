@@ -45,7 +45,8 @@ class Settings:
     ``max_uploads_per_identity`` (``ELAB_MAX_UPLOADS_PER_IDENTITY``, 2); API tokens an
     identity may have ``max_tokens_per_identity`` (``ELAB_MAX_TOKENS_PER_IDENTITY``, 20),
     uploaded controllers it may keep ``max_controllers_per_identity``
-    (``ELAB_MAX_CONTROLLERS_PER_IDENTITY``, 100).
+    (``ELAB_MAX_CONTROLLERS_PER_IDENTITY``, 100), identified models
+    ``max_models_per_identity`` (``ELAB_MAX_MODELS_PER_IDENTITY``, 100).
 
     Access (docs/access.md): ``secret`` signs identity cookies (``ELAB_SECRET``; default:
     made once and kept in the data directory), ``hosts`` the ``Host`` names the server
@@ -73,6 +74,7 @@ class Settings:
     max_uploads_per_identity: int = 2
     max_tokens_per_identity: int = 20
     max_controllers_per_identity: int = 100
+    max_models_per_identity: int = 100
     secret: str | None = None
     hosts: tuple[str, ...] = LOOPBACK
     origins: tuple[str, ...] = ()
@@ -132,6 +134,7 @@ class Settings:
             max_uploads_per_identity=_int(env, "ELAB_MAX_UPLOADS_PER_IDENTITY", 2),
             max_tokens_per_identity=_int(env, "ELAB_MAX_TOKENS_PER_IDENTITY", 20),
             max_controllers_per_identity=_int(env, "ELAB_MAX_CONTROLLERS_PER_IDENTITY", 100),
+            max_models_per_identity=_int(env, "ELAB_MAX_MODELS_PER_IDENTITY", 100),
             secret=_secret(env),
             hosts=_names(env, "ELAB_HOSTS", LOOPBACK),
             origins=tuple(_origin(o) for o in _names(env, "ELAB_ORIGINS", ())),

@@ -9,7 +9,7 @@ from elab.controllers.files import (
     read_controller,
 )
 from elab.controllers.report import Report, check
-from elab.controllers.templates import law_fields, template
+from elab.controllers.templates import law_fields, law_file, template
 
 __all__ = [
     "FORMATS",
@@ -18,6 +18,7 @@ __all__ = [
     "check",
     "format_of",
     "law_fields",
+    "law_file",
     "law_from_fields",
     "read_controller",
     "template",

@@ -9,7 +9,8 @@ Every format says the same thing (docs/controllers.md):
   (anti-windup tracking time);
 - ``kind = "lti"``: a transfer function ``num``, ``den`` or a state space ``A``, ``B``,
   ``C``, ``D`` on the error r − y, continuous (Tustin at the run's sample time) or
-  discrete with its sample time ``dt`` (MATLAB's ``Ts``; 0 means continuous);
+  discrete with its sample time ``dt`` (MATLAB's ``Ts``; 0 means continuous); a state
+  space may add the reference's own input ``B_r``, ``D_r`` (two degrees of freedom);
 - ``kind = "open_loop"``: u = r;
 - a Python file (``.py``) defining ``class Controller`` with ``reset(params)`` and
   ``step(t, y, r) -> u``: read here only as far as its syntax; it runs only in the
@@ -48,7 +49,7 @@ MAX_EXPANDED = 1 << 20  # bytes a .npz may expand to
 _FIELDS = {
     "state_feedback": ("K", "estimate", "Nr", "L", "observer_poles"),
     "pid": ("Kp", "Ki", "Kd", "N", "Tt", "b", "c"),
-    "lti": ("num", "den", "A", "B", "C", "D", "dt", "ff_num", "ff_den"),
+    "lti": ("num", "den", "A", "B", "C", "D", "dt", "ff_num", "ff_den", "B_r", "D_r"),
     "chain": ("blocks", "dt", "ff_num", "ff_den"),
     "open_loop": (),
 }
@@ -443,7 +444,7 @@ def _lti(f: Mapping[str, Any], plant: Plant) -> LTIController:
     dt = f.get("dt")
     dt = None if dt is None else _number("dt", dt, positive=True)
     tf = "num" in f or "den" in f
-    ss = any(k in f for k in ("A", "B", "C", "D"))
+    ss = any(k in f for k in ("A", "B", "C", "D", "B_r", "D_r"))
     if tf == ss:
         raise InvalidInput(
             "kind", "lti", "either num and den, or A, B, C, D (not both, not neither)"
@@ -466,7 +467,10 @@ def _lti(f: Mapping[str, Any], plant: Plant) -> LTIController:
     if any(len(row) != n for row in A) or n > MAX_ORDER:
         raise InvalidInput("A", "…", f"a square matrix of at most {MAX_ORDER} rows")
     B, C, D = _matrix("B", f.get("B")), _matrix("C", f.get("C")), _matrix("D", f.get("D", [[0.0]]))
-    for name, m, shape in (("B", B, (n, 1)), ("C", C, (1, n)), ("D", D, (1, 1))):
+    own = {k: _matrix(k, f[k]) for k in ("B_r", "D_r") if k in f}  # the reference's input
+    shapes = {"B": (B, (n, 1)), "C": (C, (1, n)), "D": (D, (1, 1))}
+    shapes |= {k: (v, (n, 1) if k == "B_r" else (1, 1)) for k, v in own.items()}
+    for name, (m, shape) in shapes.items():
         if (len(m), len(m[0]) if m else 0) != shape:
             raise InvalidInput(
                 name,
@@ -475,7 +479,15 @@ def _lti(f: Mapping[str, Any], plant: Plant) -> LTIController:
             )
     ff = _feedforward(f)
     return LTIController(
-        A=A, B=B, C=C, D=D, dt=dt, ff_num=ff.get("ff_num"), ff_den=ff.get("ff_den")
+        A=A,
+        B=B,
+        C=C,
+        D=D,
+        dt=dt,
+        ff_num=ff.get("ff_num"),
+        ff_den=ff.get("ff_den"),
+        B_r=own.get("B_r"),
+        D_r=own.get("D_r"),
     )
 
 

@@ -25,6 +25,9 @@ import numpy as np
 from scipy.signal import BadCoefficients
 
 from elab.design.closed_loop import closed_loop, loop_transfer
+from elab.design.loop import close, credible, step
+from elab.design.model import Model
+from elab.design.observed import two_dof
 from elab.design.response import margins, step_response
 from elab.laws import ControlLaw, LTIController, OpenLoop
 from elab.plants import Plant
@@ -118,7 +121,8 @@ def check(plant: Plant, law: ControlLaw) -> Report:
         )
     gm = pm = None
     if not isinstance(law, OpenLoop):
-        m = margins(loop_transfer(plant, law))
+        L = loop_transfer(plant, law)
+        m = credible(margins(L), ct.ss(L))
         gm, pm = m.gain_margin_db, m.phase_margin_deg
         if stable and math.isfinite(pm) and pm < 30:
             warnings.append(f"a small phase margin ({pm:.1f}°): expect oscillation")
@@ -171,9 +175,9 @@ def _discrete(plant: Plant, law: LTIController, problems: list[str], warnings: l
     amplitude = plant.signal.amplitude or 1.0
     peak = None
     if stable:
-        n = int(min(max(plant.signal.duration, 1.0), 600.0) / law.dt) + 1
-        u = ct.forced_response(ct.feedback(C, P), np.arange(n) * law.dt, np.full(n, amplitude))
-        peak = float(np.max(np.abs(np.asarray(u.outputs))))
+        T = min(max(plant.signal.duration, 1.0), 600.0)
+        u = step(close(Model(P.A, P.B, P.C, P.D, law.dt), two_dof(law)), law.dt, amplitude, T).u
+        peak = float(np.max(np.abs(u)))
         warnings += _saturation(plant, amplitude, peak)
     return Report(
         plant=plant.id,

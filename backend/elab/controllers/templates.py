@@ -17,16 +17,22 @@ from elab.plants import Plant
 
 
 def template(plant: Plant, fmt: str) -> bytes:
-    """The template of ``plant``'s controller in ``fmt`` (toml, json, mat or npz)."""
+    """The template of ``plant``'s controller in ``fmt`` (toml, json, mat, npz or py)."""
+    return law_file(plant, plant.predefined, fmt)
+
+
+def law_file(plant: Plant, law: ControlLaw, fmt: str, name: str | None = None) -> bytes:
+    """``law`` for ``plant`` as a controller file in ``fmt`` (toml, json, mat, npz or py),
+    which reads back as the same law (``name``: the file's, in toml and json)."""
     if fmt not in FORMATS:
         raise InvalidInput("format", fmt, ", ".join(FORMATS))
     if fmt == "py":
-        return python_source(plant, plant.predefined).encode()
-    fields = law_fields(plant.predefined)
+        return python_source(plant, law).encode()
+    fields = law_fields(law)
     if fmt == "toml":
-        return _toml(plant, fields).encode()
+        return _toml(plant, fields, None if law == plant.predefined else name or "").encode()
     if fmt == "json":
-        body = {"version": VERSION, "plant": plant.id, **fields}
+        body = {"version": VERSION, "plant": plant.id, **({"name": name} if name else {}), **fields}
         return (json.dumps(body, indent=2) + "\n").encode()
     arrays = {
         k: (np.asarray(v, dtype=np.float64) if k != "estimate" else v)
@@ -75,7 +81,7 @@ def law_fields(law: ControlLaw) -> dict[str, Any]:
         for name in ("num", "den"):
             if getattr(law, name) is not None:
                 fields[name] = list(getattr(law, name))
-        for name in ("A", "B", "C", "D"):
+        for name in ("A", "B", "C", "D", "B_r", "D_r"):
             if getattr(law, name) is not None:
                 fields[name] = [list(r) for r in getattr(law, name)]
         if law.dt is not None:
@@ -87,18 +93,25 @@ def law_fields(law: ControlLaw) -> dict[str, Any]:
     return {"kind": "open_loop"}
 
 
-def _toml(plant: Plant, f: dict[str, Any]) -> str:
+def _toml(plant: Plant, f: dict[str, Any], name: str | None = None) -> str:
+    """The fields as TOML with comments; ``name`` None: the predefined controller's
+    template, else a designed controller of that name."""
     states = ", ".join(s.name for s in plant.states)
+    held = (
+        f"This template holds the predefined controller: {plant.predefined_design}."
+        if name is None
+        else "This file holds a controller designed in E-Lab."
+    )
     head = [
         f"# E-Lab controller for the {plant.name.lower()} ({plant.id}).",
         "# Edit the values, check it offline (elab check this.toml --plant "
         f"{plant.id}), upload it.",
-        f"# This template holds the predefined controller: {plant.predefined_design}.",
+        f"# {held}",
         "# Units are SI: rad, m, s, V. docs/controllers.md has every field.",
         "",
         f"version = {VERSION}  # the file format's version",
         f'plant = "{plant.id}"  # checked: a file for another plant is refused',
-        'name = "my controller"  # shown with your runs',
+        f"name = {json.dumps(name or 'my controller', ensure_ascii=False)}  # shown with your runs",
         "",
     ]
     kind = f["kind"]

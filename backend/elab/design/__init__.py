@@ -1,11 +1,16 @@
-"""Analysis and design of continuous LTI plants, built on python-control.
+"""Analysis and design of LTI plants and models, built on python-control.
 
 - :mod:`~elab.design.analysis`: eigenvalues and stability, controllability,
   observability, transfer functions;
 - :mod:`~elab.design.response`: step response and its metrics, Bode, margins;
 - :mod:`~elab.design.realise`: any control law as one continuous LTI controller;
 - :mod:`~elab.design.closed_loop`: a plant closed by any control law, loop transfer;
-- :mod:`~elab.design.synthesis`: LQR and pole placement.
+- :mod:`~elab.design.synthesis`: LQR (continuous and discrete) and pole placement;
+- on a given model (an identified one, continuous or discrete):
+  :mod:`~elab.design.model` (the model, its continuous equivalent),
+  :mod:`~elab.design.observed` (state feedback on an observer, PID, the law a run takes),
+  :mod:`~elab.design.loop` (the closed loop, its verdict, step and margins) and
+  :mod:`~elab.design.locus` (the root locus).
 
 Every result is a frozen dataclass of read-only numpy arrays.
 """
@@ -34,7 +39,7 @@ from elab.design.response import (
     step_info,
     step_response,
 )
-from elab.design.synthesis import LQR, Placement, design_lqr, design_place, lqr, place
+from elab.design.synthesis import LQR, Placement, design_lqr, design_place, dlqr, lqr, place
 
 __all__ = [
     "LQR",
@@ -55,6 +60,7 @@ __all__ = [
     "default_horizon",
     "design_lqr",
     "design_place",
+    "dlqr",
     "loop_transfer",
     "lqr",
     "lti_ss",

@@ -15,6 +15,7 @@ knows its integrator (anti-windup) and a live gain change keeps the state size.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -148,7 +149,8 @@ def realise(plant: Plant, law: ControlLaw, *, all_pid_states: bool = False) -> R
                 "a continuous controller (dt=None); discrete laws are "
                 "taken as they are by elab.sim",
             )
-        return _with_feedforward(_error_feedback(plant, lti_ss(law)), feedforward_ss(law))
+        real = _with_reference(_error_feedback(plant, lti_ss(law)), reference_input(law))
+        return _with_feedforward(real, feedforward_ss(law))
     if isinstance(law, OpenLoop):
         return Realisation.static(np.ones((1, 1)), np.zeros((1, plant.ny)), False)
     if isinstance(law, CodeController):
@@ -302,6 +304,30 @@ def _with_feedforward(real: Realisation, ff: ct.StateSpace | None) -> Realisatio
         real.states + tuple(f"feedforward[{j}]" for j in range(k)),
         real.integrator,
     )
+
+
+def reference_input(law: LTIController) -> tuple[Matrix, Matrix] | None:
+    """The law's own reference input ``(B_r, D_r)``, checked against its ``A`` (either
+    alone: the other is zero); ``None`` without one."""
+    if law.B_r is None and law.D_r is None:
+        return None
+    if law.A is None:
+        raise InvalidInput(
+            "controller.B_r",
+            law.B_r,
+            "a state-space controller (A, B, C, D) to go with B_r and D_r",
+        )
+    n = square("controller.A", law.A).shape[0]
+    B_r = np.zeros((n, 1)) if law.B_r is None else shaped("controller.B_r", law.B_r, (n, 1))
+    D_r = np.zeros((1, 1)) if law.D_r is None else shaped("controller.D_r", law.D_r, (1, 1))
+    return B_r, D_r
+
+
+def _with_reference(real: Realisation, given: tuple[Matrix, Matrix] | None) -> Realisation:
+    """``real`` with the law's direct reference input added to its own."""
+    if given is None:
+        return real
+    return dataclasses.replace(real, B_r=real.B_r + given[0], D_r=real.D_r + given[1])
 
 
 def feedforward_ss(law: LTIController) -> ct.StateSpace | None:

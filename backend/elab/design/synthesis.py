@@ -87,6 +87,41 @@ def lqr(A: Any, B: Any, Q: Any, R: Any) -> LQR:
     return LQR(readonly(K), readonly(np.asarray(S, dtype=np.float64)), readonly(poles))
 
 
+def dlqr(A: Any, B: Any, Q: Any, R: Any) -> LQR:
+    """Linear-quadratic regulator for the discrete system :math:`x_{k+1} = Ax_k + Bu_k`.
+
+    .. math::
+        \\min_u \\sum_{k=0}^\\infty (x_k^T Q x_k + u_k^T R u_k), \\qquad u_k = -Kx_k,\\quad
+        K = (R + B^T S B)^{-1} B^T S A,
+
+        S = A^T S A - A^T S B (R + B^T S B)^{-1} B^T S A + Q
+
+    Parameters and errors as :func:`lqr`, with the unit circle for the imaginary axis:
+    every mode with :math:`|\\lambda| \\ge 1` must be controllable, and Q must see every
+    mode on the unit circle.
+
+    References
+    ----------
+    G. F. Franklin, J. D. Powell and M. Workman, *Digital Control of Dynamic Systems*,
+    3rd ed., 1998, §9.3.
+    """
+    A = square("A", A)
+    B = columns("B", B, A.shape[0])
+    Q = _weight("Q", Q, A.shape[0], definite=False)
+    R = _weight("R", R, B.shape[1], definite=True)
+    _check_modes(A, B, Q, discrete=True)
+    try:
+        with np.errstate(all="ignore"):
+            K, S, _ = ct.dlqr(A, B, Q, R)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        raise InvalidInput(
+            "Q, R", (Q, R), f"weights for which the Riccati equation is solvable (solver: {exc})"
+        ) from exc
+    K = np.asarray(K, dtype=np.float64).reshape(B.shape[1], A.shape[0])
+    poles = sort_eigenvalues(np.linalg.eigvals(A - B @ K))
+    return LQR(readonly(K), readonly(np.asarray(S, dtype=np.float64)), readonly(poles))
+
+
 def _weight(field: str, value: Any, n: int, *, definite: bool) -> Matrix:
     kind = "positive definite" if definite else "positive semidefinite"
     diagonal = f"its diagonal ({n} numbers), " if n > 1 else ""
@@ -110,8 +145,9 @@ def _weight(field: str, value: Any, n: int, *, definite: bool) -> Matrix:
     return W
 
 
-def _check_modes(A: Matrix, B: Matrix, Q: Matrix) -> None:
-    """PBH eigenvector tests: no mode with Re ≥ 0 hidden from B, none on the axis hidden from Q.
+def _check_modes(A: Matrix, B: Matrix, Q: Matrix, *, discrete: bool = False) -> None:
+    """PBH eigenvector tests: no mode with Re ≥ 0 (``discrete``: |λ| ≥ 1) hidden from B,
+    none on the axis (the unit circle) hidden from Q.
 
     A mode λ is hidden from B if some left eigenvector :math:`w^H (A - λI) = 0`
     has :math:`w^H B = 0`, and hidden from Q if some eigenvector has :math:`Qv = 0`.
@@ -119,7 +155,9 @@ def _check_modes(A: Matrix, B: Matrix, Q: Matrix) -> None:
     n = A.shape[0]
     scale = float(np.linalg.norm(A, 2)) or 1.0
     for lam in np.unique(np.linalg.eigvals(A)):
-        if lam.real < -_MODE_TOL * scale:
+        # distance into the stable region: left of the axis, inside the unit circle
+        inside = 1.0 - abs(lam) if discrete else -lam.real
+        if inside > _MODE_TOL * (1.0 if discrete else scale):
             continue
         shifted = A - lam * np.eye(n)
         W = _null_space(shifted.conj().T, scale)
@@ -127,16 +165,18 @@ def _check_modes(A: Matrix, B: Matrix, Q: Matrix) -> None:
             raise InvalidInput(
                 "A, B",
                 f"an uncontrollable mode λ = {_text(lam)}",
-                "a stabilisable pair: every mode outside the open left "
-                "half-plane must be controllable (PBH test)",
+                "a stabilisable pair: every mode outside the open "
+                + ("unit disc" if discrete else "left half-plane")
+                + " must be controllable (PBH test)",
             )
         V = _null_space(shifted, scale)
-        if abs(lam.real) <= _MODE_TOL * scale and _hides(Q @ V, V.shape[1], Q):
+        if abs(inside) <= _MODE_TOL * (1.0 if discrete else scale) and _hides(Q @ V, V.shape[1], Q):
             raise InvalidInput(
                 "Q",
                 Q,
                 f"a weight that penalises every mode of A on the "
-                f"imaginary axis; Q does not see the mode λ = {_text(lam)}, "
+                f"{'unit circle' if discrete else 'imaginary axis'}; Q does not see the "
+                f"mode λ = {_text(lam)}, "
                 "so the Riccati equation has no stabilising solution",
             )
 

@@ -23,7 +23,13 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.design.realise import feedforward_ss, lti_ss, pid_tracking_time, realise
+from elab.design.realise import (
+    feedforward_ss,
+    lti_ss,
+    pid_tracking_time,
+    realise,
+    reference_input,
+)
 from elab.errors import InvalidInput
 from elab.laws import PID, CodeController, ControlLaw, LTIController, StateFeedback
 from elab.plants.base import Plant
@@ -101,7 +107,12 @@ def _discrete_lti(law: LTIController, plant: Plant, Ts: float) -> DiscreteContro
     sys = lti_ss(law)
     e = np.zeros((1, 1 + plant.ny))  # the error e = r − y_ref from w = [r, y]
     e[0, 0], e[0, 1 + plant.reference_output] = 1.0, -1.0
-    on_error = ct.ss(sys.A, np.asarray(sys.B) @ e, sys.C, np.asarray(sys.D) @ e, dt)
+    B, D = np.asarray(sys.B) @ e, np.asarray(sys.D) @ e
+    own = reference_input(law)  # the reference's own input, beside the error's
+    if own is not None:
+        B[:, [0]] += own[0]
+        D[:, [0]] += own[1]
+    on_error = ct.ss(sys.A, B, sys.C, D, dt)
     ff = feedforward_ss(law)
     if ff is not None:  # in parallel, on r alone
         r = np.zeros((1, 1 + plant.ny))

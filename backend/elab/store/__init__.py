@@ -1,15 +1,19 @@
-"""Storage: runs, their parameter changes and their samples behind one protocol
-(:class:`RunStore`), with SQLite as the embedded implementation."""
+"""Storage: runs, their parameter changes and their samples, uploaded controllers,
+identified models, tokens and pins behind protocols (:class:`RunStore`,
+:class:`ControllerStore`, :class:`ModelStore`, :class:`AccessStore`), with SQLite as the
+embedded implementation."""
 
 from elab.store.base import (
     AccessStore,
     ControllerStore,
+    ModelStore,
     ParamChange,
     Pin,
     RunRecord,
     RunStore,
     RunSummary,
     StoredController,
+    StoredModel,
     StoreError,
     Token,
     Usage,
@@ -19,6 +23,7 @@ from elab.store.sqlite import SQLiteStore
 __all__ = [
     "AccessStore",
     "ControllerStore",
+    "ModelStore",
     "ParamChange",
     "Pin",
     "RunRecord",
@@ -27,6 +32,7 @@ __all__ = [
     "SQLiteStore",
     "StoreError",
     "StoredController",
+    "StoredModel",
     "Token",
     "Usage",
 ]

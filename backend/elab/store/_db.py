@@ -69,6 +69,12 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
     (  # 5: a code controller's compute time per step (JSON), kept when its run ends
         "ALTER TABLE runs ADD COLUMN compute TEXT",
     ),
+    (  # 6: identified models users keep for design: the model as JSON (matrices, names)
+        """CREATE TABLE models (
+            id TEXT PRIMARY KEY, owner TEXT NOT NULL, plant TEXT NOT NULL,
+            name TEXT NOT NULL, model TEXT NOT NULL, created_at REAL NOT NULL)""",
+        "CREATE INDEX models_by_owner ON models (owner, created_at)",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 

@@ -139,6 +139,38 @@ class ControllerStore(Protocol):
         """:class:`NotFound` for an unknown id."""
 
 
+@dataclass(frozen=True)
+class StoredModel:
+    """An identified model a user kept for design: ``model`` is its JSON-able document
+    (``Ts``, ``A``, ``B``, ``C``, ``D``, names and units of input and outputs, where it
+    came from, its fit; api/models.py says which fields)."""
+
+    id: str
+    owner: str
+    plant: str
+    name: str
+    model: dict[str, Any]
+    created_at: float
+
+
+class ModelStore(Protocol):
+    """Identified models kept for design, by owner; anyone with a model's id may read it
+    (its link is shared), only its owner or an instructor deletes it (the API decides)."""
+
+    def add_model(self, model: StoredModel) -> None: ...
+
+    def get_model(self, model_id: str) -> StoredModel:
+        """:class:`NotFound` for an unknown id."""
+
+    def list_models(self, owner: str | None, plant: str | None = None) -> list[StoredModel]:
+        """Newest first (at most 1000); ``owner`` None: everyone's."""
+
+    def count_models(self, owner: str) -> int: ...
+
+    def delete_model(self, model_id: str) -> None:
+        """:class:`NotFound` for an unknown id."""
+
+
 class AccessStore(Protocol):
     """API tokens and pinned runs (identities themselves are not stored: an anonymous one
     lives in its browser's signed cookie, instructors in the server's configuration)."""

@@ -1,4 +1,5 @@
-"""The embedded :class:`~elab.store.base.RunStore`: one SQLite file.
+"""The embedded store (:class:`~elab.store.base.RunStore` and the other protocols of
+:mod:`elab.store.base`): one SQLite file.
 
 Each chunk of a recording is one row of ``chunks`` holding the raw
 little-endian float64 bytes of its rows (C order).
@@ -42,6 +43,7 @@ from elab.store.base import (
     RunRecord,
     RunSummary,
     StoredController,
+    StoredModel,
     StoreError,
     Token,
     Usage,
@@ -53,6 +55,7 @@ _SUMMARY = (
 )
 _COLUMNS = _SUMMARY + ", spec"
 _CONTROLLER = "id, owner, plant, name, format, law, report, created_at"
+_MODEL = "id, owner, plant, name, model, created_at"
 _NEWEST_FIRST = "ORDER BY created_at DESC, rowid DESC"
 # the chunk holding ``start`` and every later one starting before ``stop``
 _OVERLAPPING = """SELECT k0, n, data FROM chunks
@@ -393,6 +396,43 @@ class SQLiteStore:
             if cur.rowcount == 0:
                 raise NotFound("controller", controller_id)
 
+    # -- identified models (ModelStore) -------------------------------------------
+    def add_model(self, model: StoredModel) -> None:
+        m = model
+        row = (m.id, m.owner, m.plant, m.name, _json("model", m.model), m.created_at)
+        with self._transaction() as conn:
+            try:
+                conn.execute(f"INSERT INTO models ({_MODEL}) VALUES (?, ?, ?, ?, ?, ?)", row)
+            except sqlite3.IntegrityError:
+                raise Conflict(f"model {m.id!r} already exists; choose another id") from None
+
+    def get_model(self, model_id: str) -> StoredModel:
+        with self._snapshot() as conn:
+            row = conn.execute(f"SELECT {_MODEL} FROM models WHERE id = ?", (model_id,)).fetchone()
+        if row is None:
+            raise NotFound("model", model_id)
+        return _model(row)
+
+    def list_models(self, owner: str | None, plant: str | None = None) -> list[StoredModel]:
+        terms = [t for t, v in (("owner = ?", owner), ("plant = ?", plant)) if v is not None]
+        args = [v for v in (owner, plant) if v is not None]
+        where = "WHERE " + " AND ".join(terms) if terms else ""
+        with self._snapshot() as conn:
+            rows = conn.execute(
+                f"SELECT {_MODEL} FROM models {where} {_NEWEST_FIRST} LIMIT 1000", args
+            ).fetchall()
+        return [_model(r) for r in rows]
+
+    def count_models(self, owner: str) -> int:
+        with self._snapshot() as conn:
+            n = conn.execute("SELECT count(*) FROM models WHERE owner = ?", (owner,))
+            return int(n.fetchone()[0])
+
+    def delete_model(self, model_id: str) -> None:
+        with self._transaction() as conn:
+            if conn.execute("DELETE FROM models WHERE id = ?", (model_id,)).rowcount == 0:
+                raise NotFound("model", model_id)
+
     # -- tokens and pins (AccessStore) -------------------------------------------
     def add_token(self, token: Token, digest: str) -> None:
         with self._transaction() as conn:
@@ -552,6 +592,11 @@ def _controller(row: tuple[Any, ...], source: bytes = b"") -> StoredController:
     return StoredController(
         id_, owner, plant, name, fmt, json.loads(law), json.loads(report), created_at, source
     )
+
+
+def _model(row: tuple[Any, ...]) -> StoredModel:
+    id_, owner, plant, name, model, created_at = row
+    return StoredModel(id_, owner, plant, name, json.loads(model), created_at)
 
 
 def _status(status: str) -> str:

@@ -2,14 +2,14 @@
 // uploaded file, follow the progress, then read the data with its estimation/validation
 // split, the impulse estimate with its band, the spectral Bode, the ARX order search, the
 // subspace singular values, each model's fit and residuals — and hand a model to design.
-import { ApiError, identify } from "../api";
+import { api, ApiError, identify } from "../api";
 import { fill, h } from "../dom";
 import { FieldSet, NumberField } from "../forms";
-import { columnNames, dataSummary, fileRecord, handOver, parseModels, tooLarge } from "../ident";
+import { columnNames, dataSummary, fileRecord, modelBody, parseModels, tooLarge } from "../ident";
 import { chart, purge, type Series } from "../plot";
-import type { FileData, IdentModelOut, IdentOut, IdentRequest, PlantDetail, RunData } from "../protocol.gen";
+import type { FileData, IdentModelOut, IdentOut, IdentRequest, ModelCreate, PlantDetail, RunData } from "../protocol.gen";
 import { fmt } from "../units";
-import { downloadButton, showApiError } from "./common";
+import { downloadButton, errorText, showApiError } from "./common";
 import { ValidationFile } from "./identvalidation";
 
 /** Where the data come from: a run (channels by name) or a file chosen in the panel. */
@@ -239,7 +239,7 @@ export class IdentAnalysis {
         h(m.fit.headline_x0 === "estimated" ? "td.headline" : "td", { "data-testid": `fit-x0-${i}`, title: m.fit.headline_x0 === "estimated" ? m.fit.headline_why : "" }, m.fit.validation_simulation_x0.map((x) => `${fmt(x)} %`).join(", ")),
         h("td", m.fit.validation_one_step.map((x) => `${fmt(x)} %`).join(", ")),
         h("td", m.stable ? "stable" : "unstable"),
-        h("td", h("a.button", { href: `/plants/${this.plant.id}/design?model=identified`, "data-link": "", "data-testid": `use-model-${i}`, onclick: () => handOver(this.plant.id, out, i, source) }, "Use this model"), " ", h("button.link", { type: "button", onclick: () => this.saveModel(m) }, "JSON")),
+        h("td", h("button.button", { type: "button", "data-testid": `use-model-${i}`, title: "Keep this model on the server and design a controller on it (a page you can share)", onclick: (ev: Event) => void this.useModel(ev.currentTarget as HTMLButtonElement, modelBody(this.plant.id, out, i, source)) }, "Use this model"), " ", h("button.link", { type: "button", onclick: () => this.saveModel(m) }, "JSON")),
       ),
     );
     const compareDiv = this.chartBox("ident-compare");
@@ -278,11 +278,25 @@ export class IdentAnalysis {
       "section.panel.wide",
       h("h2", "Models on the validation data"),
       h("table.params", { "data-testid": "ident-models" }, h("thead", h("tr", h("th", "model"), h("th", "fit, simulated (x₀ = 0)"), h("th", "fit, simulated (x₀ fitted)"), h("th", "fit, one step ahead"), h("th", "poles"), h("th", ""))), h("tbody", ...rows)),
-      h("p.hint", `Fit = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) on the ${d.validation === "record" ? "separate validation record" : "validation part"}; the bold one is each model's headline, and the one plotted: from x₀ = 0 when every mode decays within the record, else from the fitted initial state. Use this model: its transfer function and step response go to the controller design view.`),
+      h("p.hint", `Fit = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) on the ${d.validation === "record" ? "separate validation record" : "validation part"}; the bold one is each model's headline, and the one plotted: from x₀ = 0 when every mode decays within the record, else from the fitted initial state. Use this model: the server keeps it and opens its design page, a link you can share, where LQR, pole placement and PID are designed on it and run on the plant.`),
       why.length ? h("ul.hint", { "data-testid": "ident-headline-why" }, ...why) : "",
       compareDiv,
       ...residBlocks,
     );
+  }
+
+  /** Keep the model on the server, then open its design page (its shareable link). */
+  private async useModel(button: HTMLButtonElement, body: ModelCreate): Promise<void> {
+    button.disabled = true;
+    fill(this.msg);
+    try {
+      const kept = await api.createModel(body);
+      history.pushState(null, "", kept.page);
+      window.dispatchEvent(new PopStateEvent("popstate")); // the router shows the page
+    } catch (err) {
+      fill(this.msg, `The model was not kept: ${errorText(err)}`);
+      button.disabled = false;
+    }
   }
 
   private saveModel(m: IdentModelOut): void {

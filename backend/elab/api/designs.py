@@ -1,0 +1,292 @@
+"""Designs and their loops, computed here (python-control; the one simulator):
+
+- a design on a kept model (``POST /models/{model_id}/design``): LQR, pole placement, a
+  gain typed by hand (each on an observer's estimate) or PID, in discrete or continuous
+  time, with the loop's step, root locus, margins, peak input, and the law a run of the
+  plant takes;
+- the loop of any controller on a plant's physics model (``POST /plants/{id}/loop``):
+  poles, verdict, root locus, margins, peak input;
+- any controller as a file (``POST /plants/{id}/controller-file``), which reads back as
+  the same law.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import control as ct
+import numpy as np
+from starlette.requests import Request
+from starlette.responses import Response
+
+from elab import controllers as ctl
+from elab.api import convert
+from elab.api import schemas as s
+from elab.api.controllers import MEDIA
+from elab.api.http import Param, endpoint, ok, read_model
+from elab.api.models import MODEL_ID, core_model, not_runnable, reference_index, stored
+from elab.design import loop, observed
+from elab.design.closed_loop import closed_loop, loop_transfer
+from elab.design.locus import RootLocus, root_locus
+from elab.design.model import Model, in_domain
+from elab.design.response import Margins, default_horizon, step_response
+from elab.errors import InvalidInput
+from elab.laws import PID, ControlLaw, LTIController, OpenLoop
+from elab.plants import PLANTS, Plant, get_plant
+from elab.store.base import StoredModel
+
+M = TypeVar("M", bound=s.Model)
+BRYSON_SHARE = 0.8  # Bryson's rule: the largest acceptable u, a share of the actuator's limit
+PLANT_ID = Param(
+    "plant_id", "path", "plant id", {"type": "string", "enum": list(PLANTS)}, required=True
+)
+
+
+@endpoint(
+    "POST",
+    "/models/{model_id}/design",
+    "Design a controller on an identified model: its loop's step, root locus and margins",
+    body=s.ModelDesignRequest,
+    response=s.ModelDesignOut,
+    params=(MODEL_ID,),
+)
+async def design_on_model(request: Request) -> Response:
+    """``method``: ``lqr`` (Q or an output weight, R; discrete time: dlqr), ``place``
+    (closed-loop poles in z or s), ``gain`` (K typed by hand) — each state feedback on a
+    full-order observer's estimate, u = Nr r − K x̂ — or ``pid`` on the error of the
+    reference output. ``domain`` discrete designs on the model as identified; continuous on
+    its zero-order-hold inverse. The answer has the closed loop (model and controller) with
+    its verdict, the step of r by ``amplitude`` (y and u, and the peak |u| against the
+    plant's actuator limit), the root locus in the loop gain, the margins at the plant
+    input, and ``controller``: the law for ``POST /runs`` (with ``Ts`` = ``run_Ts``)."""
+    req = (await read_model(request, s.ModelDesignRequest)).root
+    kept = await stored(request)
+    return ok(await asyncio.to_thread(_computable, model_design, kept, req))
+
+
+def _computable(f: Callable[..., M], *args: Any) -> M:
+    """``f(*args)``, with a numerical failure (numbers that overflow double precision) as
+    the input's fault: 422, not 500."""
+    try:
+        with np.errstate(all="ignore"):
+            out = f(*args)
+        out.model_dump_json()  # every number finite (null where the schema allows)
+    except InvalidInput:
+        raise
+    except (np.linalg.LinAlgError, ValueError, OverflowError, ZeroDivisionError) as exc:
+        raise InvalidInput(
+            "controller",
+            "these gains",
+            f"numbers whose loop can be computed in double precision ({exc})",
+        ) from None
+    return out
+
+
+def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
+    plant = get_plant(kept.plant)
+    m = in_domain(core_model(kept, reference_index(kept, plant)), req.domain)
+    ref_name = kept.model["outputs"][m.ref]["name"]
+    plant_ref = plant.outputs[plant.reference_output].name
+    amplitude = _amplitude(req.amplitude, plant if ref_name == plant_ref else None)
+    why_not = not_runnable(kept, plant)
+    K = Nr = L = obs = None
+    law: ControlLaw | None
+    if req.method == "pid":
+        law = PID(req.Kp, req.Ki, req.Kd, req.N)
+        controller = observed.pid_controller(m, law)
+    else:
+        fb = observed.observed_feedback(
+            m,
+            _gain(m, req, plant.u_max, amplitude),
+            None if req.observer_poles is None else [_z(p) for p in req.observer_poles],
+        )
+        K, Nr, L, obs, controller = fb.K, fb.Nr, fb.L, fb.observer_poles, fb.controller
+        law = observed.feedback_law(m, controller) if why_not is None else None
+    a = loop.analyse(m, controller, amplitude, req.T)
+    names = [o["name"] for o in kept.model["outputs"]]
+    r = loop.thinned(a.step)
+    common = _loop_out(plant, a.loop, a.locus, a.margins, a.peak_u, amplitude)
+    return s.ModelDesignOut(
+        **common,
+        model=kept.id,
+        method=req.method,
+        domain=req.domain,
+        K=None if K is None else np.ravel(K).tolist(),
+        Nr=Nr,
+        L=None if L is None else L.tolist(),
+        observer_poles=None if obs is None else convert.complex_list(obs),
+        step=s.StepOut(
+            plant=plant.id,
+            loop="closed",
+            t=r.t.tolist(),
+            outputs={n: _finite(r.y[i]) for i, n in enumerate(names)},
+            u=_finite(r.u),
+            info=None
+            if a.info is None
+            else s.StepInfoOut(**{k: convert.finite_or_none(v) for k, v in vars(a.info).items()}),
+            poles=convert.complex_list(a.loop.poles),
+            verdict=a.loop.verdict,
+            cut=None,
+        ),
+        controller=None if law is None or why_not else convert.law_model(law),
+        run_Ts=kept.model["Ts"] if req.domain == "discrete" else None,
+        not_runnable=why_not,
+    )
+
+
+def _amplitude(given: float | None, plant: Plant | None) -> float:
+    """The reference step: as given, else the plant's default amplitude for a model of its
+    reference output, else 1."""
+    a = given if given is not None else (plant.signal.amplitude or 1.0) if plant else 1.0
+    if a == 0:
+        raise InvalidInput("amplitude", a, "a nonzero step of the reference")
+    return a
+
+
+def _gain(m: Model, req: Any, u_max: float, amplitude: float) -> Any:
+    if req.method == "gain":
+        return req.K
+    if req.method == "place":
+        return observed.place_gain(m, [_z(p) for p in req.poles]).K
+    if req.Q is not None and req.output_weight is not None:
+        raise InvalidInput("Q", "Q and output_weight", "either Q or output_weight, not both")
+    if req.Q is not None:
+        Q = req.Q
+    else:  # Bryson's rule unless a weight is given: the step's size against the limit
+        q = req.output_weight
+        q = q if q is not None else (BRYSON_SHARE * u_max / amplitude) ** 2
+        Q = observed.output_weight(m, q)
+    return observed.lqr_gain(m, Q, req.R).K
+
+
+def _z(p: s.Complex) -> complex:
+    return complex(p.re, p.im)
+
+
+def _finite(v: np.ndarray) -> list[float]:
+    if not np.all(np.isfinite(v)):
+        raise InvalidInput("T", None, "a shorter horizon: the response overflows (unstable loop)")
+    return v.tolist()  # type: ignore[no-any-return]
+
+
+def _loop_out(
+    plant: Plant, lp: loop.Loop, locus: RootLocus, m: Margins, peak: float | None, amplitude: float
+) -> dict[str, Any]:
+    return {
+        "plant": plant.id,
+        "closed_loop_poles": convert.complex_list(lp.poles),
+        "verdict": lp.verdict,
+        "reason": lp.reason,
+        "margins": s.MarginsOut(
+            gain_margin_db=m.gain_margin_db,
+            phase_margin_deg=m.phase_margin_deg,
+            gain_crossover=m.gain_crossover,
+            phase_crossover=m.phase_crossover,
+        ),
+        "root_locus": s.RootLocusOut(
+            domain="s" if lp.closed.isctime() else "z",
+            gains=locus.gains.tolist(),
+            re=[[_or_none(x) for x in row] for row in locus.branches.real],
+            im=[[_or_none(x) for x in row] for row in locus.branches.imag],
+            poles=convert.complex_list(locus.poles),
+            zeros=convert.complex_list(locus.zeros),
+        ),
+        "amplitude": amplitude,
+        "peak_u": peak,
+        "u_max": plant.u_max,
+        "saturates": peak is not None and peak > plant.u_max,
+    }
+
+
+def _or_none(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+@endpoint(
+    "POST",
+    "/plants/{plant_id}/loop",
+    "A controller's loop on the plant's model: poles, verdict, root locus, margins, peak u",
+    body=s.LoopRequest,
+    response=s.LoopOut,
+    params=(PLANT_ID,),
+)
+async def plant_loop(request: Request) -> Response:
+    """The loop as a run closes it (the law's own state estimate; a discrete LTI law on
+    the plant's zero-order-hold model at its ``dt``), linear: closed-loop poles and
+    verdict, the root locus in the loop gain, the margins at the plant input, and the peak
+    |u| of a step of r by ``amplitude`` (default: the plant's default reference
+    amplitude) against the actuator limit."""
+    plant = get_plant(request.path_params["plant_id"])
+    req = await read_model(request, s.LoopRequest)
+    law = convert.law(req.controller, plant)
+    amplitude = _amplitude(req.amplitude, plant)
+    return ok(await asyncio.to_thread(_computable, _plant_loop, plant, law, amplitude))
+
+
+def _plant_loop(plant: Plant, law: ControlLaw, amplitude: float) -> s.LoopOut:
+    if isinstance(law, OpenLoop):
+        raise InvalidInput("controller", "open_loop", "a feedback law: an open loop has no loop")
+    if isinstance(law, LTIController) and law.dt is not None:
+        ref = [plant.reference_output]
+        P = ct.c2d(ct.ss(plant.A, plant.B, plant.C[ref], plant.D[ref]), law.dt, "zoh")
+        a = loop.analyse(Model(P.A, P.B, P.C, P.D, law.dt), observed.two_dof(law), amplitude)
+        return s.LoopOut(**_loop_out(plant, a.loop, a.locus, a.margins, a.peak_u, amplitude))
+    closed = closed_loop(plant, law)
+    L = ct.ss(loop_transfer(plant, law))
+    poles, said, reason = loop.verdict(closed.A, None)
+    peak = None
+    if said == "asymptotically stable":
+        T = min(max(plant.signal.duration, default_horizon(poles)), 600.0)
+        u = step_response(closed, T, 4001, amplitude, u_output=-1).u
+        peak = float(np.max(np.abs(u))) if np.all(np.isfinite(u)) else None
+    lp = loop.Loop(closed, L, poles, said, reason)
+    return s.LoopOut(
+        **_loop_out(plant, lp, root_locus(L), loop.loop_margins(lp, None), peak, amplitude)
+    )
+
+
+@endpoint(
+    "POST",
+    "/plants/{plant_id}/controller-file",
+    "A controller as a file (TOML, JSON, .mat, .npz, Python) that uploads as the same law",
+    body=s.ControllerFileRequest,
+    response="file",
+    files=tuple(dict.fromkeys(MEDIA.values())),
+    params=(PLANT_ID,),
+)
+async def controller_file(request: Request) -> Response:
+    """The law in the controller file format (docs/controllers.md): what a designed gain
+    or a design on a model exports. The file is read back before it is sent: 422 if it
+    would not read as the same law (a Python file exists for state feedback on the
+    plant's velocity filters and for PID only)."""
+    plant = get_plant(request.path_params["plant_id"])
+    req = await read_model(request, s.ControllerFileRequest)
+    law = convert.law(req.controller, plant)
+    data = await asyncio.to_thread(_file, plant, law, req.format, req.name)
+    stem = "".join(
+        c if (c.isascii() and c.isalnum()) or c in "-_" else "-" for c in (req.name or "designed")
+    )
+    return Response(
+        data,
+        media_type=MEDIA[req.format],
+        headers={
+            "content-disposition": f'attachment; filename="{plant.id}-{stem[:60]}.{req.format}"'
+        },
+    )
+
+
+def _file(plant: Plant, law: ControlLaw, fmt: str, name: str | None) -> bytes:
+    try:
+        ctl.law_from_fields(ctl.law_fields(law), plant)  # what a file may hold, by name
+        data = ctl.law_file(plant, law, fmt, name)
+        back = ctl.read_controller(data, fmt, plant).law
+    except InvalidInput as e:
+        raise InvalidInput(
+            f"controller.{e.field}" if e.field != "format" else "format", e.value, e.allowed
+        ) from None
+    if fmt != "py" and back != law:
+        raise InvalidInput("controller", "this law", f"a law the {fmt} format holds")
+    return data

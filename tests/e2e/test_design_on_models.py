@@ -1,0 +1,144 @@
+"""From data to a controller in one flow, in real Chromium (issue 15): identify a model from
+a PRBS run, open the model's shareable design page in a fresh browser context, design an
+LQR on it, run it on the simulated plant, export it; the run panel always belongs to the
+design shown (a new design clears the old run and shows its own K)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import httpx
+import pytest
+from playwright.sync_api import Browser, Page, expect
+
+from elab.controllers import read_controller
+from elab.plants import get_plant
+from tests.api.server import Server
+
+NUMBER = r"[−-]?\d+(?:\.\d+)?(?:e[−-]?\d+)?"
+
+
+def gains(text: str) -> list[float]:
+    """The numbers of "K = [1.2, −3.4e−05, …]" as printed."""
+    inside = text[text.index("[") + 1 : text.index("]")]
+    return [float(x.replace("−", "-")) for x in re.findall(NUMBER, inside)]
+
+
+def identify_from_a_prbs_run(page: Page) -> str:
+    """The identification page: a PRBS run in closed loop, an ARX model of θ, "Use this
+    model"; returns the design page's address."""
+    page.goto("/plants/flexible_link/identification")
+    expect(page.locator("#excitation-kind")).to_have_value("prbs")
+    page.locator("#f-duration").fill("5")
+    page.get_by_role("button", name="Start").click()
+    expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=30_000)
+    panel = page.get_by_test_id("ident-run")
+    panel.locator("#id-models").fill("arx:4,4,1")
+    panel.get_by_role("button", name="Identify").click()
+    expect(panel.get_by_test_id("ident-models")).to_contain_text("arx 4 4 1", timeout=60_000)
+    panel.get_by_test_id("use-model-0").click()
+    expect(page).to_have_url(re.compile(r"/plants/flexible_link/design\?model=m-[0-9a-f]{12}$"))
+    expect(page.get_by_test_id("identified-model")).to_contain_text("Identified model: arx 4 4 1")
+    return page.url
+
+
+def test_identify_share_design_run_and_export_an_lqr_on_the_model(
+    page: Page, browser: Browser, server: Server, shots: Path
+) -> None:
+    url = identify_from_a_prbs_run(page)
+    model_id = url.rsplit("=", 1)[1]
+
+    # the link in a fresh browser: another identity, nothing in its storage
+    context = browser.new_context(
+        viewport={"width": 1280, "height": 800}, base_url=server.url, accept_downloads=True
+    )
+    errors: list[str] = []
+    other = context.new_page()
+    other.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        other.goto(url)
+        model = other.get_by_test_id("identified-model")
+        expect(model).to_contain_text("Identified model: arx 4 4 1")
+        expect(model.locator(".katex").first).to_be_visible()
+        expect(other.get_by_test_id("identified-step").locator(".main-svg").first).to_be_visible()
+        expect(model.get_by_test_id("delete-model")).to_have_count(0)  # not theirs
+
+        # LQR on the model (Bryson's weight by default), discrete, computed by the server
+        other.locator("#model-method").select_option("lqr")
+        q = float(other.locator("#model-output_weight").input_value())
+        other.get_by_role("button", name="Design", exact=True).click()
+        shown = gains(other.get_by_test_id("gain").inner_text())
+        ref = httpx.post(
+            f"{server.url}/api/v1/models/{model_id}/design",
+            json={"method": "lqr", "output_weight": q, "R": 1},
+        ).json()
+        assert shown == pytest.approx(ref["K"], rel=1e-5)
+        expect(other.get_by_test_id("verdict")).to_contain_text("Closed loop: stable")
+        expect(other.get_by_test_id("peak")).to_contain_text("Predicted peak input")
+        expect(other.get_by_test_id("root-locus").locator(".main-svg").first).to_be_visible()
+        expect(other.get_by_test_id("design-step").locator(".main-svg").first).to_be_visible()
+        expect(other.get_by_test_id("margins")).to_contain_text("phase margin")
+        other.screenshot(path=shots / "design-model.png", full_page=True)
+
+        # export: the controller file reads back as the design's law
+        with other.expect_download() as dl:
+            other.get_by_test_id("export-toml").click()
+        law = read_controller(
+            Path(dl.value.path()).read_bytes(), "toml", get_plant("flexible_link")
+        )
+        assert law.law.dt == ref["controller"]["dt"]
+        assert [list(r) for r in law.law.A or ()] == ref["controller"]["A"]
+
+        # run it on the simulated plant: the panel prints the K it runs
+        other.locator("#f-duration").fill("2")
+        other.get_by_role("button", name="Run with this K").click()
+        run_box = other.get_by_test_id("design-run")
+        expect(run_box.locator(".run-panel .badge")).to_have_text("finished", timeout=30_000)
+        assert gains(run_box.get_by_test_id("run-gain").inner_text()) == pytest.approx(
+            shown, rel=1e-4
+        )
+        other.screenshot(path=shots / "design-model-run.png", full_page=True)
+        rid = run_box.locator(".run-panel").get_attribute("data-run")
+        run = httpx.get(f"{server.url}/api/v1/runs/{rid}").json()
+        assert run["request"]["controller"]["kind"] == "lti" and run["Ts"] == ref["run_Ts"]
+
+        # a new design (K typed by hand) clears the old run and shows its own K
+        hand = other.locator("#hand-K-0")
+        hand.fill(str(round(shown[0] * 0.5, 6)))
+        other.get_by_role("button", name="Recompute with this K").click()
+        expect(other.get_by_test_id("design-result")).to_contain_text("K typed by hand")
+        expect(run_box).to_be_hidden()
+        new = gains(other.get_by_test_id("gain").inner_text())
+        assert new[0] == pytest.approx(shown[0] * 0.5, rel=1e-5) and new[1:] == pytest.approx(
+            shown[1:]
+        )
+        other.get_by_role("button", name="Run with this K").click()
+        expect(run_box.get_by_test_id("run-gain")).to_be_visible()
+        assert gains(run_box.get_by_test_id("run-gain").inner_text()) == pytest.approx(
+            new, rel=1e-4
+        )
+        expect(run_box.locator(".run-panel .badge")).to_have_text("finished", timeout=30_000)
+
+        # and another method clears it again
+        other.locator("#model-method").select_option("pid")
+        other.get_by_role("button", name="Design", exact=True).click()
+        expect(other.get_by_test_id("design-result")).to_contain_text("PID on arx 4 4 1")
+        expect(run_box).to_be_hidden()
+    finally:
+        context.close()
+    assert not errors, errors
+
+
+def test_an_unstable_design_says_so_and_a_large_one_warns_of_saturation(page: Page) -> None:
+    page.goto("/plants/flexible_link/design")
+    page.get_by_role("button", name="Design").click()  # the seed's Q: 45 V for a 30° step
+    expect(page.get_by_test_id("peak")).to_contain_text("beyond the actuator's ±10 V")
+    expect(page.get_by_test_id("verdict")).to_contain_text("Closed loop: stable")
+    expect(page.get_by_test_id("root-locus").locator(".main-svg").first).to_be_visible()
+    # a sign typed wrong: the loop is unstable, and the page says so plainly
+    page.locator("#hand-K-0").fill("-20")
+    page.get_by_role("button", name="Recompute with this K").click()
+    expect(page.get_by_test_id("verdict")).to_contain_text("UNSTABLE")
+    expect(page.get_by_test_id("step-info")).to_have_text("unstable")
+    expect(page.get_by_test_id("design-result")).not_to_contain_text("rise —")
