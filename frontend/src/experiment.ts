@@ -10,6 +10,9 @@ import { display } from "./units";
 
 export const GAIN_LIMIT = 1e6;
 export const MAX_DURATION = 3600;
+/** the server's least samples per run and per period (backend/elab/sim/spec.py) */
+export const MIN_SAMPLES = 10;
+export const MIN_PERIOD_SAMPLES = 4;
 
 /** Gains of the plant's predefined controller (state feedback or PID) as fields. */
 export class ControllerForm {
@@ -87,6 +90,8 @@ export class SignalForm {
     /** element id prefix, for a page with two signal forms (ids "own-signal-kind",
      * "own-signal-amplitude"; default "signal-kind", "f-signal-amplitude") */
     private readonly idPrefix?: string,
+    /** the run's sample time (s): periods of at least MIN_PERIOD_SAMPLES samples */
+    private readonly Ts?: number,
   ) {
     const d = display(siUnit);
     this.scale = d.scale;
@@ -113,8 +118,10 @@ export class SignalForm {
     const lim = this.amplitudeLimit();
     add({ field: `${p}.amplitude`, label: "Amplitude", unit: this.unit, value: Number(amp.toPrecision(6)), min: -lim, max: lim });
     if (kind === "step") add({ field: `${p}.t0`, label: "Step time", unit: "s", value: init?.kind === "step" ? init.t0 : 0, min: 0, max: MAX_DURATION });
-    if (kind === "square") add({ field: `${p}.period`, label: "Period", unit: "s", value: init?.kind === "square" ? init.period : 4, min: 0, minExclusive: true, max: MAX_DURATION });
-    if (kind === "sine") add({ field: `${p}.frequency`, label: "Frequency", unit: "Hz", value: init?.kind === "sine" ? init.frequency : 0.5, min: 0, minExclusive: true, max: 500 });
+    const shortest = this.Ts ? Number((MIN_PERIOD_SAMPLES * this.Ts).toPrecision(12)) : 0;
+    if (kind === "square") add({ field: `${p}.period`, label: "Period", unit: "s", value: init?.kind === "square" ? init.period : 4, min: shortest, minExclusive: !shortest, max: MAX_DURATION });
+    if (kind === "sine") add({ field: `${p}.frequency`, label: "Frequency", unit: "Hz", value: init?.kind === "sine" ? init.frequency : 0.5, min: 0, minExclusive: true, max: shortest ? Number((1 / shortest).toPrecision(12)) : 500 });
+    if (p === "signal" && kind !== "prbs") add({ field: `${p}.offset`, label: "Offset", unit: this.unit, value: init && "offset" in init ? Number((init.offset * this.scale).toPrecision(6)) : 0, min: -lim, max: lim });
     if (kind === "prbs") {
       add({ field: `${p}.band`, label: "Band (fraction of Nyquist)", value: init?.kind === "prbs" ? init.band : 0.05, min: 0, minExclusive: true, max: 1 });
       add({ field: `${p}.order`, label: "Register length", value: init?.kind === "prbs" ? init.order : 10, min: 3, max: 20, integer: true, hint: "allowed: a whole number 3 … 20 (period 2ⁿ − 1 bits)" });
@@ -127,22 +134,65 @@ export class SignalForm {
     if (!v) return null;
     const p = this.prefix;
     const amplitude = v.get(`${p}.amplitude`)! / this.scale;
+    const offset = (v.get(`${p}.offset`) ?? 0) / this.scale;
     switch (this.kind.value as SignalKind) {
       case "step":
-        return { kind: "step", amplitude, t0: v.get(`${p}.t0`)! };
+        return { kind: "step", amplitude, t0: v.get(`${p}.t0`)!, offset };
       case "square":
-        return { kind: "square", amplitude, period: v.get(`${p}.period`)! };
+        return { kind: "square", amplitude, period: v.get(`${p}.period`)!, offset };
       case "sine":
-        return { kind: "sine", amplitude, frequency: v.get(`${p}.frequency`)! };
+        return { kind: "sine", amplitude, frequency: v.get(`${p}.frequency`)!, offset };
       case "prbs":
         return { kind: "prbs", amplitude, band: v.get(`${p}.band`)!, order: v.get(`${p}.order`)! };
     }
   }
 }
 
-/** The run length field. */
-export function durationField(value: number, onChange?: () => void, idPrefix?: string): NumberField {
-  return new NumberField({ field: "duration", label: "Duration", unit: "s", value, min: 0, minExclusive: true, max: MAX_DURATION, idPrefix }, onChange);
+/** The run length field (`Ts`: the run's sample time; a run has at least MIN_SAMPLES). */
+export function durationField(value: number, onChange?: () => void, idPrefix?: string, Ts?: number): NumberField {
+  const min = Ts ? Number((MIN_SAMPLES * Ts).toPrecision(12)) : 0;
+  return new NumberField({ field: "duration", label: "Duration", unit: "s", value, min, minExclusive: !min, max: MAX_DURATION, idPrefix }, onChange);
+}
+
+/** Where a run starts: a field per state the plant lets a run choose (its
+ * initial_state_ranges), absolute, in display units; pre-filled with the state the plant's
+ * analysis experiment starts from. A plant without such states has no form (`root` null). */
+export class InitialStateForm {
+  readonly fields = new FieldSet();
+  readonly root: HTMLElement | null = null;
+  private readonly start: number[];
+
+  constructor(readonly plant: PlantDetail) {
+    this.start = [...(plant.default_x0 ?? plant.operating_point)];
+    const ranges = plant.initial_state_ranges as [string, number, number][];
+    if (!ranges.length) return;
+    const grid = h("div.grid");
+    const round = (x: number) => Number(x.toPrecision(10)); // as value() reads it back
+    for (const [name, lo, hi] of ranges) {
+      const i = plant.states.findIndex((st) => st.name === name);
+      const st = plant.states[i];
+      const d = display(st.unit);
+      grid.append(this.fields.add(new NumberField({ field: `x0.${i}`, label: st.label, unit: d.unit, value: round(this.start[i] * d.scale), min: round(lo * d.scale), max: round(hi * d.scale) })).root);
+    }
+    this.root = h("fieldset.initial-state", h("legend", "Start from"), grid, h("small.hint", "Where the run starts (absolute). The linear model holds within the allowed ranges; every other state starts at the operating point."));
+  }
+
+  /** The absolute initial state to send; undefined when the plant offers no choice, null
+   * while a field is invalid. */
+  value(): number[] | null | undefined {
+    if (!this.root) return undefined;
+    const v = this.fields.values();
+    if (!v) return null;
+    return this.start.map((x, i) => {
+      const typed = v.get(`x0.${i}`);
+      const scale = display(this.plant.states[i].unit).scale;
+      return typed === undefined || typed === Number((x * scale).toPrecision(10)) ? x : typed / scale; // untouched: exactly the plant's
+    });
+  }
+
+  set disabled(off: boolean) {
+    for (const f of this.fields.fields.values()) f.disabled = off;
+  }
 }
 
 /** "Private run" and "Keep my previous run going": how the next run starts. */

@@ -8,6 +8,9 @@ describe("parseNumber", () => {
     expect(parseNumber(" 12.5 ", spec)).toEqual({ ok: true, value: 12.5 });
     expect(parseNumber("3600", spec)).toEqual({ ok: true, value: 3600 });
     expect(parseNumber("1e2", spec)).toEqual({ ok: true, value: 100 });
+    expect(parseNumber(".5", spec)).toEqual({ ok: true, value: 0.5 });
+    expect(parseNumber("+2.", spec)).toEqual({ ok: true, value: 2 });
+    expect(parseNumber("\u22121", { ...spec, min: -5 })).toEqual({ ok: true, value: -1 }); // the minus sign −
   });
 
   it.each([
@@ -18,6 +21,11 @@ describe("parseNumber", () => {
     ["0", /0 is out of range; allowed: a number > 0 and ≤ 3600/],
     ["3600.1", /out of range/],
     ["-1", /out of range/],
+    ["0x10", /"0x10" is not a number > 0 and ≤ 3600 \(write it in decimal digits\)/],
+    ["0b11", /decimal digits/],
+    ["1_000", /"1_000" is not a number/],
+    ["1,5", /write 1\.5 with a decimal point/],
+    ["12abc", /not a number/],
   ])("refuses %j, naming value and range", (text, message) => {
     const r = parseNumber(text, spec);
     expect(r.ok).toBe(false);

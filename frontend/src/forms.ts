@@ -35,13 +35,20 @@ export function rangeText(spec: Pick<NumberSpec, "min" | "max" | "minExclusive" 
   return parts.length ? `${kind} ${parts.join(" and ")}` : kind;
 }
 
+/** A decimal number as people write it: 16, -0.5, .5, 1e-3 (not 0x10, 1_000, Infinity). */
+const DECIMAL = /^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$/;
+
 /** Parse what the user typed against the spec; the message names value and allowed range. */
 export function parseNumber(text: string, spec: NumberSpec): Parsed {
   const t = text.trim();
   const allowed = rangeText(spec);
   if (t === "") return { ok: false, message: `${spec.label} is required: ${allowed}` };
-  const v = Number(t);
-  if (!Number.isFinite(v)) return { ok: false, message: `${spec.label}: "${t}" is not ${allowed}` };
+  const ascii = t.replace(/^\u2212/, "-"); // the minus sign − as the page prints it
+  const v = DECIMAL.test(ascii) ? Number(ascii) : NaN;
+  if (!Number.isFinite(v)) {
+    const hint = /^\d+,\d+$/.test(t) ? ` (write ${t.replace(",", ".")} with a decimal point)` : /^[+-]?0[xob]/i.test(t) ? " (write it in decimal digits)" : "";
+    return { ok: false, message: `${spec.label}: "${t}" is not ${allowed}${hint}` };
+  }
   if (spec.integer && !Number.isInteger(v)) return { ok: false, message: `${spec.label}: ${t} is not ${allowed}` };
   const low = spec.min !== undefined && (spec.minExclusive ? v <= spec.min : v < spec.min);
   const high = spec.max !== undefined && (spec.maxExclusive ? v >= spec.max : v > spec.max);
@@ -122,6 +129,12 @@ export class NumberField {
   set value(v: number) {
     this.input.value = String(v);
     this.setError(null);
+  }
+
+  /** A field that cannot change now (e.g. a run's duration while it runs) is disabled. */
+  set disabled(off: boolean) {
+    this.input.disabled = off;
+    this.root.classList.toggle("fixed", off);
   }
 
   setError(message: string | null): void {

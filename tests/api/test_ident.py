@@ -96,6 +96,7 @@ def test_a_recorded_identification_run(server: Server) -> None:
                 "excitation": {"kind": "prbs", "amplitude": 1.0, "order": 11, "band": 0.05},
                 "excitation_at": "input",
                 "seed": 1,
+                "quantize": False,  # noise only (identification's default also quantises)
             },
         ).json()
         for _ in range(200):

@@ -24,17 +24,20 @@ from tests.api.server import Server, Watcher, until
 FLEX = get_plant("flexible_link")
 SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
 NEW_K = [8.0, -40.0, 1.5, 0.5]
+NEW_SQUARE = {**SQUARE, "amplitude": math.radians(60)}  # applied with NEW_K mid-run
 NAMES = ["r", "u", "theta", "alpha", "x_theta", "x_alpha", "x_theta_dot", "x_alpha_dot"]
 
 
 def offline(duration: float, change_at: int | None = None) -> np.ndarray:
-    """The same run computed offline, with the gain change at sample ``change_at``."""
+    """The same run computed offline, with the gain and reference change at sample
+    ``change_at``."""
     spec = RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 2.0), duration=duration)
     sim = Simulation(spec)
     parts = []
     if change_at is not None:
         parts.append(sim.advance(change_at))
         sim.set_law(StateFeedback(tuple(NEW_K), "velocity_filters"))
+        sim.set_reference(Square(math.radians(60), 2.0))
     parts.append(sim.advance(sim.remaining))
     res = Samples.concatenate([p for p in parts if p.n])
     return np.column_stack([res.r, res.u, res.y, res.x])
@@ -80,7 +83,10 @@ def test_watchers_gain_change_downloads_and_restart(tmp_path: Path) -> None:
                 r = await asyncio.to_thread(
                     c.post,
                     f"/runs/{rid}/params",
-                    json={"controller": {"kind": "state_feedback", "K": NEW_K}},
+                    json={
+                        "controller": {"kind": "state_feedback", "K": NEW_K},
+                        "signal": NEW_SQUARE,
+                    },
                 )
                 await asyncio.gather(*tasks)
                 for w in ws:
@@ -99,9 +105,16 @@ def test_watchers_gain_change_downloads_and_restart(tmp_path: Path) -> None:
             got = downloads(c, rid)
             for fmt in ("csv", "json", "mat"):  # float64, exactly the offline run
                 np.testing.assert_array_equal(got[fmt], want, err_msg=fmt)
-            # the response changes at the recorded sample, not before
+            # the response changes at the recorded sample, not before: gains and reference
             np.testing.assert_array_equal(want[:k], before[:k])
-            assert want[k, 1] != before[k, 1]
+            assert want[k, 0] != before[k, 0]  # the reference from sample k itself
+            assert not np.array_equal(want[k:, 1], before[k:, 1])
+            np.testing.assert_allclose(np.abs(want[:k, 0]), math.radians(30), rtol=1e-12)
+            np.testing.assert_allclose(np.abs(want[k:, 0]), math.radians(60), rtol=1e-12)
+            assert [d["field"] for d in applied["changed"]] == [
+                *(f"controller.K.{i}" for i in range(4)),
+                "signal.amplitude",
+            ]
             for w in watchers:  # streamed float32 = the recording, every sample, no gaps
                 k0, cols = w.samples()
                 assert k0 == 0

@@ -77,7 +77,7 @@ def test_analysis_run_live_gain_change_stop_download_and_spectator(
     wait_samples(spectator, 1)
 
     page.locator("#f-controller-K-0").fill("30")
-    page.get_by_role("button", name="Apply gains to the running run").click()
+    page.get_by_role("button", name="Apply changes to the running run").click()
     note = page.get_by_test_id("applied")
     expect(note).to_contain_text("applied from sample k =")
     k = int(re.search(r"k = (\d+)", note.inner_text()).group(1))  # type: ignore[union-attr]
@@ -143,7 +143,7 @@ def test_invalid_input_shows_a_message_and_sends_nothing(page: Page) -> None:
 def test_server_errors_show_next_to_their_field(page: Page) -> None:
     page.goto("/plants/flexible_link/analysis")
     page.locator("#f-duration").fill("4000")  # the form allows ≤ 3600: refused locally
-    expect(page.locator("#f-duration-error")).to_contain_text("allowed: a number > 0 and ≤ 3600")
+    expect(page.locator("#f-duration-error")).to_contain_text("allowed: a number ≥ 0.01 and ≤ 3600")
 
 
 def test_identification_run_and_data_set(page: Page, server: Server, shots: Path) -> None:
@@ -196,9 +196,9 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     ):
         expect(panel.get_by_test_id(testid).locator(".main-svg").first).to_be_visible()
     page.screenshot(path=shots / "identification.png", full_page=True)
-    # "use this model": the design view shows it beside the physics model
+    # "use this model": kept on the server, its design page shows it beside the physics model
     panel.get_by_test_id("use-model-1").click()
-    expect(page).to_have_url(re.compile(r"/plants/flexible_link/design\?model=identified"))
+    expect(page).to_have_url(re.compile(r"/plants/flexible_link/design\?model=m-[0-9a-f]+$"))
     panel = page.get_by_test_id("identified-model")
     expect(panel).to_contain_text("Identified model: n4sid 4")
     expect(panel.locator(".katex").first).to_be_visible()

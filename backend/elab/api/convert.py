@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import secrets
 from typing import Any
 
 from elab.api import schemas as s
@@ -44,6 +45,8 @@ def law(model: Any, plant: Plant) -> ControlLaw:
             dt=model.dt,
             ff_num=_tuple(model.ff_num),
             ff_den=_tuple(model.ff_den),
+            B_r=_rows(model.B_r),
+            D_r=_rows(model.D_r),
         )
     if isinstance(model, s.OpenLoopController):
         return OpenLoop()
@@ -71,7 +74,7 @@ def law_model(law_: ControlLaw) -> Any:
         raise InvalidInput("controller", law_.name, "a declarative law (this one is code)")
     matrices = {
         k: [list(r) for r in getattr(law_, k)]
-        for k in ("A", "B", "C", "D")
+        for k in ("A", "B", "C", "D", "B_r", "D_r")
         if getattr(law_, k) is not None
     }
     return s.LTIControllerModel.model_validate(
@@ -107,6 +110,20 @@ def default_signal(plant: Plant) -> Any:
     return s.StepSignal.model_validate({"kind": "step", "amplitude": d.amplitude})
 
 
+def sensors(req: s.RunCreate) -> dict[str, Any]:
+    """``noise``, ``seed`` and ``quantize`` as the run uses them: realistic sensors (the
+    plant's noise and quantisation) by default for simulated identification runs, ideal
+    ones otherwise; noise without a seed gets a random one, so the recorded request
+    repeats the run."""
+    realistic = req.experiment == "identification" and req.mode == "simulation"
+    noise = req.noise if req.noise is not None else realistic or req.seed is not None
+    if not noise and req.seed is not None:
+        raise InvalidInput("seed", req.seed, "no seed with noise false (a seed draws the noise)")
+    seed = None if not noise else req.seed if req.seed is not None else secrets.randbits(32)
+    quantize = req.quantize if req.quantize is not None else realistic
+    return {"noise": noise, "seed": seed, "quantize": quantize}
+
+
 def run_spec(req: s.RunCreate, plant: Plant, law_: ControlLaw | None = None) -> RunSpec:
     """The core run of a request, with the plant's defaults filled in (``law_``: the law of
     an uploaded controller, instead of ``req.controller``'s)."""
@@ -124,7 +141,7 @@ def run_spec(req: s.RunCreate, plant: Plant, law_: ControlLaw | None = None) -> 
         excitation_at=req.excitation_at,
         saturate=req.saturate,
         noise_seed=req.seed,
-        quantize=req.quantize,
+        quantize=bool(req.quantize),
         x0=tuple(req.x0) if req.x0 is not None else None,
     )
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections import Counter
 from collections.abc import Awaitable, Callable, Iterator
 from contextlib import contextmanager, nullcontext
@@ -75,6 +76,8 @@ class Endpoint:
     # them): (operationId, its path parameter)
     links: tuple[tuple[str, str], ...] = ()
     form: dict[str, Any] | None = None  # a multipart/form-data body it also takes (schema)
+    # a file response's media types (default: a run's recording: CSV, .mat, JSON)
+    files: tuple[str, ...] = ()
 
 
 ENDPOINTS: list[Endpoint] = []
@@ -204,7 +207,10 @@ def error_response(exc: Exception) -> JSONResponse:
 def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
     """Status code and body of a known exception (re-raises anything else)."""
     if isinstance(exc, ValidationError):
-        errors = [FieldError(field=_loc(e["loc"]), message=_msg(e)) for e in exc.errors()[:20]]
+        # a value that may only be omitted (``X | SkipJsonSchema[None]``) fails as X and as
+        # null: the second says nothing the first does not
+        found = [e for e in exc.errors() if e["type"] != "none_required"] or exc.errors()
+        errors = [FieldError(field=_loc(e["loc"]), message=_msg(e)) for e in found[:20]]
         return 422, ErrorDetail(
             code="invalid",
             message="; ".join(f"{e.field}: {e.message}" for e in errors),
@@ -236,7 +242,8 @@ def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
 
 
 def _loc(loc: tuple[int | str, ...]) -> str:
-    return ".".join(str(p) for p in loc) or "body"
+    """``signal.square.amplitude``: without pydantic's name of a union inside a union."""
+    return ".".join(str(p) for p in loc if not str(p).startswith("tagged-union[")) or "body"
 
 
 def _msg(e: Any) -> str:
@@ -256,14 +263,16 @@ def query(request: HTTPConnection, name: str) -> str | None:
     return values[0] if values else None
 
 
+_DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", re.ASCII)
+
+
 def query_float(request: Request, name: str) -> float | None:
     raw = query(request, name)
     if raw is None:
         return None
-    try:
-        value = float(raw)
-    except ValueError:
-        raise InvalidInput(name, raw, "a number") from None
+    if not _DECIMAL.fullmatch(raw):  # float() would also take 1_000, ٣, inf and nan
+        raise InvalidInput(name, raw, "a decimal number, e.g. 1.5 or 2e-3")
+    value = float(raw)
     if value != value or value in (float("inf"), float("-inf")):
         raise InvalidInput(name, raw, "a finite number")
     return value

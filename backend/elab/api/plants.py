@@ -82,6 +82,7 @@ async def get_plant_detail(request: Request) -> Response:
             predefined_design=p.predefined_design,
             default_signal=convert.default_signal(p),
             default_duration=p.signal.duration,
+            default_x0=None if p.signal.x0 is None else list(p.signal.x0),
             sensors={"quantum": list(p.sensors.quantum), "noise_std": list(p.sensors.noise_std)},
             description=p.description,
         )
@@ -194,21 +195,48 @@ def _step(p: Plant, law: object, req: s.StepRequest) -> s.StepOut:
     stab = design.stability(sys.A)
     T = req.T or design.default_horizon(stab.eigenvalues)
     r = design.step_response(sys, T=T, n=req.n, amplitude=req.amplitude, u_output=-1)
+    cut = _leaves_range(p, r.y)
+    if cut is not None and req.T is None:  # again up to just past the exit, finely sampled
+        T = 1.25 * float(r.t[cut[1]])
+        r = design.step_response(sys, T=T, n=req.n, amplitude=req.amplitude, u_output=-1)
+        cut = _leaves_range(p, r.y)
+    end = r.t.size if cut is None else cut[1] + 1
     y_ref = r.y[p.reference_output]
     info = None
-    if loop == "closed" and np.all(np.isfinite(r.y)):
+    if loop == "closed" and cut is None and np.all(np.isfinite(r.y)):
         si = design.step_info(r.t, y_ref, req.amplitude)
         info = s.StepInfoOut(**{k: convert.finite_or_none(v) for k, v in vars(si).items()})
     return s.StepOut(
         plant=p.id,
         loop=loop,
-        t=r.t.tolist(),
-        outputs={o.name: _finite(r.y[i]) for i, o in enumerate(p.outputs)},
-        u=_finite(r.u),
+        t=r.t[:end].tolist(),
+        outputs={o.name: _finite(r.y[i, :end]) for i, o in enumerate(p.outputs)},
+        u=_finite(r.u[:end]),
         info=info,
         poles=convert.complex_list(stab.eigenvalues),
         verdict=stab.verdict,
+        cut=None
+        if cut is None
+        else s.StepCut(
+            output=p.outputs[cut[0]].name, t=float(r.t[cut[1]]), low=cut[2], high=cut[3]
+        ),
     )
+
+
+def _leaves_range(p: Plant, y: np.ndarray) -> tuple[int, int, float, float] | None:
+    """``(output, first sample outside, lo, hi)`` of the earliest exit of a (deviation)
+    response from the plant's output ranges, or None."""
+    op = p.C @ p.operating_point
+    exits = []
+    for i, lo, hi in p.output_ranges:
+        with np.errstate(invalid="ignore"):
+            outside = ~((y[i] + op[i] >= lo) & (y[i] + op[i] <= hi))
+        if outside.any():
+            exits.append((int(np.argmax(outside)), i, lo, hi))
+    if not exits:
+        return None
+    k, i, lo, hi = min(exits)
+    return i, k, lo, hi
 
 
 def _finite(v: np.ndarray) -> list[float]:

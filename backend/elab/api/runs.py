@@ -14,13 +14,14 @@ from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response, StreamingResponse
 
 from elab.access import Identity, display_name, may_control, may_view, require_control
-from elab.api import controllers, convert
+from elab.api import changes, controllers, convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_float, query_int, read_model
 from elab.engines.base import Action, EngineStatus, StoreHealth
-from elab.errors import InvalidInput
+from elab.errors import Conflict, InvalidInput
 from elab.laws import CodeController
+from elab.lifecycle import RunState
 from elab.plants import PLANTS, get_plant
 from elab.runs import export
 from elab.runs.fanout import frame_samples
@@ -121,6 +122,7 @@ async def create_run(request: Request) -> Response:
             "signal": req.signal or convert.default_signal(plant),
             "duration": req.duration if req.duration is not None else plant.signal.duration,
         }
+        | convert.sensors(req)
         | (
             {"controller": convert.law_model(uploaded)}
             if uploaded is not None and not isinstance(uploaded, CodeController)
@@ -362,16 +364,17 @@ async def resume_run(request: Request) -> Response:
     errors=(403, 404, 409, 413, 415, 422, 503),
 )
 async def set_params(request: Request) -> Response:
-    """Applied from the next sample; the change and its sample index are recorded."""
+    """Applied from the next sample; the change and its sample index are recorded, and the
+    answer lists every value it altered (``changed``). A part equal to what the run uses
+    (gains or reference) is left out of the change; when nothing differs, nothing is
+    applied or recorded."""
     req = await read_model(request, s.ParamsUpdate)
-    run_id = request.path_params["run_id"]
-    who = identity(request)
-    k = await apply_params(request, run_id, req, who)
-    record = await manager(request).get(run_id, who)
-    return ok(s.ParamsApplied(k=k, t=k * record.Ts))
+    return ok(await apply_params(request, request.path_params["run_id"], req, identity(request)))
 
 
-async def apply_params(conn: HTTPConnection, run_id: str, change: Any, who: Identity) -> int:
+async def apply_params(
+    conn: HTTPConnection, run_id: str, change: Any, who: Identity
+) -> s.ParamsApplied:
     """Shared by REST and the websocket's ``set_params``: ``change`` has a controller (or
     an uploaded one's ``controller_id``) and/or a signal."""
     controller, cid, signal = change.controller, change.controller_id, change.signal
@@ -401,13 +404,37 @@ async def apply_params(conn: HTTPConnection, run_id: str, change: Any, who: Iden
         params["controller"] = controller.model_dump(mode="json")
     if signal is not None:
         params["signal"] = signal.model_dump(mode="json")
-    return await m.set_params(
+    recorded = await m.param_changes(run_id)
+    now = changes.running(record, recorded, plant)
+    changed: dict[str, list[s.ParamDiff]] = {
+        part: changes.diff(part, now[part], changes.resolved(params[part], plant))
+        for part in changes.PARTS
+        if part in params
+    }
+    # a run started from an upload may step a Python controller its request does not show:
+    # the engine decides about a new law for it (and refuses one for code)
+    unknown = record.spec.get("controller_id") is not None and not any(
+        "controller" in c.params for c in recorded
+    )
+    if not changed.get("controller") and not unknown:
+        law = None
+        params.pop("controller", None)
+        params.pop("controller_id", None)
+    if not changed.get("signal"):
+        signal = None
+        params.pop("signal", None)
+    if not params:  # the same answer as a change: an ended run no longer steps
+        if not RunState(record.status).live:
+            raise Conflict(f"run {run_id} has ended ({record.status}): it no longer steps")
+        return s.ParamsApplied(k=record.n_stored, t=record.n_stored * record.Ts, changed=[])
+    k = await m.set_params(
         run_id,
         law=law,
         reference=convert.signal(signal) if signal is not None else None,
         params=params,
         who=who,
     )
+    return s.ParamsApplied(k=k, t=k * record.Ts, changed=[d for ds in changed.values() for d in ds])
 
 
 @endpoint(
@@ -493,6 +520,11 @@ def _header(record: RunRecord) -> dict[str, str]:
         "reason": record.error or "",
         "controller": _compact(spec.get("controller")),
         "signal": _compact(spec.get("signal")),
+        **export.sensors_header(
+            get_plant(record.plant),
+            spec.get("seed") if spec.get("noise", spec.get("seed") is not None) else None,
+            bool(spec.get("quantize")),
+        ),
         "generator": "elab serve",
     }
     if record.error:  # who stopped it and why, why it failed or was interrupted

@@ -298,5 +298,5 @@ class SimulationEngine:
 def _warm() -> None:
     batch = Batch(capacity=1, block=8)
     plant = get_plant("flexible_link")
-    batch.add(compile_run(RunSpec(plant, plant.predefined, duration=0.008)))
+    batch.add(compile_run(RunSpec(plant, plant.predefined, duration=0.01)))
     batch.advance(8)

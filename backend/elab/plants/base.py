@@ -53,12 +53,15 @@ class Sensors:
 
 @dataclass(frozen=True)
 class SignalDefaults:
-    """The default reference of the plant's analysis experiment."""
+    """The defaults of the plant's analysis experiment: its reference, its duration and
+    the absolute initial state it starts from (``x0=None``: the operating point), chosen
+    so that every output visibly moves."""
 
     kind: str
     amplitude: float  # in the unit of the reference output
     period: float = 0.0  # s, for square and sine
     duration: float = 10.0  # s
+    x0: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -106,6 +109,17 @@ class Plant:
     @property
     def ny(self) -> int:
         return int(self.C.shape[0])
+
+    @property
+    def output_ranges(self) -> tuple[tuple[int, float, float], ...]:
+        """``(output, lo, hi)``: the absolute range of each output that measures a state
+        with an ``initial_state_ranges`` entry (where the linear model holds)."""
+        return tuple(
+            (i, lo, hi)
+            for s, lo, hi in self.initial_state_ranges
+            for i in range(self.ny)
+            if np.array_equal(self.C[i], np.eye(self.nx)[s])
+        )
 
     @property
     def description(self) -> str:

@@ -26,6 +26,7 @@ import scipy.io
 from numpy.typing import NDArray
 
 from elab.errors import DimensionError, InvalidInput
+from elab.plants.base import Plant
 from elab.sim.result import Samples
 from elab.store import ParamChange
 
@@ -242,6 +243,28 @@ def iter_mat(rec: Recording, rows: int = PART) -> Iterator[bytes]:
     if rec.param_changes:
         meta["param_changes"] = np.array([_change_line(rec, c) for c in rec.param_changes])
     yield _mat(meta)
+
+
+def sensors_header(plant: Plant, seed: int | None, quantize: bool) -> dict[str, str]:
+    """Header lines saying how a run's outputs were measured: ``noise`` (the plant's white
+    sensor noise and its seed, ``seed=None``: none) and ``quantisation`` (each output's
+    resolution, or none)."""
+
+    def per_output(values: tuple[float, ...]) -> str:
+        return ", ".join(
+            f"{o.name} {v:.6g} {o.unit}" if v > 0 else f"{o.name} none"
+            for o, v in zip(plant.outputs, values, strict=True)
+        )
+
+    ideal = "none (ideal sensors)"
+    return {
+        "noise": ideal
+        if seed is None
+        else f"white, standard deviation {per_output(plant.sensors.noise_std)} (seed {seed})",
+        "quantisation": f"{per_output(plant.sensors.quantum)} (the sensors' resolution)"
+        if quantize
+        else ideal,
+    }
 
 
 def describe(obj: Any) -> str:

@@ -20,13 +20,15 @@ from elab.laws import ControlLaw
 from elab.plants.base import Plant
 from elab.sim.controllers import DiscreteController, controller_poles, discretise
 from elab.sim.noise import sensor_noise
-from elab.sim.signals import Signal, Step
+from elab.sim.signals import Chirp, Signal, Sine, Square, Step
 from elab.validate import finite_array, finite_float
 
 Array = NDArray[np.float64]
 
 MAX_POLE_TS = 0.5  # largest allowed |λ|·Ts: at least 2π/0.5 ≈ 13 samples per radian period
 MAX_DURATION = 3600.0  # s
+MIN_SAMPLES = 10  # the shortest run: fewer samples show no response
+MIN_PERIOD_SAMPLES = 4  # samples per period of a periodic signal (2 is Nyquist's bare minimum)
 
 
 @dataclass(frozen=True)
@@ -86,6 +88,15 @@ def compile_run(spec: RunSpec) -> CompiledRun:
     plant = spec.plant
     Ts = plant.Ts if spec.Ts is None else finite_float("Ts", spec.Ts, 0.0, lo_open=True)
     duration = finite_float("duration", spec.duration, 0.0, MAX_DURATION, lo_open=True)
+    n_samples = round(duration / Ts)
+    if n_samples < MIN_SAMPLES:
+        raise InvalidInput(
+            "duration",
+            duration,
+            f"at least {MIN_SAMPLES} samples: a duration ≥ {MIN_SAMPLES * Ts:g} s at Ts = {Ts:g} s",
+        )
+    _check_periods("signal", spec.reference, Ts)
+    _check_periods("excitation", spec.excitation, Ts)
     _check_sample_time(spec.law, plant, Ts)
     d = ct.c2d(ct.ss(plant.A, plant.B, plant.C, plant.D), Ts, method="zoh")
     saturate = plant.saturate if spec.saturate is None else spec.saturate
@@ -95,7 +106,7 @@ def compile_run(spec: RunSpec) -> CompiledRun:
     return CompiledRun(
         spec=spec,
         Ts=Ts,
-        n_samples=max(1, round(duration / Ts)),
+        n_samples=n_samples,
         Ad=np.asarray(d.A, dtype=np.float64),
         Bd=np.asarray(d.B, dtype=np.float64)[:, 0],
         controller=discretise(spec.law, plant, Ts),
@@ -104,6 +115,24 @@ def compile_run(spec: RunSpec) -> CompiledRun:
         noise_std=np.array(plant.sensors.noise_std),
         x0=_initial_state(spec),
     )
+
+
+def _check_periods(name: str, signal: Signal | None, Ts: float) -> None:
+    """A periodic signal needs :data:`MIN_PERIOD_SAMPLES` samples per period: a faster one
+    aliases (a sine at the Nyquist frequency samples as a constant)."""
+    shortest = MIN_PERIOD_SAMPLES * Ts
+    at = f"at least {MIN_PERIOD_SAMPLES} samples per period at Ts = {Ts:g} s"
+    if isinstance(signal, Square) and signal.period < shortest:
+        raise InvalidInput(f"{name}.period", signal.period, f"a period ≥ {shortest:g} s ({at})")
+    fastest = 1.0 / shortest
+    if isinstance(signal, Sine) and signal.frequency > fastest:
+        raise InvalidInput(
+            f"{name}.frequency", signal.frequency, f"a frequency ≤ {fastest:g} Hz ({at})"
+        )
+    if isinstance(signal, Chirp):
+        for f, value in (("f0", signal.f0), ("f1", signal.f1)):
+            if value > fastest:
+                raise InvalidInput(f"{name}.{f}", value, f"a frequency ≤ {fastest:g} Hz ({at})")
 
 
 def _check_sample_time(law: ControlLaw, plant: Plant, Ts: float) -> None:

@@ -2,15 +2,17 @@
 // live), and the open-loop panels: eigenvalues, controllability/observability, transfer
 // functions, Bode, open- and closed-loop step.
 import { api, ApiError } from "../api";
+import { describeChanges } from "../changes";
 import { fill, h } from "../dom";
-import { ControllerForm, durationField, SignalForm, StartOptions } from "../experiment";
+import { ControllerForm, durationField, InitialStateForm, SignalForm, StartOptions } from "../experiment";
 import { FieldSet, type NumberField } from "../forms";
 import { tex } from "../markdown";
 import { chart, purge } from "../plot";
-import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, RunInfo, StepOut } from "../protocol.gen";
+import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
-import { display, fmt } from "../units";
+import { fmt } from "../units";
 import { downloadButton, errorText, experimentPage, failure, loading, showApiError } from "./common";
+import { StepPlot } from "./stepplot";
 
 export function analysisPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
   return experimentPage(root, params.id, "analysis", (plant) => {
@@ -28,6 +30,7 @@ class AnalysisView {
   private readonly signal: SignalForm;
   private readonly duration: NumberField;
   private readonly runFields = new FieldSet();
+  private readonly initial: InitialStateForm;
   private readonly startOptions = new StartOptions();
   private readonly outputs: HTMLSelectElement;
   private readonly startBtn: HTMLButtonElement;
@@ -38,12 +41,14 @@ class AnalysisView {
   private readonly panels = h("div.panels");
   private run: RunPanel | null = null;
   private readonly plots: HTMLElement[] = [];
+  private readonly steps: StepPlot[] = [];
 
   constructor(readonly plant: PlantDetail) {
     const refUnit = plant.outputs.find((o) => o.name === plant.reference_output)?.unit ?? "";
     this.controller = new ControllerForm(plant, plant.predefined);
-    this.signal = new SignalForm("signal", `Reference for ${plant.reference_output}`, ["square", "step", "sine"], refUnit, plant.default_signal);
-    this.duration = this.runFields.add(durationField(plant.default_duration));
+    this.signal = new SignalForm("signal", `Reference for ${plant.reference_output}`, ["square", "step", "sine"], refUnit, plant.default_signal, undefined, undefined, plant.Ts);
+    this.duration = this.runFields.add(durationField(plant.default_duration, undefined, undefined, plant.Ts));
+    this.initial = new InitialStateForm(plant);
     this.outputs = h(
       "select",
       { id: "outputs", onchange: () => this.run?.setOutputs(this.chosenOutputs()) },
@@ -51,19 +56,21 @@ class AnalysisView {
       ...plant.outputs.map((o) => h("option", { value: o.name }, `${o.label} only`)),
     );
     this.startBtn = h("button.primary", { type: "submit" }, "Start");
-    this.applyBtn = h("button", { type: "button", disabled: true, onclick: () => void this.apply() }, "Apply gains to the running run");
+    this.applyBtn = h("button", { type: "button", disabled: true, onclick: () => void this.apply() }, "Apply changes to the running run");
     const form = h(
       "form.run-form.panel",
       { novalidate: true, "aria-label": "run settings", onsubmit: (ev: Event) => (ev.preventDefault(), void this.start()) },
       h("h2", "Closed-loop run"),
       this.controller.root,
       this.signal.root,
+      this.initial.root,
       h("fieldset", h("legend", "Run"), h("div.grid", this.duration.root, h("div.field", h("label", { for: "outputs" }, "Plot"), this.outputs)), this.startOptions.root),
+      h("small.hint.live-hint", "While a run goes, Apply changes its gains and reference from the next sample; its duration and start cannot change."),
       h("div.actions", this.startBtn, this.applyBtn),
       this.formMsg,
       this.applied,
     );
-    this.runArea.append(h("div.panel.empty", h("p", "Press Start: the closed loop runs in real time and its response draws here as it goes. Change a gain while it runs and apply it; the change is recorded at its sample.")));
+    this.runArea.append(h("div.panel.empty", h("p", "Press Start: the closed loop runs in real time and its response draws here as it goes. Change a gain or the reference while it runs and apply it; the change is recorded at its sample.")));
     this.root = h("div", h("div.split", form, this.runArea), this.panels);
   }
 
@@ -81,17 +88,18 @@ class AnalysisView {
     const controller = this.controllerValue();
     const signal = this.signal.value();
     const duration = this.duration.check();
-    if (!controller || !signal || duration === null) {
+    const x0 = this.initial.value();
+    if (!controller || !signal || duration === null || x0 === null) {
       fill(this.formMsg, "Please correct the marked fields; nothing was sent.");
       return;
     }
-    const req: RunCreate = { plant: this.plant.id, experiment: "analysis", controller, signal, duration, pace: "realtime", private: this.startOptions.private };
+    const req: RunCreate = { plant: this.plant.id, experiment: "analysis", controller, signal, duration, pace: "realtime", private: this.startOptions.private, ...(x0 ? { x0 } : {}) };
     this.startBtn.disabled = true;
     const previous = this.run;
     try {
       this.attach(await api.createRun(req));
     } catch (err) {
-      showApiError(err, [this.controller.fields, this.signal.fields, this.runFields], this.formMsg);
+      showApiError(err, [this.controller.fields, this.signal.fields, this.runFields, this.initial.fields], this.formMsg);
       return;
     } finally {
       this.startBtn.disabled = false;
@@ -119,23 +127,32 @@ class AnalysisView {
 
   private onState(state: string, run: RunInfo): void {
     const live = state === "running" || state === "paused";
-    this.applyBtn.disabled = !live || !run.can_control;
+    const mine = live && run.can_control;
+    this.applyBtn.disabled = !mine;
     this.startBtn.textContent = live ? "Start a new run" : "Start";
+    // what a running run cannot change: it is fixed until the run ends
+    this.duration.disabled = mine;
+    this.initial.disabled = mine;
   }
 
+  /** The gains and the reference in the form, from the next sample of the running run;
+   * the server says which values that changed. */
   private async apply(): Promise<void> {
     if (!this.run) return;
     fill(this.formMsg);
+    fill(this.applied);
     const controller = this.controllerValue();
-    if (!controller) {
+    const signal = this.signal.value();
+    if (!controller || !signal) {
       fill(this.formMsg, "Please correct the marked fields; nothing was sent.");
       return;
     }
     try {
-      const r = await api.params(this.run.run.id, { controller });
-      fill(this.applied, `New gains applied from sample k = ${r.k} (t = ${r.t.toFixed(3)} s).`);
+      const r = await api.params(this.run.run.id, { controller, signal });
+      const what = describeChanges(r.changed, this.plant);
+      fill(this.applied, what ? `Changes applied from sample k = ${r.k} (t = ${r.t.toFixed(3)} s): ${what}.` : "Nothing changed: the gains and reference in the form are those the run uses.");
     } catch (err) {
-      showApiError(err, [this.controller.fields], this.formMsg);
+      showApiError(err, [this.controller.fields, this.signal.fields], this.formMsg);
     }
   }
 
@@ -219,24 +236,16 @@ class AnalysisView {
 
   private async stepPanel(el: HTMLElement): Promise<void> {
     const p = this.plant;
-    const openDiv = this.plotDiv("step-open");
-    const closedDiv = this.plotDiv("step-closed");
+    const open = new StepPlot(p, "step-open");
+    const closedPlot = new StepPlot(p, "step-closed");
+    this.steps.push(open, closedPlot);
     const info = h("p.note");
     const update = h("button", { type: "button", onclick: () => void closed() }, "Update with the gains in the form");
-    fill(el, h("h2", "Step responses"), h("div.two", h("div", h("h3", "Open loop (unit step of u)"), openDiv), h("div", h("h3", "Closed loop (step of the reference)"), closedDiv, info, update)));
-    const draw = (div: HTMLElement, s: StepOut, name: string) => {
-      const series = Object.entries(s.outputs).map(([o, y]) => {
-        const unit = p.outputs.find((x) => x.name === o)?.unit ?? "";
-        const d = display(unit);
-        return { x: s.t, y: y.map((v) => v * d.scale), name: `${o} (${d.unit})`, axis: 1 as const };
-      });
-      chart(div, [...series, { x: s.t, y: s.u, name: "u (V)", axis: 2 }], { xTitle: "time t (s)", yTitles: ["outputs", "u (V)"] });
-      div.after(downloadButton(`${name}.csv`, ["t (s)", ...Object.keys(s.outputs).map((o) => `${o} (SI)`), "u (V)"], [s.t, ...Object.values(s.outputs), s.u]));
-    };
+    fill(el, h("h2", "Step responses"), h("div.two", h("div", h("h3", "Open loop (unit step of u)"), open.root), h("div", h("h3", "Closed loop (step of the reference)"), closedPlot.root, info, update)));
     try {
-      draw(openDiv, await api.step(p.id, {}), "step-open");
+      open.show(await api.step(p.id, {}));
     } catch (err) {
-      fill(openDiv, failure(err));
+      fill(open.root, failure(err));
     }
     const closed = async () => {
       const controller = this.controllerValue();
@@ -246,8 +255,7 @@ class AnalysisView {
       }
       try {
         const s = await api.step(p.id, { controller });
-        if (closedDiv.nextElementSibling?.matches("button.download")) closedDiv.nextElementSibling.remove();
-        draw(closedDiv, s, "step-closed");
+        closedPlot.show(s);
         const i = s.info;
         fill(info, `Closed-loop poles: ${s.verdict}. `, i ? `Rise time ${fmt(i.rise_time)} s, 2 % settling ${fmt(i.settling_time)} s, overshoot ${fmt(i.overshoot)} %.` : "");
       } catch (err) {
@@ -260,5 +268,6 @@ class AnalysisView {
   destroy(): void {
     this.run?.destroy();
     for (const d of this.plots) purge(d);
+    for (const st of this.steps) st.destroy();
   }
 }

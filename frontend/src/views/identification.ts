@@ -6,7 +6,7 @@ import { durationField, SignalForm, StartOptions } from "../experiment";
 import { FieldSet } from "../forms";
 import type { PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
-import { fmt } from "../units";
+import { display, fmt } from "../units";
 import { errorText, experimentPage, showApiError } from "./common";
 import { IdentAnalysis } from "./identanalysis";
 
@@ -25,6 +25,7 @@ class IdentificationView {
   private readonly runFields = new FieldSet();
   private readonly startOptions = new StartOptions();
   private readonly loop: HTMLSelectElement;
+  private readonly realistic = h("input", { type: "checkbox", id: "realistic-sensors", name: "realistic", checked: true });
   private readonly excitationSlot = h("div");
   private readonly formMsg = h("p.error", { role: "alert", "data-testid": "form-error" });
   private readonly runArea = h("div.run-area");
@@ -45,7 +46,7 @@ class IdentificationView {
       h("option", { value: "closed-reference" }, "closed loop, excitation added to the reference"),
       h("option", { value: "open" }, "open loop: the excitation is the plant input"),
     );
-    const duration = this.runFields.add(durationField(30));
+    const duration = this.runFields.add(durationField(30, undefined, undefined, plant.Ts));
     this.buildExcitation();
     const form = h(
       "form.run-form.panel",
@@ -53,6 +54,7 @@ class IdentificationView {
       h("h2", "Experiment"),
       h("fieldset", h("legend", "Loop"), h("div.field", h("label", { for: "loop" }, "Configuration"), this.loop), h("small.hint", `The predefined controller (${plant.predefined_design}) keeps the plant near its operating point; open loop suits stable plants only.`)),
       this.excitationSlot,
+      h("fieldset", h("legend", "Sensors"), h("label.check", this.realistic, " Realistic sensors"), h("small.hint", { id: "sensors-hint" }, `On: the outputs carry the plant's sensor noise (${sensorText(plant, plant.sensors.noise_std ?? [])}, white) and are rounded to its sensors' resolution (${sensorText(plant, plant.sensors.quantum ?? [])}), as a real experiment's would. Off: exact outputs. The download's header says which.`)),
       h("fieldset", h("legend", "Length"), h("div.grid", duration.root), this.startOptions.root),
       h("div.actions", h("button.primary", { type: "submit" }, "Start")),
       this.formMsg,
@@ -76,7 +78,7 @@ class IdentificationView {
     const p = this.plant;
     const unit = loop === "closed-reference" ? (p.outputs.find((o) => o.name === p.reference_output)?.unit ?? "") : (p.inputs[0]?.unit ?? "V");
     const initial = loop === "closed-reference" ? { kind: "prbs" as const, amplitude: (5 * Math.PI) / 180, order: 10, band: 0.05, offset: 0 } : { kind: "prbs" as const, amplitude: 1, order: 10, band: 0.05, offset: 0 };
-    this.excitation = new SignalForm("excitation", loop === "open" ? "Input signal" : "Excitation", ["prbs", "sine", "step"], unit, initial);
+    this.excitation = new SignalForm("excitation", loop === "open" ? "Input signal" : "Excitation", ["prbs", "sine", "step"], unit, initial, undefined, undefined, p.Ts);
     fill(this.excitationSlot, this.excitation.root);
   }
 
@@ -84,7 +86,8 @@ class IdentificationView {
     const excitation = this.excitation.value();
     const v = this.runFields.values();
     if (!excitation || !v) return null;
-    const base = { plant: this.plant.id, experiment: "identification" as const, duration: v.get("duration")!, pace: "realtime" as const, private: this.startOptions.private };
+    const realistic = this.realistic.checked; // the server's default for identification: realistic
+    const base = { plant: this.plant.id, experiment: "identification" as const, duration: v.get("duration")!, pace: "realtime" as const, private: this.startOptions.private, noise: realistic, quantize: realistic };
     const loop = this.loop.value as Loop;
     if (loop === "open") return { ...base, controller: { kind: "open_loop" }, signal: excitation };
     return { ...base, controller: { kind: "predefined" }, signal: { kind: "step", amplitude: 0 }, excitation, excitation_at: loop === "closed-input" ? "input" : "reference" };
@@ -140,6 +143,7 @@ class IdentificationView {
           h("tr", h("th", { scope: "row" }, "Input"), h("td", `u (${p.inputs[0]?.unit ?? "V"}): the plant input, excitation included`)),
           h("tr", h("th", { scope: "row" }, "Outputs"), h("td", p.outputs.map((o) => `${o.name} (${o.unit})`).join(", "))),
           h("tr", h("th", { scope: "row" }, "Excitation"), h("td.mono", JSON.stringify(run.request.excitation ?? run.request.signal))),
+          h("tr", h("th", { scope: "row" }, "Sensors"), h("td", { "data-testid": "sensors" }, sensorsUsed(p, run))),
         ),
       ),
       h("p", "Downloads: ", h("a", { href: `${run.data_url}?format=csv&channels=u,${p.outputs.map((o) => o.name).join(",")}`, download: `${run.id}-io.csv` }, "input and outputs (CSV)"), " · ", h("a", { href: `${run.data_url}?format=mat`, download: `${run.id}.mat` }, "everything (.mat)")),
@@ -151,4 +155,23 @@ class IdentificationView {
     this.analysis?.destroy();
     this.fileAnalysis.destroy();
   }
+}
+
+/** "θ 0.0115°, α 0.0115°": one value per output in display units (0: "exact"). */
+function sensorText(p: PlantDetail, values: number[]): string {
+  return p.outputs
+    .map((o, i) => {
+      const d = display(o.unit);
+      const v = values[i] ?? 0;
+      return `${o.name} ${v > 0 ? `${fmt(v * d.scale, 3)}${d.unit === "°" ? "°" : ` ${d.unit}`}` : "exact"}`;
+    })
+    .join(", ");
+}
+
+/** How a run's outputs were measured, from its recorded request. */
+function sensorsUsed(p: PlantDetail, run: RunInfo): string {
+  const r = run.request as { noise?: boolean; seed?: number | null; quantize?: boolean };
+  const noise = r.noise ?? (r.seed !== null && r.seed !== undefined);
+  const parts = [noise ? `noise σ ${sensorText(p, p.sensors.noise_std ?? [])} (seed ${String(r.seed)})` : "no noise", r.quantize ? `quantised to ${sensorText(p, p.sensors.quantum ?? [])}` : "not quantised"];
+  return `${parts.join("; ")}${noise || r.quantize ? "" : " (ideal sensors)"}`;
 }

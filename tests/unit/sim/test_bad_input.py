@@ -9,7 +9,7 @@ import pytest
 from elab.errors import DimensionError, InvalidInput
 from elab.laws import PID, LTIController, StateFeedback
 from elab.plants import get_plant
-from elab.sim import RunSpec, Square, Step, compile_run
+from elab.sim import Chirp, RunSpec, Sine, Square, Step, compile_run
 
 FLEX = get_plant("flexible_link")
 PEND = get_plant("double_pendulum")
@@ -30,6 +30,16 @@ PEND = get_plant("double_pendulum")
         (RunSpec(FLEX, StateFeedback((1.0, float("nan"), 0, 0))), "controller.K", "finite"),
         (RunSpec(FLEX, FLEX.predefined, duration=0.0), "duration", "(0, 3600]"),
         (RunSpec(FLEX, FLEX.predefined, duration=1e9), "duration", "(0, 3600]"),
+        # issue 15: 1e-9 s ran 1 sample; a period shorter than a few samples aliases
+        (RunSpec(FLEX, FLEX.predefined, duration=1e-9), "duration", "≥ 0.01 s at Ts = 0.001"),
+        (RunSpec(FLEX, FLEX.predefined, duration=0.02, Ts=0.0025), "duration", "≥ 0.025 s"),
+        (RunSpec(FLEX, FLEX.predefined, Square(1.0, 0.003)), "signal.period", "≥ 0.004 s"),
+        (RunSpec(FLEX, FLEX.predefined, Sine(1.0, 300.0)), "signal.frequency", "≤ 250 Hz"),
+        (
+            RunSpec(FLEX, FLEX.predefined, excitation=Chirp(1.0, 1.0, 251.0, 5.0)),
+            "excitation.f1",
+            "≤ 250 Hz (at least 4 samples per period",
+        ),
         (RunSpec(FLEX, FLEX.predefined, u_max=-1.0), "u_max", "> 0"),
         (RunSpec(FLEX, PID(float("inf"))), "controller.Kp", "finite"),
         (
@@ -60,6 +70,12 @@ def test_invalid_run_is_refused(spec: RunSpec, field: str, allowed: str) -> None
         compile_run(spec)
     assert err.value.field == field
     assert allowed in err.value.allowed
+
+
+def test_the_shortest_run_and_periods_are_allowed() -> None:
+    run = compile_run(RunSpec(FLEX, FLEX.predefined, Square(1.0, 0.004), duration=0.01))
+    assert run.n_samples == 10
+    compile_run(RunSpec(FLEX, FLEX.predefined, Sine(1.0, 250.0), duration=0.01))
 
 
 def test_wrong_dimension_is_a_dimension_error() -> None:
