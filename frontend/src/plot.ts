@@ -41,8 +41,8 @@ export interface LiveTrace {
   /** channel name in the ring */
   channel: string;
   label: string;
-  /** 1: upper axes (outputs, reference), 2: lower axes (control) */
-  axis: 1 | 2;
+  /** which axes, 1 … n from the top: the outputs' (one or more), the control's last */
+  axis: number;
   /** displayed = scale · value */
   scale: number;
   dash?: "solid" | "dash" | "dot";
@@ -51,12 +51,36 @@ export interface LiveTrace {
   ring?: SampleRing;
 }
 
+export interface PlotMark {
+  /** the sample from which it holds */
+  k: number;
+  label: string;
+}
+
 export interface LivePlotOptions {
   Ts: number;
   /** rolling window in seconds; null shows everything the ring holds */
   window: number | null;
-  yTitles: [string, string];
+  /** one per axes, top to bottom: the outputs' (one or more), then the control's */
+  yTitles: string[];
 }
+
+/** The vertical domains of n stacked axes: the last (the control) at the bottom, the
+ * others sharing the upper part. */
+function domains(n: number): [number, number][] {
+  if (n <= 1) return [[0, 1]];
+  const top: [number, number][] = [];
+  const gap = 0.06;
+  const each = (1 - 0.38 - gap * (n - 2)) / (n - 1);
+  for (let i = 0; i < n - 1; i++) {
+    const hi = 1 - i * (each + gap);
+    top.push([Math.max(0.38, hi - each), hi]);
+  }
+  return [...top, [0, 0.28]];
+}
+
+const axisId = (i: number): string => (i === 1 ? "y" : `y${i}`);
+const axisKey = (i: number): string => (i === 1 ? "yaxis" : `yaxis${i}`);
 
 /**
  * A live plot of a run: every animation frame at most one redraw, of the window's samples
@@ -64,12 +88,13 @@ export interface LivePlotOptions {
  */
 export class LivePlot {
   private pending = false;
-  private marks: number[] = [];
+  private marks: PlotMark[] = [];
+  private end: number | null = null;
   private draws = 0;
   private lastDraw = -Infinity;
   /** what the last full plot was made of; while it holds, draws take the fast path */
   private layoutKey = "";
-  private yRanges: ([number, number] | null)[] = [null, null];
+  private yRanges: ([number, number] | null)[] = [];
   private readonly resize = new ResizeObserver(() => this.dirty());
 
   constructor(
@@ -100,7 +125,7 @@ export class LivePlot {
 
   setWindow(seconds: number | null): void {
     this.options = { ...this.options, window: seconds };
-    this.yRanges = [null, null];
+    this.yRanges = [];
     this.dirty();
   }
 
@@ -109,9 +134,17 @@ export class LivePlot {
     this.dirty();
   }
 
-  /** Sample indices of live parameter changes, drawn as vertical lines. */
-  setMarks(ks: number[]): void {
-    this.marks = ks;
+  /** Live parameter changes, drawn as dotted vertical lines labelled with what changed. */
+  setMarks(marks: PlotMark[]): void {
+    this.marks = marks;
+    this.dirty();
+  }
+
+  /** A replay's position: draw the samples before `end` only (null: all the ring holds).
+   * The time axis then keeps the whole recording and the y ranges only grow, so the lines
+   * move and the axes stand still. */
+  setEnd(end: number | null): void {
+    this.end = end;
     this.dirty();
   }
 
@@ -122,14 +155,16 @@ export class LivePlot {
   draw(): void {
     const { Ts, window } = this.options;
     const rings = [this.ring, ...this.traces.flatMap((tr) => (tr.ring ? [tr.ring] : []))];
-    const end = Math.max(...rings.map((r) => r.end));
+    const held = Math.max(...rings.map((r) => r.end));
+    const end = this.end === null ? held : Math.min(held, this.end);
     const start = Math.min(...rings.map((r) => r.start));
     const span = window === null ? end - start : Math.round(window / Ts);
     const k0 = Math.max(start, end - span);
     // min/max per 2-pixel column: ≤ 1 point per pixel per trace, drawn as SVG (no WebGL
     // needed, so it also runs in software-rendered browsers and on old projector PCs)
     const columns = plotSettings.decimate ? Math.max(50, Math.floor((this.div.clientWidth - 80) / 2)) : Infinity;
-    const bounds = [new Bounds(), new Bounds()];
+    const nAxes = this.options.yTitles.length;
+    const bounds = Array.from({ length: nAxes }, () => new Bounds());
     const series = this.traces.map((tr) => {
       const d = decimate(tr.ring ?? this.ring, tr.channel, k0, end, columns);
       const x = new Float64Array(d.length);
@@ -147,18 +182,19 @@ export class LivePlot {
     const t1 = Math.max(end, 1) * Ts;
     const step = (window ?? 1) / 10;
     const right = window === null ? t1 : Math.max(window, Math.ceil(t1 / step) * step);
-    const xRange = window === null ? [k0 * Ts, Math.max(t1, k0 * Ts + 1)] : [right - window, right];
-    const yRanges = bounds.map((b, i) => (this.yRanges[i] = b.range(this.yRanges[i])));
+    const last = this.end === null ? t1 : Math.max(held, 1) * Ts; // a replay keeps the whole run
+    const xRange = window === null ? [start * Ts, Math.max(last, start * Ts + 1)] : [right - window, right];
+    const yRanges = bounds.map((b, i) => (this.yRanges[i] = b.range(this.yRanges[i] ?? null, this.end !== null)));
     this.draws++;
     // a full plot when anything but the data changed (plotly leaves empty traces out of the
     // legend, so the first draw with samples of each ring is a full one too)
     const shown = this.traces.map(({ ring, ...tr }) => ({ ...tr, overlay: ring !== undefined, empty: (ring ?? this.ring).end === 0 }));
-    const key = JSON.stringify([shown, this.marks, this.options, this.div.clientWidth, this.div.clientHeight, fontSize()]);
+    const key = JSON.stringify([shown, this.marks, this.options, this.end === null, this.div.clientWidth, this.div.clientHeight, fontSize()]);
     if (key === this.layoutKey) {
       // the fast path: new points and ranges, no full replot (axes, legend, shapes stay)
       void Plotly.animate(
         this.div,
-        { data: series, traces: series.map((_, i) => i), layout: { xaxis: { range: xRange }, yaxis: { range: yRanges[0] }, yaxis2: { range: yRanges[1] } } },
+        { data: series, traces: series.map((_, i) => i), layout: { xaxis: { range: xRange }, ...Object.fromEntries(yRanges.map((r, i) => [axisKey(i + 1), { range: r }])) } },
         { transition: { duration: 0 }, frame: { duration: 0, redraw: false }, mode: "immediate" },
       ).then(() => this.div.dispatchEvent(new Event("elab:draw")));
       return;
@@ -169,16 +205,17 @@ export class LivePlot {
       mode: "lines" as const,
       name: tr.label,
       ...series[i],
-      yaxis: tr.axis === 1 ? "y" : "y2",
+      yaxis: axisId(tr.axis) as Plotly.AxisName,
       line: { color: this.color(i), width: 1.5, dash: tr.dash ?? "solid" },
     }));
     const layout: Partial<Plotly.Layout> = {
       ...baseLayout(),
       height: Math.max(320, this.div.clientHeight || 420),
-      xaxis: { title: { text: "time t (s)" }, range: xRange, showgrid: true, anchor: "y2" },
-      yaxis: { title: { text: this.options.yTitles[0] }, domain: [0.38, 1], zeroline: true, range: yRanges[0] },
-      yaxis2: { title: { text: this.options.yTitles[1] }, domain: [0, 0.28], anchor: "x", zeroline: true, range: yRanges[1] },
-      shapes: this.marks.map((k) => ({
+      xaxis: { title: { text: "time t (s)" }, range: xRange, showgrid: true, anchor: axisId(nAxes) as Plotly.XAxisName },
+      ...Object.fromEntries(
+        domains(nAxes).map((domain, i) => [axisKey(i + 1), { title: { text: this.options.yTitles[i] }, domain, anchor: "x", zeroline: true, range: yRanges[i] }]),
+      ),
+      shapes: this.marks.map(({ k }) => ({
         type: "line" as const,
         xref: "x" as const,
         yref: "paper" as const,
@@ -186,7 +223,21 @@ export class LivePlot {
         x1: k * Ts,
         y0: 0,
         y1: 1,
-        line: { color: "#9ca3af", dash: "dot" as const, width: 1 },
+        line: { color: "#6b7280", dash: "dot" as const, width: 1 },
+      })),
+      // each change's label along its line, reading upwards from the top of the outputs' axes
+      annotations: this.marks.map(({ k, label }) => ({
+        x: k * Ts,
+        xref: "x" as const,
+        y: 1,
+        yref: "paper" as const,
+        text: label,
+        textangle: "-90",
+        xanchor: "right" as const,
+        yanchor: "top" as const,
+        showarrow: false,
+        font: { size: fontSize() - 2, color: "#374151" },
+        bgcolor: "rgba(255,255,255,0.8)",
       })),
       uirevision: "live",
     };
@@ -223,12 +274,16 @@ class Bounds {
   }
 
   /** Keep `current` while the data fill more than half of it and stay inside; else refit
-   * with 8 % margins, so the axis neither jitters nor clips. */
-  range(current: [number, number] | null): [number, number] {
+   * with 8 % margins, so the axis neither jitters nor clips. `growOnly` (a replay): keep it
+   * while the data stay inside, widen it when they leave. */
+  range(current: [number, number] | null, growOnly = false): [number, number] {
     if (this.lo > this.hi) return current ?? [-1, 1];
     const span = Math.max(this.hi - this.lo, 1e-9 * Math.max(1, Math.abs(this.hi)));
-    if (current && this.lo >= current[0] && this.hi <= current[1] && span > 0.5 * (current[1] - current[0])) return current;
     const pad = this.hi > this.lo ? 0.08 * span : Math.max(1, Math.abs(this.hi) * 0.1);
+    if (current === null) return [this.lo - pad, this.hi + pad];
+    const inside = this.lo >= current[0] && this.hi <= current[1];
+    if (inside && (growOnly || span > 0.5 * (current[1] - current[0]))) return current;
+    if (growOnly) return [Math.min(current[0], this.lo - pad), Math.max(current[1], this.hi + pad)];
     return [this.lo - pad, this.hi + pad];
   }
 }

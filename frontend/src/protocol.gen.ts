@@ -36,6 +36,13 @@ export type ControllerOut =
   | LTIControllerModelOut
   | OpenLoopController;
 /**
+ * One design on a model: ``method`` lqr, place, gain (K typed by hand) or pid.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ModelDesignRequest".
+ */
+export type ModelDesignRequest = ModelLQR | ModelPlace | ModelGain | ModelPID;
+/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ServerMessage".
  */
@@ -72,6 +79,7 @@ export interface ElabProtocol {
   ContinuousOut?: ContinuousOut;
   "Controller-Input"?: Controller;
   "Controller-Output"?: ControllerOut;
+  ControllerFileRequest?: ControllerFileRequest;
   ControllerReportOut?: ControllerReportOut;
   ControllerUpload?: ControllerUpload;
   CorrelationOut?: CorrelationOut;
@@ -92,10 +100,24 @@ export interface ElabProtocol {
   IdentOut?: IdentOut;
   IdentProgress?: IdentProgress;
   IdentRequest?: IdentRequest;
+  IdentifiedModel?: IdentifiedModel;
+  IdentifiedModelList?: IdentifiedModelList;
   LQRRequest?: LQRRequest;
   "LTIControllerModel-Input"?: LTIControllerModel;
   "LTIControllerModel-Output"?: LTIControllerModelOut;
+  LoopOut?: LoopOut;
+  LoopRequest?: LoopRequest;
+  MarginsOut?: MarginsOut;
   Me?: Me;
+  "ModelChannel-Input"?: ModelChannel;
+  "ModelChannel-Output"?: ModelChannelOut;
+  ModelCreate?: ModelCreate;
+  ModelDesignOut?: ModelDesignOut;
+  ModelDesignRequest?: ModelDesignRequest;
+  ModelGain?: ModelGain;
+  ModelLQR?: ModelLQR;
+  ModelPID?: ModelPID;
+  ModelPlace?: ModelPlace;
   N4sidOrdersOut?: N4SidOrdersOut;
   N4sidSpec?: N4SidSpec;
   OeSpec?: OeSpec;
@@ -106,6 +128,7 @@ export interface ElabProtocol {
   "PRBSSignal-Input"?: PRBSSignal;
   "PRBSSignal-Output"?: PRBSSignalOut;
   ParamChangeInfo?: ParamChangeInfo;
+  ParamDiff?: ParamDiff;
   ParamsApplied?: ParamsApplied;
   ParamsNotice?: ParamsNotice;
   ParamsUpdate?: ParamsUpdate;
@@ -119,6 +142,7 @@ export interface ElabProtocol {
   ResidualsOut?: ResidualsOut;
   Resume?: Resume;
   ResumeFrom?: ResumeFrom;
+  RootLocusOut?: RootLocusOut;
   RunCreate?: RunCreate;
   RunData?: RunData;
   RunInfo?: RunInfo;
@@ -141,6 +165,7 @@ export interface ElabProtocol {
   "StateFeedbackController-Output"?: StateFeedbackControllerOut;
   StateSpaceOut?: StateSpaceOut;
   Status?: Status;
+  StepCut?: StepCut;
   StepInfoOut?: StepInfoOut;
   StepOut?: StepOut;
   StepRequest?: StepRequest;
@@ -401,7 +426,9 @@ export interface ChirpSignalOut {
   offset: number;
 }
 /**
- * As ``POST /runs/{id}/params``: new gains and/or reference (at least one).
+ * As ``POST /runs/{id}/params``: new gains and/or reference (at least one). Its
+ * ``params`` notice holds the parts that changed; a change that changes nothing is not
+ * applied and has no notice.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "SetParams".
@@ -506,6 +533,14 @@ export interface LTIControllerModel {
    * and denominator
    */
   ff_den?: number[] | null;
+  /**
+   * with A, B, C, D: the reference's own input to the states (x' = A x + B e + B_r r; two degrees of freedom)
+   */
+  B_r?: number[][] | null;
+  /**
+   * and to u (u = C x + D e + D_r r)
+   */
+  D_r?: [] | [number[]] | null;
 }
 /**
  * No feedback: the signal is the plant input (V).
@@ -717,6 +752,30 @@ export interface LTIControllerModelOut {
    * and denominator
    */
   ff_den: number[] | null;
+  /**
+   * with A, B, C, D: the reference's own input to the states (x' = A x + B e + B_r r; two degrees of freedom)
+   */
+  B_r: number[][] | null;
+  /**
+   * and to u (u = C x + D e + D_r r)
+   */
+  D_r: [] | [number[]] | null;
+}
+/**
+ * A controller as a file to download (what an upload reads back).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ControllerFileRequest".
+ */
+export interface ControllerFileRequest {
+  controller:
+    | PredefinedController
+    | StateFeedbackController
+    | PIDController
+    | LTIControllerModel
+    | OpenLoopController;
+  format?: "toml" | "json" | "mat" | "npz" | "py";
+  name?: string | null;
 }
 /**
  * The report on the plant's linear model, or for a Python controller on trial runs in
@@ -1096,10 +1155,19 @@ export interface IdentModelOut {
     [k: string]: number;
   };
   /**
-   * the model's own parameters (polynomials with their standard deviations, loss, FPE, AIC; for n4sid the singular values, x0, whether A was stabilised and which poles were reflected ([|z| before, after] each), and how K was had: 'riccati' or 'none' (an output-error predictor)
+   * the model's own parameters (polynomials with their standard deviations, loss, FPE, AIC; for ARMAX and OE the winning start and every start's loss (`start`, `start_losses`), for ARMAX whether C's roots sit at the 0.99 margin; for n4sid the singular values, x0, how B and D were had ('subspace' or 'simulation'), whether A was stabilised and which poles were reflected ([|z| before, after] each) with the estimation fits as estimated and reflected, and how K was had: 'riccati' or 'none' (an output-error predictor)
    */
   parameters: {
-    [k: string]: (number | null)[] | (number | null)[][] | boolean | number | null | string;
+    [k: string]:
+      | (number | null)[]
+      | (number | null)[][]
+      | boolean
+      | number
+      | null
+      | string
+      | {
+          [k: string]: number | null;
+        };
   };
   fit: FitOut;
   noise_variance: (number | null)[][];
@@ -1256,6 +1324,75 @@ export interface N4SidSpec {
   horizon?: number;
 }
 /**
+ * A kept model: anyone with its id may read it and design on it; its owner or an
+ * instructor may delete it.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IdentifiedModel".
+ */
+export interface IdentifiedModel {
+  id: string;
+  plant: string;
+  name: string;
+  /**
+   * who kept it, as others see them
+   */
+  owner: string;
+  mine: boolean;
+  can_delete: boolean;
+  created_at: number;
+  Ts: number;
+  A: number[][];
+  B: number[][];
+  C: number[][];
+  D: number[][];
+  input: ModelChannelOut;
+  outputs: ModelChannelOut[];
+  source: string;
+  kind: string;
+  fit: (number | null)[];
+  /**
+   * z
+   */
+  poles: Complex[];
+  /**
+   * continuous equivalents ln(z)/Ts (null: a pole at z ≤ 0 has none)
+   */
+  poles_s: Complex[] | null;
+  stable: boolean;
+  /**
+   * per output, powers of z
+   */
+  tf: TransferFunctionOut[];
+  /**
+   * why a design on it cannot run on the plant (null: it can)
+   */
+  not_runnable: string | null;
+  url: string;
+  /**
+   * the design page for it (a shareable link)
+   */
+  page: string;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ModelChannel-Output".
+ */
+export interface ModelChannelOut {
+  name: string;
+  /**
+   * SI: rad, m, V, …
+   */
+  unit: string;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IdentifiedModelList".
+ */
+export interface IdentifiedModelList {
+  models: IdentifiedModel[];
+}
+/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "LQRRequest".
  */
@@ -1265,6 +1402,82 @@ export interface LQRRequest {
    */
   Q: [number, ...number[]] | [[number, ...number[]], ...[number, ...number[]][]];
   R?: number | [number[], ...number[][]];
+}
+/**
+ * What the design page shows of a loop besides its step: poles, verdict, margins, root
+ * locus, and the peak |u| a reference step of ``amplitude`` asks (null: unstable).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "LoopOut".
+ */
+export interface LoopOut {
+  plant: string;
+  closed_loop_poles: Complex[];
+  verdict: "asymptotically stable" | "marginally stable" | "unstable";
+  reason: string;
+  margins: MarginsOut;
+  root_locus: RootLocusOut;
+  amplitude: number;
+  peak_u: number | null;
+  u_max: number;
+  /**
+   * the peak passes the actuator limit
+   */
+  saturates: boolean;
+}
+/**
+ * Of the loop broken at the plant input (null: no crossover).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "MarginsOut".
+ */
+export interface MarginsOut {
+  gain_margin_db: number | null;
+  phase_margin_deg: number | null;
+  /**
+   * rad/s
+   */
+  gain_crossover: number | null;
+  /**
+   * rad/s
+   */
+  phase_crossover: number | null;
+}
+/**
+ * Closed-loop poles as the loop gain k is scaled (k = 1: as designed): branch i at
+ * ``gains[j]`` is (re[i][j], im[i][j]) in s or z.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "RootLocusOut".
+ */
+export interface RootLocusOut {
+  domain: "s" | "z";
+  gains: number[];
+  re: (number | null)[][];
+  im: (number | null)[][];
+  /**
+   * the open loop's (k = 0)
+   */
+  poles: Complex[];
+  zeros: Complex[];
+}
+/**
+ * A controller for a plant's loop (LoopOut).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "LoopRequest".
+ */
+export interface LoopRequest {
+  controller:
+    | PredefinedController
+    | StateFeedbackController
+    | PIDController
+    | LTIControllerModel
+    | OpenLoopController;
+  /**
+   * reference step; default: the plant's default amplitude
+   */
+  amplitude?: number | null;
 }
 /**
  * Who the server takes the caller for.
@@ -1297,6 +1510,307 @@ export interface Me {
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ModelChannel-Input".
+ */
+export interface ModelChannel {
+  name: string;
+  /**
+   * SI: rad, m, V, …
+   */
+  unit?: string;
+}
+/**
+ * A discrete model to keep, as identification gives it (``POST /ident``: a model's
+ * ``ss`` and the data's names): x⁺ = A x + B u, y = C x + D u at sample time Ts, one
+ * input, at most 20 states and 8 outputs.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ModelCreate".
+ */
+export interface ModelCreate {
+  /**
+   * the plant it models
+   */
+  plant: string;
+  name: string;
+  /**
+   * s
+   */
+  Ts: number;
+  /**
+   * @minItems 1
+   * @maxItems 20
+   */
+  A: [[number, ...number[]], ...[number, ...number[]][]];
+  /**
+   * n × 1
+   *
+   * @minItems 1
+   * @maxItems 20
+   */
+  B: [[number, ...number[]], ...[number, ...number[]][]];
+  /**
+   * one row per output, n columns
+   *
+   * @minItems 1
+   * @maxItems 20
+   */
+  C: [[number, ...number[]], ...[number, ...number[]][]];
+  /**
+   * one row per output, one column
+   *
+   * @minItems 1
+   * @maxItems 20
+   */
+  D: [[number, ...number[]], ...[number, ...number[]][]];
+  input?: ModelChannel1;
+  /**
+   * @minItems 1
+   * @maxItems 8
+   */
+  outputs: [ModelChannel, ...ModelChannel[]];
+  /**
+   * where it came from: a run, a file
+   */
+  source?: string;
+  /**
+   * arx, armax, oe, n4sid, …
+   */
+  kind?: string;
+  /**
+   * validation fit per output (%), as identification said
+   *
+   * @maxItems 8
+   */
+  fit?: (number | null)[];
+}
+export interface ModelChannel1 {
+  name: string;
+  /**
+   * SI: rad, m, V, …
+   */
+  unit?: string;
+}
+/**
+ * A design on a kept model. ``controller`` is what ``POST /runs`` takes (with ``Ts`` =
+ * ``run_Ts``) and ``POST /plants/{plant_id}/controller-file`` writes; null when the
+ * model's outputs are not the plant's (``not_runnable`` says why).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ModelDesignOut".
+ */
+export interface ModelDesignOut {
+  plant: string;
+  closed_loop_poles: Complex[];
+  verdict: "asymptotically stable" | "marginally stable" | "unstable";
+  reason: string;
+  margins: MarginsOut;
+  root_locus: RootLocusOut;
+  amplitude: number;
+  peak_u: number | null;
+  u_max: number;
+  /**
+   * the peak passes the actuator limit
+   */
+  saturates: boolean;
+  model: string;
+  method: "lqr" | "place" | "gain" | "pid";
+  domain: "discrete" | "continuous";
+  K: number[] | null;
+  /**
+   * reference gain: u = Nr r − K x̂
+   */
+  Nr: number | null;
+  /**
+   * observer gain, states × outputs
+   */
+  L: number[][] | null;
+  observer_poles: Complex[] | null;
+  step: StepOut;
+  controller:
+    | (
+        | PredefinedController
+        | StateFeedbackControllerOut
+        | PIDControllerOut
+        | LTIControllerModelOut
+        | OpenLoopController
+      )
+    | null;
+  /**
+   * the sample time a run needs (null: the plant's)
+   */
+  run_Ts: number | null;
+  not_runnable: string | null;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "StepOut".
+ */
+export interface StepOut {
+  plant: string;
+  loop: "open" | "closed";
+  t: number[];
+  outputs: {
+    [k: string]: number[];
+  };
+  u: number[];
+  /**
+   * of the reference output (closed loop)
+   */
+  info: StepInfoOut | null;
+  poles: Complex[];
+  verdict: string;
+  /**
+   * the response is cut where an output left the plant's range
+   */
+  cut: StepCut | null;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "StepInfoOut".
+ */
+export interface StepInfoOut {
+  rise_time: number | null;
+  settling_time: number | null;
+  overshoot: number | null;
+  peak: number | null;
+  peak_time: number | null;
+  steady_state: number | null;
+  steady_state_error: number | null;
+}
+/**
+ * Where a response left the plant's range (the linear model's validity): it ends
+ * with the first sample outside.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "StepCut".
+ */
+export interface StepCut {
+  output: string;
+  /**
+   * s, the first sample outside
+   */
+  t: number;
+  /**
+   * the range, absolute, in the output's SI unit
+   */
+  low: number;
+  high: number;
+}
+/**
+ * LQR: Q (diagonal or full) or an output weight q (Q = q Cᵣᵀ Cᵣ; neither: Bryson's
+ * rule q = (0.8 u_max / amplitude)², 80 % of the actuator's limit for the step), and R.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ModelLQR".
+ */
+export interface ModelLQR {
+  /**
+   * discrete: on the model as identified; continuous: its ZOH inverse
+   */
+  domain?: "discrete" | "continuous";
+  /**
+   * height of the reference step for the response and the peak u (the output's SI unit; default: the plant's default reference amplitude)
+   */
+  amplitude?: number | null;
+  /**
+   * horizon of the step (s)
+   */
+  T?: number | null;
+  /**
+   * one per state (s or z); default: the loop's, three times faster
+   */
+  observer_poles?: Complex[] | null;
+  method: "lqr";
+  Q?: [number, ...number[]] | [[number, ...number[]], ...[number, ...number[]][]] | null;
+  output_weight?: number | null;
+  R?: number;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ModelPlace".
+ */
+export interface ModelPlace {
+  /**
+   * discrete: on the model as identified; continuous: its ZOH inverse
+   */
+  domain?: "discrete" | "continuous";
+  /**
+   * height of the reference step for the response and the peak u (the output's SI unit; default: the plant's default reference amplitude)
+   */
+  amplitude?: number | null;
+  /**
+   * horizon of the step (s)
+   */
+  T?: number | null;
+  /**
+   * one per state (s or z); default: the loop's, three times faster
+   */
+  observer_poles?: Complex[] | null;
+  method: "place";
+  /**
+   * @minItems 1
+   * @maxItems 20
+   */
+  poles: [Complex, ...Complex[]];
+}
+/**
+ * A gain typed by hand: one per model state.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ModelGain".
+ */
+export interface ModelGain {
+  /**
+   * discrete: on the model as identified; continuous: its ZOH inverse
+   */
+  domain?: "discrete" | "continuous";
+  /**
+   * height of the reference step for the response and the peak u (the output's SI unit; default: the plant's default reference amplitude)
+   */
+  amplitude?: number | null;
+  /**
+   * horizon of the step (s)
+   */
+  T?: number | null;
+  /**
+   * one per state (s or z); default: the loop's, three times faster
+   */
+  observer_poles?: Complex[] | null;
+  method: "gain";
+  /**
+   * @minItems 1
+   * @maxItems 20
+   */
+  K: [number, ...number[]];
+}
+/**
+ * A PID on the error of the reference output (derivative filter N).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ModelPID".
+ */
+export interface ModelPID {
+  /**
+   * discrete: on the model as identified; continuous: its ZOH inverse
+   */
+  domain?: "discrete" | "continuous";
+  /**
+   * height of the reference step for the response and the peak u (the output's SI unit; default: the plant's default reference amplitude)
+   */
+  amplitude?: number | null;
+  /**
+   * horizon of the step (s)
+   */
+  T?: number | null;
+  method: "pid";
+  Kp: number;
+  Ki?: number;
+  Kd?: number;
+  N?: number;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "PRBSSignal-Output".
  */
 export interface PRBSSignalOut {
@@ -1305,6 +1819,18 @@ export interface PRBSSignalOut {
   order: number;
   band: number;
   offset: number;
+}
+/**
+ * One value a change altered: ``field`` as in the request (``signal.amplitude``,
+ * ``controller.K.1``), values in SI units (``null``: not set).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "ParamDiff".
+ */
+export interface ParamDiff {
+  field: string;
+  before: number | string | boolean | null;
+  after: number | string | boolean | null;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -1316,6 +1842,10 @@ export interface ParamsApplied {
    */
   k: number;
   t: number;
+  /**
+   * what the change altered, field by field; empty when the values given are those the run uses (nothing is then applied or recorded, and k is the sample the run has reached)
+   */
+  changed: ParamDiff[];
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -1331,7 +1861,7 @@ export interface ParamsNotice {
 }
 /**
  * New controller gains and/or reference, applied from the next sample (at least one;
- * an omitted one stays as it is).
+ * an omitted one, or one equal to what the run uses, stays as it is).
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ParamsUpdate".
@@ -1407,6 +1937,10 @@ export interface PlantDetail {
     | PRBSSignalOut
     | SamplesSignal;
   default_duration: number;
+  /**
+   * the absolute initial state the analysis experiment starts from (null: the operating point)
+   */
+  default_x0: number[] | null;
   sensors: {
     [k: string]: number[];
   };
@@ -1485,10 +2019,17 @@ export interface RunCreate {
   duration?: number | null;
   pace?: "realtime" | "fast";
   /**
-   * sensor noise seed
+   * the plant's sensor noise (white, GET /plants/{id} sensors.noise_std). Default: on for identification runs and whenever a seed is given, else off
+   */
+  noise?: boolean | null;
+  /**
+   * sensor noise seed (default with noise on: a random one; the recorded request holds it, so the run can be repeated)
    */
   seed?: number | null;
-  quantize?: boolean;
+  /**
+   * round the outputs to the sensors' resolution (sensors.quantum). Default: on for identification runs, else off
+   */
+  quantize?: boolean | null;
   saturate?: boolean | null;
   Ts?: number | null;
   x0?: number[] | null;
@@ -1538,38 +2079,6 @@ export interface Skipped {
 export interface SignIn {
   name: string;
   password: string;
-}
-/**
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "StepInfoOut".
- */
-export interface StepInfoOut {
-  rise_time: number | null;
-  settling_time: number | null;
-  overshoot: number | null;
-  peak: number | null;
-  peak_time: number | null;
-  steady_state: number | null;
-  steady_state_error: number | null;
-}
-/**
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "StepOut".
- */
-export interface StepOut {
-  plant: string;
-  loop: "open" | "closed";
-  t: number[];
-  outputs: {
-    [k: string]: number[];
-  };
-  u: number[];
-  /**
-   * of the reference output (closed loop)
-   */
-  info: StepInfoOut | null;
-  poles: Complex[];
-  verdict: string;
 }
 /**
  * Open loop (controller omitted or open_loop) or closed loop with a controller.

@@ -1,14 +1,18 @@
-// A run as the user sees it: status, who controls it, the live plot, controls and
-// downloads. Used by the experiment views (for the run they start) and the run page
-// (spectators, replays). Pause, resume and stop are there only for whoever may use them.
+// A run as the user sees it: status, who controls it, the live plot beside the plant's
+// animated schematic, controls and downloads; once the whole recording is in, a replay.
+// Used by the experiment views (for the run they start) and the run page (spectators,
+// replays). Pause, resume and stop are there only for whoever may use them.
 import { controlLabel, ENDED, reasonTone } from "./access";
 import { api, ApiError, dataUrl } from "./api";
 import { CompanionRun } from "./companion";
 import { computeText } from "./controllertext";
 import { copyText, csv, h, fill, saveText } from "./dom";
 import { identity } from "./identity";
+import { type ChangeEntry, type ChangeLike, ParamLog, shortLabel } from "./paramlog";
 import { LivePlot, type LiveTrace } from "./plot";
 import type { ComputeTimes, PlantDetail, RunInfo } from "./protocol.gen";
+import { ReplayControls } from "./replay";
+import { PlantSchematic } from "./schematicview";
 import { SampleRing } from "./series";
 import { RunStream } from "./stream";
 import { display, fmt } from "./units";
@@ -27,6 +31,8 @@ export interface RunPanelOptions {
   /** show pause / resume / stop (to those who may use them; default true) */
   controls?: boolean;
   onState?(state: string): void;
+  /** a live parameter change arrived (the run page's table follows it) */
+  onChange?(change: ChangeEntry): void;
   /** a Python controller's run: once it ends, fetch its record for the controller's
    * compute time per step (the record has it a moment after the end) */
   awaitCompute?: boolean;
@@ -56,7 +62,11 @@ export class RunPanel {
   private readonly buttons: Record<"pause" | "resume" | "stop", HTMLButtonElement>;
   private readonly windowSel: HTMLSelectElement;
   private readonly plotDiv = h("div.live-plot", { "data-testid": "live-plot", "aria-label": "live plot of the run" });
-  private marks: number[] = [];
+  private readonly schematic: PlantSchematic;
+  private replay: ReplayControls | null = null;
+  private readonly replaySlot = h("div.replay-slot");
+  /** the run's live parameter changes, each with what it altered */
+  readonly changes: ParamLog;
   private outputs: string[];
   /** another run drawn over this one (overlay) */
   private companion: CompanionRun | null = null;
@@ -75,8 +85,9 @@ export class RunPanel {
       window: ENDED.has(run.status) ? null : WINDOW_S,
       yTitles: this.yTitles(plant),
     });
-    this.marks = run.param_changes.map((c) => c.k);
-    this.plot.setMarks(this.marks);
+    this.schematic = new PlantSchematic(plant, run, this.ring);
+    this.changes = new ParamLog(run.request, plant);
+    this.addChanges(run.param_changes);
 
     const btn = (label: string, action: () => Promise<RunInfo>) =>
       h("button", { type: "button", onclick: () => void this.command(action) }, label);
@@ -106,7 +117,8 @@ export class RunPanel {
         h("span.owner", { "data-testid": "run-owner" }, controlLabel(run)),
         run.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null,
       ),
-      this.plotDiv,
+      h("div.run-view", this.plotDiv, this.schematic.root),
+      this.replaySlot,
       h(
         "div.toolbar",
         options.controls !== false && run.can_control ? h("span.group", this.buttons.pause, this.buttons.resume, this.buttons.stop) : null,
@@ -130,20 +142,19 @@ export class RunPanel {
       hello: (info) => {
         this.run = info;
         this.setState(info.status);
+        this.addChanges(info.param_changes); // those made while the page was away
       },
       samples: (k0, n, cols) => {
         this.ring.push(k0, n, cols);
         this.progress();
         this.plot.dirty();
+        if (!this.replay) this.schematic.show(this.ring.end - 1);
       },
       status: (s) => {
         this.setState(s.state);
         this.setReason(s.state, s.error ?? null);
       },
-      params: (p) => {
-        this.marks = [...this.marks, p.k];
-        this.plot.setMarks(this.marks);
-      },
+      params: (p) => this.addChanges([p]),
       error: (e) => fill(this.messageEl, e.message),
       connection: (state, detail) => {
         fill(this.connEl, state === "open" ? "" : detail ?? state);
@@ -153,12 +164,33 @@ export class RunPanel {
         this.windowSel.value = "all"; // the whole recording is here: show it
         this.plot.setWindow(null);
         this.progress();
+        this.offerReplay();
       },
     }, { fromSeq: this.firstSeq(run) }).open();
     this.setState(run.status);
     this.setReason(run.status, run.error);
     this.setCompute(run.compute);
     void this.offerPin();
+  }
+
+  /** Changes from the record or the stream: each new one gets its labelled mark. */
+  private addChanges(changes: ChangeLike[]): void {
+    const added = changes.map((c) => this.changes.add(c)).filter((e) => e !== null);
+    if (!added.length) return;
+    this.plot.setMarks(this.changes.entries.map((e) => ({ k: e.k, label: shortLabel(e.text) })));
+    for (const e of added) this.options.onChange?.(e);
+  }
+
+  /** The whole recording is in the page: play it back, the plot and the schematic
+   * following the position (the plot draws the samples up to it). */
+  private offerReplay(): void {
+    if (this.replay || !this.ring.size) return;
+    const last = this.ring.end - 1;
+    this.replay = new ReplayControls(this.ring.start, last, this.run.Ts, (k) => {
+      this.plot.setEnd(k >= last ? null : k + 1);
+      this.schematic.show(k);
+    });
+    fill(this.replaySlot, this.replay.root);
   }
 
   get live(): boolean {
@@ -178,17 +210,19 @@ export class RunPanel {
     const chosen = this.outputs;
     const have = new Set(this.run.channels.map((c) => c.name));
     const unit = (name: string) => this.run.channels.find((c) => c.name === name)?.unit ?? "";
+    const { axis } = outputAxes(plant);
     const traces: LiveTrace[] = [];
-    if (have.has("r")) traces.push({ channel: "r", label: "reference r", axis: 1, scale: display(unit("r")).scale, dash: "dash" });
+    if (have.has("r")) traces.push({ channel: "r", label: "reference r", axis: axis.get("r") ?? 1, scale: display(unit("r")).scale, dash: "dash" });
     for (const o of plant.outputs)
-      if (chosen.includes(o.name) && have.has(o.name)) traces.push({ channel: o.name, label: o.label, axis: 1, scale: display(o.unit).scale });
-    if (have.has("u")) traces.push({ channel: "u", label: "control u", axis: 2, scale: 1 });
-    return [...traces, ...(this.companion?.traces(plant, chosen) ?? [])];
+      if (chosen.includes(o.name) && have.has(o.name)) traces.push({ channel: o.name, label: o.label, axis: axis.get(o.name) ?? 1, scale: display(o.unit).scale });
+    if (have.has("u")) traces.push({ channel: "u", label: "control u", axis: axis.get("u") ?? 2, scale: 1 });
+    // the run drawn over this one: its channels on the same axes as this run's
+    const over = (this.companion?.traces(plant, chosen) ?? []).map((tr) => ({ ...tr, axis: axis.get(tr.channel) ?? tr.axis }));
+    return [...traces, ...over];
   }
 
-  private yTitles(plant: PlantDetail): [string, string] {
-    const units = [...new Set(plant.outputs.map((o) => display(o.unit).unit))];
-    return [`outputs (${units.join(", ")})`, `u (${plant.inputs[0]?.unit ?? "V"})`];
+  private yTitles(plant: PlantDetail): string[] {
+    return outputAxes(plant).titles;
   }
 
   setOutputs(outputs: string[]): void {
@@ -318,7 +352,35 @@ export class RunPanel {
   destroy(): void {
     this.closed = true;
     this.stream.close();
+    this.replay?.destroy();
+    this.schematic.destroy();
     this.companion?.destroy();
     this.plot.destroy();
   }
+}
+
+/**
+ * The live plot's axes for a plant: outputs that sit away from zero at the operating point
+ * (the double pendulum's β₂ hangs at 180° while α and β₁ move about a degree) get axes of
+ * their own, the others share the first with the reference; the control u is last.
+ */
+export function outputAxes(plant: PlantDetail): { axis: Map<string, number>; titles: string[] } {
+  const offset = (i: number) => plant.C[i].reduce((sum, c, j) => sum + c * (plant.operating_point[j] ?? 0), 0);
+  const shared = plant.outputs.filter((_, i) => Math.abs(offset(i)) < 1e-12);
+  const own = plant.outputs.filter((_, i) => Math.abs(offset(i)) >= 1e-12);
+  const axis = new Map<string, number>();
+  const units = (outs: typeof plant.outputs) => [...new Set(outs.map((o) => display(o.unit).unit))].join(", ");
+  const titles: string[] = [];
+  if (shared.length || !own.length) {
+    titles.push(shared.length === plant.outputs.length ? `outputs (${units(shared)})` : `${shared.map((o) => o.name).join(", ")} (${units(shared)})`);
+    for (const o of shared) axis.set(o.name, 1);
+  }
+  for (const o of own) {
+    titles.push(`${o.name} (${display(o.unit).unit})`);
+    axis.set(o.name, titles.length);
+  }
+  axis.set("r", axis.get(plant.reference_output) ?? 1);
+  titles.push(`u (${plant.inputs[0]?.unit ?? "V"})`);
+  axis.set("u", titles.length);
+  return { axis, titles };
 }

@@ -25,3 +25,10 @@ export function fmt(x: number | null | undefined, digits = 4): string {
   if (a >= 1e-3 && a < 1e6) return String(Number(x.toPrecision(digits)));
   return x.toExponential(digits - 1);
 }
+
+/** An SI value as the page shows it: "30°", "0.5 m" → "500 mm", "1.2 V". */
+export function quantity(x: number | null | undefined, siUnit: string, digits = 4): string {
+  const d = display(siUnit);
+  const v = x === null || x === undefined ? x : x * d.scale;
+  return d.unit === "°" ? `${fmt(v, digits)}°` : d.unit ? `${fmt(v, digits)} ${d.unit}` : fmt(v, digits);
+}

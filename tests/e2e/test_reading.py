@@ -55,3 +55,24 @@ def test_the_home_page_loads_no_plotly_and_pages_fit_a_phone(page: Page) -> None
         page.wait_for_timeout(300)
         width = page.evaluate("document.documentElement.scrollWidth")
         assert width <= 390, (path, width)
+
+
+def test_the_pendulums_outputs_get_axes_of_their_own_size(page: Page) -> None:
+    """Issue 15: live, β₂ (about 180°) shared an axis with α and β₁ (about a degree) and
+    flattened them. β₂ now has its own axes; the control has the last."""
+    page.goto("/plants/double_pendulum/analysis")
+    page.get_by_role("button", name="Start").first.click()
+    plot = page.locator(".run-panel .js-plotly-plot").first
+    expect(plot).to_be_attached(timeout=20_000)
+    page.wait_for_function(
+        "() => (document.querySelector('.run-panel .js-plotly-plot')?.data ?? [])"
+        ".some((t) => t.x && t.x.length > 10)",
+        timeout=20_000,
+    )
+    axes = plot.evaluate(
+        "(div) => Object.fromEntries(div.data.map((t) => [t.name, t.yaxis || 'y']))"
+    )
+    beta2 = [a for name, a in axes.items() if "β₂" in name or "beta2" in name.lower()]
+    others = [a for name, a in axes.items() if "β₁" in name or "α" in name]
+    assert beta2 and others and set(beta2).isdisjoint(others), axes
+    assert axes.get("control u") == "y3", axes

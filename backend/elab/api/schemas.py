@@ -11,7 +11,7 @@ import math
 from enum import IntEnum
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, RootModel, field_validator
 from pydantic.json_schema import SkipJsonSchema
 
 PROTOCOL = "elab.v1"
@@ -89,6 +89,15 @@ class LTIControllerModel(Model):
         None, max_length=64, description="feed-forward from r to u, added: numerator"
     )
     ff_den: list[Finite] | None = Field(None, max_length=64, description="and denominator")
+    B_r: list[list[Finite]] | None = Field(
+        None,
+        max_length=64,
+        description="with A, B, C, D: the reference's own input to the states "
+        "(x' = A x + B e + B_r r; two degrees of freedom)",
+    )
+    D_r: list[list[Finite]] | None = Field(
+        None, max_length=1, description="and to u (u = C x + D e + D_r r)"
+    )
 
 
 class OpenLoopController(Model):
@@ -172,8 +181,23 @@ class RunCreate(Model):
     excitation_at: Literal["reference", "input"] = "input"
     duration: Finite | None = Field(None, gt=0, description="s")
     pace: Literal["realtime", "fast"] = "realtime"
-    seed: int | None = Field(None, ge=0, le=2**63 - 1, description="sensor noise seed")
-    quantize: bool = False
+    noise: bool | None = Field(
+        None,
+        description="the plant's sensor noise (white, GET /plants/{id} sensors.noise_std). "
+        "Default: on for identification runs and whenever a seed is given, else off",
+    )
+    seed: int | None = Field(
+        None,
+        ge=0,
+        le=2**63 - 1,
+        description="sensor noise seed (default with noise on: a random one; the recorded "
+        "request holds it, so the run can be repeated)",
+    )
+    quantize: bool | None = Field(
+        None,
+        description="round the outputs to the sensors' resolution (sensors.quantum). "
+        "Default: on for identification runs, else off",
+    )
     saturate: bool | None = None
     Ts: Finite | None = Field(None, gt=0)
     x0: list[Finite] | None = Field(None, max_length=64)
@@ -407,14 +431,29 @@ class _Change(Model):
 
 class ParamsUpdate(_Change):
     """New controller gains and/or reference, applied from the next sample (at least one;
-    an omitted one stays as it is)."""
+    an omitted one, or one equal to what the run uses, stays as it is)."""
 
     model_config = ConfigDict(**Model.model_config, json_schema_extra={"minProperties": 1})
+
+
+class ParamDiff(Model):
+    """One value a change altered: ``field`` as in the request (``signal.amplitude``,
+    ``controller.K.1``), values in SI units (``null``: not set)."""
+
+    field: str
+    before: float | int | str | bool | None
+    after: float | int | str | bool | None
 
 
 class ParamsApplied(Model):
     k: int = Field(description="first sample computed with the new parameters")
     t: float
+    changed: list[ParamDiff] = Field(
+        [],
+        description="what the change altered, field by field; empty when the values given "
+        "are those the run uses (nothing is then applied or recorded, and k is the sample "
+        "the run has reached)",
+    )
 
 
 # -- plants, analysis, design ------------------------------------------------------
@@ -529,6 +568,11 @@ class PlantDetail(PlantSummary):
     predefined_design: str
     default_signal: Signal
     default_duration: float
+    default_x0: list[float] | None = Field(
+        None,
+        description="the absolute initial state the analysis experiment starts from "
+        "(null: the operating point)",
+    )
     sensors: dict[str, list[float]]
     description: str
 
@@ -593,6 +637,16 @@ class StepInfoOut(Model):
     steady_state_error: float | None
 
 
+class StepCut(Model):
+    """Where a response left the plant's range (the linear model's validity): it ends
+    with the first sample outside."""
+
+    output: str
+    t: float = Field(description="s, the first sample outside")
+    low: float = Field(description="the range, absolute, in the output's SI unit")
+    high: float
+
+
 class StepOut(Model):
     plant: str
     loop: Literal["open", "closed"]
@@ -602,6 +656,9 @@ class StepOut(Model):
     info: StepInfoOut | None = Field(description="of the reference output (closed loop)")
     poles: list[Complex]
     verdict: str
+    cut: StepCut | None = Field(
+        None, description="the response is cut where an output left the plant's range"
+    )
 
 
 class LQRRequest(Model):
@@ -909,11 +966,16 @@ class IdentModelOut(Model):
     name: str
     kind: Literal["arx", "armax", "oe", "n4sid"]
     orders: dict[str, int]
-    parameters: dict[str, list[Num] | list[list[Num]] | bool | int | Num | str] = Field(
-        description="the model's own parameters (polynomials with their standard deviations, "
-        "loss, FPE, AIC; for n4sid the singular values, x0, whether A was stabilised and "
-        "which poles were reflected ([|z| before, after] each), and how K was had: "
-        "'riccati' or 'none' (an output-error predictor)"
+    parameters: dict[str, list[Num] | list[list[Num]] | bool | int | Num | str | dict[str, Num]] = (
+        Field(
+            description="the model's own parameters (polynomials with their standard deviations, "
+            "loss, FPE, AIC; for ARMAX and OE the winning start and every start's loss "
+            "(`start`, `start_losses`), for ARMAX whether C's roots sit at the 0.99 margin; for "
+            "n4sid the singular values, x0, how B and D were had ('subspace' or 'simulation'), "
+            "whether A was stabilised and which poles were reflected ([|z| before, after] each) "
+            "with the estimation fits as estimated and reflected, and how K was had: 'riccati' "
+            "or 'none' (an output-error predictor)"
+        )
     )
     fit: FitOut
     noise_variance: list[list[Num]]
@@ -952,6 +1014,214 @@ class IdentLine(Model):
     progress: IdentProgress | None = None
     result: IdentOut | None = None
     error: ErrorDetail | None = None
+
+
+# -- identified models and design on them (api/models.py, api/designs.py) -------------
+MAX_MODEL_STATES = 20  # elab.design.model.MAX_STATES
+ModelNumber = Annotated[Finite, Field(ge=-1e12, le=1e12)]
+ModelRow = Annotated[list[ModelNumber], Field(min_length=1, max_length=MAX_MODEL_STATES)]
+ModelMatrix = Annotated[list[ModelRow], Field(min_length=1, max_length=MAX_MODEL_STATES)]
+
+
+class ModelChannel(Model):
+    name: str = Field(min_length=1, max_length=40)
+    unit: str = Field("", max_length=20, description="SI: rad, m, V, …")
+
+
+class ModelCreate(Model):
+    """A discrete model to keep, as identification gives it (``POST /ident``: a model's
+    ``ss`` and the data's names): x⁺ = A x + B u, y = C x + D u at sample time Ts, one
+    input, at most 20 states and 8 outputs."""
+
+    plant: str = Field(min_length=1, max_length=64, description="the plant it models")
+    name: str = Field(min_length=1, max_length=80)
+    Ts: Finite = Field(ge=1e-6, le=3600, description="s")
+    A: ModelMatrix
+    B: ModelMatrix = Field(description="n × 1")
+    C: ModelMatrix = Field(description="one row per output, n columns")
+    D: ModelMatrix = Field(description="one row per output, one column")
+    input: ModelChannel = ModelChannel(name="u", unit="V")
+    outputs: list[ModelChannel] = Field(min_length=1, max_length=8)
+    source: str = Field("", max_length=200, description="where it came from: a run, a file")
+    kind: str = Field("", max_length=20, description="arx, armax, oe, n4sid, …")
+    fit: list[Finite | None] = Field(
+        [], max_length=8, description="validation fit per output (%), as identification said"
+    )
+
+
+class IdentifiedModel(Model):
+    """A kept model: anyone with its id may read it and design on it; its owner or an
+    instructor may delete it."""
+
+    id: str
+    plant: str
+    name: str
+    owner: str = Field(description="who kept it, as others see them")
+    mine: bool
+    can_delete: bool
+    created_at: float
+    Ts: float
+    A: Matrix
+    B: Matrix
+    C: Matrix
+    D: Matrix
+    input: ModelChannel
+    outputs: list[ModelChannel]
+    source: str
+    kind: str
+    fit: list[Num]
+    poles: list[Complex] = Field(description="z")
+    poles_s: list[Complex] | None = Field(
+        description="continuous equivalents ln(z)/Ts (null: a pole at z ≤ 0 has none)"
+    )
+    stable: bool
+    tf: list[TransferFunctionOut] = Field(description="per output, powers of z")
+    not_runnable: str | None = Field(
+        description="why a design on it cannot run on the plant (null: it can)"
+    )
+    url: str
+    page: str = Field(description="the design page for it (a shareable link)")
+
+
+class IdentifiedModelList(Model):
+    models: list[IdentifiedModel]
+
+
+class _ModelDesign(Model):
+    domain: Literal["discrete", "continuous"] = Field(
+        "discrete",
+        description="discrete: on the model as identified; continuous: its ZOH inverse",
+    )
+    amplitude: Finite | None = Field(
+        None,
+        description="height of the reference step for the response and the peak u (the "
+        "output's SI unit; default: the plant's default reference amplitude)",
+    )
+    T: Finite | None = Field(None, gt=0, le=3600, description="horizon of the step (s)")
+
+
+class _ObservedDesign(_ModelDesign):
+    observer_poles: list[Complex] | None = Field(
+        None,
+        max_length=MAX_MODEL_STATES,
+        description="one per state (s or z); default: the loop's, three times faster",
+    )
+
+
+class ModelLQR(_ObservedDesign):
+    """LQR: Q (diagonal or full) or an output weight q (Q = q Cᵣᵀ Cᵣ; neither: Bryson's
+    rule q = (0.8 u_max / amplitude)², 80 % of the actuator's limit for the step), and R."""
+
+    method: Literal["lqr"]
+    Q: (
+        Annotated[list[Finite], Field(min_length=1, max_length=MAX_MODEL_STATES)]
+        | ModelMatrix
+        | None
+    ) = None
+    output_weight: Finite | None = Field(None, gt=0)
+    R: Finite = Field(1.0, gt=0)
+
+
+class ModelPlace(_ObservedDesign):
+    method: Literal["place"]
+    poles: list[Complex] = Field(min_length=1, max_length=MAX_MODEL_STATES)
+
+
+class ModelGain(_ObservedDesign):
+    """A gain typed by hand: one per model state."""
+
+    method: Literal["gain"]
+    K: list[ModelNumber] = Field(min_length=1, max_length=MAX_MODEL_STATES)
+
+
+class ModelPID(_ModelDesign):
+    """A PID on the error of the reference output (derivative filter N)."""
+
+    method: Literal["pid"]
+    Kp: Finite
+    Ki: Finite = 0.0
+    Kd: Finite = 0.0
+    N: Finite = Field(10.0, gt=0)
+
+
+class ModelDesignRequest(
+    RootModel[
+        Annotated[ModelLQR | ModelPlace | ModelGain | ModelPID, Field(discriminator="method")]
+    ]
+):
+    """One design on a model: ``method`` lqr, place, gain (K typed by hand) or pid."""
+
+
+class MarginsOut(Model):
+    """Of the loop broken at the plant input (null: no crossover)."""
+
+    gain_margin_db: Num
+    phase_margin_deg: Num
+    gain_crossover: Num = Field(description="rad/s")
+    phase_crossover: Num = Field(description="rad/s")
+
+
+class RootLocusOut(Model):
+    """Closed-loop poles as the loop gain k is scaled (k = 1: as designed): branch i at
+    ``gains[j]`` is (re[i][j], im[i][j]) in s or z."""
+
+    domain: Literal["s", "z"]
+    gains: list[float]
+    re: list[list[Num]]
+    im: list[list[Num]]
+    poles: list[Complex] = Field(description="the open loop's (k = 0)")
+    zeros: list[Complex]
+
+
+class LoopOut(Model):
+    """What the design page shows of a loop besides its step: poles, verdict, margins, root
+    locus, and the peak |u| a reference step of ``amplitude`` asks (null: unstable)."""
+
+    plant: str
+    closed_loop_poles: list[Complex]
+    verdict: Literal["asymptotically stable", "marginally stable", "unstable"]
+    reason: str
+    margins: MarginsOut
+    root_locus: RootLocusOut
+    amplitude: float
+    peak_u: Num
+    u_max: float
+    saturates: bool = Field(description="the peak passes the actuator limit")
+
+
+class ModelDesignOut(LoopOut):
+    """A design on a kept model. ``controller`` is what ``POST /runs`` takes (with ``Ts`` =
+    ``run_Ts``) and ``POST /plants/{plant_id}/controller-file`` writes; null when the
+    model's outputs are not the plant's (``not_runnable`` says why)."""
+
+    model: str
+    method: Literal["lqr", "place", "gain", "pid"]
+    domain: Literal["discrete", "continuous"]
+    K: list[float] | None
+    Nr: float | None = Field(description="reference gain: u = Nr r − K x̂")
+    L: list[list[float]] | None = Field(description="observer gain, states × outputs")
+    observer_poles: list[Complex] | None
+    step: StepOut
+    controller: Controller | None
+    run_Ts: float | None = Field(description="the sample time a run needs (null: the plant's)")
+    not_runnable: str | None
+
+
+class LoopRequest(Model):
+    """A controller for a plant's loop (LoopOut)."""
+
+    controller: Controller
+    amplitude: Finite | None = Field(
+        None, description="reference step; default: the plant's default amplitude"
+    )
+
+
+class ControllerFileRequest(Model):
+    """A controller as a file to download (what an upload reads back)."""
+
+    controller: Controller
+    format: Literal["toml", "json", "mat", "npz", "py"] = "toml"
+    name: str | None = Field(None, max_length=80)
 
 
 # -- websocket messages ------------------------------------------------------------
@@ -1022,7 +1292,9 @@ ServerMessage = Annotated[
 
 
 class SetParams(_Change):
-    """As ``POST /runs/{id}/params``: new gains and/or reference (at least one)."""
+    """As ``POST /runs/{id}/params``: new gains and/or reference (at least one). Its
+    ``params`` notice holds the parts that changed; a change that changes nothing is not
+    applied and has no notice."""
 
     model_config = ConfigDict(**Model.model_config, json_schema_extra={"minProperties": 2})
     type: Literal["set_params"]

@@ -1,0 +1,26 @@
+import { describe, expect, it } from "vitest";
+import type { PlantDetail } from "./protocol.gen";
+import { outputAxes } from "./runpanel";
+
+const plant = (op: number[], C: number[][], outputs: string[], ref: string) =>
+  ({
+    C,
+    operating_point: op,
+    outputs: outputs.map((name) => ({ name, label: name, unit: "rad" })),
+    inputs: [{ name: "u", label: "u", unit: "V" }],
+    reference_output: ref,
+  }) as unknown as PlantDetail;
+
+describe("outputAxes", () => {
+  it("gives an output that sits at 180° its own axes (issue 15: β₂ flattened α and β₁)", () => {
+    const p = plant([0, 0, Math.PI, 0, 0, 0], [[1, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0]], ["alpha", "beta1", "beta2"], "alpha");
+    const { axis, titles } = outputAxes(p);
+    expect([axis.get("alpha"), axis.get("beta1"), axis.get("r"), axis.get("beta2"), axis.get("u")]).toEqual([1, 1, 1, 2, 3]);
+    expect(titles).toEqual(["alpha, beta1 (°)", "beta2 (°)", "u (V)"]);
+  });
+  it("keeps one outputs' axes when every output is about zero", () => {
+    const { axis, titles } = outputAxes(plant([0, 0, 0, 0], [[1, 0, 0, 0], [0, 1, 0, 0]], ["theta", "alpha"], "theta"));
+    expect([axis.get("theta"), axis.get("alpha"), axis.get("u")]).toEqual([1, 1, 2]);
+    expect(titles).toEqual(["outputs (°)", "u (V)"]);
+  });
+});

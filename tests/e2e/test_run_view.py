@@ -1,0 +1,206 @@
+"""The run as a class watches it (issue 15): the plant's schematic moves with the stream, a
+finished run replays, the parameter changes reach spectators live, and the run form and the
+plot fit a 1280×800 screen, also in classroom mode. Checked on the data the page shows (the
+schematic's transform, the sample it drew, the readout), not on pixels."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+from playwright.sync_api import FloatRect, Page, expect
+
+from tests.api.server import Server
+
+POSITION = "[data-testid=replay-position]"
+LABELS = """() => document.querySelector('[data-testid=live-plot]').layout
+  .annotations?.map(a => a.text)"""
+DRAWN = """() => { const svg = document.querySelector('[data-testid=schematic] svg');
+  const arm = document.querySelector('[data-testid=schematic-arm]');
+  const m = /rotate\\(([-\\d.e]+) /.exec(arm?.getAttribute('transform') ?? '');
+  return svg?.dataset.k && m ? [Number(svg.dataset.k), Number(m[1])] : null; }"""
+SAMPLES = "() => Number(document.querySelector('.progress')?.dataset.samples ?? 0)"
+PLOT_END = """() => { const d = document.querySelector('[data-testid=live-plot]').data;
+  return Math.max(...d.map(t => t.x.length ? t.x[t.x.length - 1] : 0)); }"""
+K = [20, -93.5614, 3.3621, 0.9623]  # the flexible link's predefined gains
+
+
+@pytest.fixture
+def owner(server: Server) -> Iterator[httpx.Client]:
+    with server.client() as c:
+        yield c
+
+
+def start(owner: httpx.Client, **body: Any) -> str:
+    r = owner.post("/runs", json={"plant": "flexible_link", **body})
+    assert r.status_code == 201, r.text
+    return str(r.json()["id"])
+
+
+def theta_deg(owner: httpx.Client, rid: str) -> np.ndarray:
+    """The recorded servo angle θ in degrees, by sample."""
+    data = owner.get(f"/runs/{rid}/data", params={"format": "json"}).json()
+    assert data["k0"] == 0
+    return np.degrees(np.asarray(data["data"]["theta"], dtype=np.float64))
+
+
+def theta_deg_when_done(owner: httpx.Client, rid: str) -> np.ndarray:
+    for _ in range(300):
+        if owner.get(f"/runs/{rid}").json()["status"] == "finished":
+            return theta_deg(owner, rid)
+        time.sleep(0.1)
+    raise AssertionError(f"run {rid} did not finish")
+
+
+def drawn(page: Page) -> tuple[int, float]:
+    page.wait_for_function(DRAWN)
+    k, angle = page.evaluate(DRAWN)
+    return int(k), float(angle)
+
+
+def test_the_schematic_turns_with_the_streamed_angle(page: Page, owner: httpx.Client) -> None:
+    rid = start(owner, duration=20)
+    page.goto(f"/runs/{rid}")
+    expect(page.get_by_test_id("schematic")).to_have_attribute("data-plant", "flexible_link")
+    page.wait_for_function(f"() => ({SAMPLES})() >= 600")  # θ is on its way to +30°
+    k1, a1 = drawn(page)
+    page.wait_for_function(f"() => ({SAMPLES})() >= {k1} + 1800")  # past the edge at 2 s
+    k2, a2 = drawn(page)
+    owner.post(f"/runs/{rid}/stop")
+    theta = theta_deg(owner, rid)
+    assert k2 > k1 >= 0
+    # the arm turns counter-clockwise by θ: SVG's rotate() is clockwise, so it reads −θ; the
+    # transform has 3 decimals and the stream float32 (1e-6° at 30°)
+    assert -a1 == pytest.approx(theta[k1], abs=2e-3)
+    assert -a2 == pytest.approx(theta[k2], abs=2e-3)
+    assert abs(a2 - a1) > 1, (a1, a2)  # it moved
+    # the readout beside it shows the values of the sample drawn (read in one go: the last
+    # frames may still be arriving)
+    k, shown = page.evaluate(
+        "() => { const r = document.querySelector('[data-testid=sample-readout]');"
+        " return [Number(r.dataset.k),"
+        " Number(r.querySelector('dd[data-channel=theta]').dataset.value)]; }"
+    )
+    assert shown == pytest.approx(theta[int(k)], abs=1e-4)
+
+
+def test_a_finished_run_replays_and_scrubs(page: Page, owner: httpx.Client) -> None:
+    rid = start(owner, duration=6, pace="fast")
+    theta = theta_deg_when_done(owner, rid)
+    page.goto(f"/runs/{rid}")
+    replay = page.get_by_test_id("replay")
+    expect(replay).to_be_visible(timeout=30_000)  # the whole recording is in the page
+    scrubber = page.get_by_test_id("replay-position")
+    assert int(scrubber.input_value()) == len(theta) - 1
+    page.get_by_test_id("replay-speed").select_option("2")
+    page.get_by_test_id("replay-play").click()
+    page.wait_for_function(f"() => Number(document.querySelector('{POSITION}').value) > 200")
+    first = int(scrubber.input_value())
+    page.wait_for_timeout(500)
+    second = int(scrubber.input_value())
+    assert 0 < first < second < len(theta) - 1  # it plays from the start, at 2 × 1 kHz
+    page.get_by_test_id("replay-play").click()  # pause
+    paused = int(scrubber.input_value())
+    page.wait_for_timeout(400)
+    assert int(scrubber.input_value()) == paused
+
+    scrubber.fill("1234")
+    readout = page.get_by_test_id("sample-readout")
+    expect(readout).to_have_attribute("data-k", "1234")
+    expect(readout.locator("dd[data-channel=t]")).to_have_text("1.234 s")
+    shown = float(str(readout.locator("dd[data-channel=theta]").get_attribute("data-value")))
+    assert shown == pytest.approx(theta[1234], abs=1e-4)
+    k, angle = drawn(page)
+    assert k == 1234 and -angle == pytest.approx(theta[1234], abs=2e-3)
+    # the plot draws the run up to that sample (at most: its last pixel column's min or max)
+    page.wait_for_function(f"() => {{ const t = ({PLOT_END})(); return t > 1.2 && t < 1.2345; }}")
+    expect(page.get_by_test_id("replay")).to_contain_text("t = 1.23 s of")
+
+
+def test_spectators_see_each_change_arrive_with_what_it_changed(
+    page: Page, owner: httpx.Client
+) -> None:
+    rid = start(owner, duration=30)
+    page.goto(f"/runs/{rid}")  # a spectator: another browser than the owner's
+    page.wait_for_function(f"() => ({SAMPLES})() >= 200")
+    table = page.get_by_test_id("param-changes")
+    expect(table).to_be_hidden()
+
+    r = owner.post(
+        f"/runs/{rid}/params",
+        json={"controller": {"kind": "state_feedback", "K": [30, *K[1:]]}},
+    )
+    assert r.status_code == 200, r.text
+    k = r.json()["k"]
+    rows = table.locator("tbody tr")
+    expect(rows).to_have_count(1)
+    expect(rows.first).to_have_attribute("data-k", str(k))
+    expect(rows.first).to_contain_text("K1 20 → 30 V/rad")
+
+    square = {"kind": "square", "amplitude": math.radians(45), "period": 4}
+    r = owner.post(f"/runs/{rid}/params", json={"signal": square})
+    assert r.status_code == 200, r.text
+    expect(rows).to_have_count(2)
+    expect(rows.nth(1)).to_contain_text("reference amplitude 30 → 45°")
+    # each change is a labelled mark on the plot
+    page.wait_for_function(f"() => ({LABELS})()?.length === 2")
+    labels = page.evaluate(LABELS)
+    assert labels[0] == "K1 20 → 30 V/rad" and labels[1].startswith("reference amplitude 30 → 45")
+    owner.post(f"/runs/{rid}/stop")
+    # the settings read in the page's units, not raw JSON
+    settings = page.get_by_test_id("run-settings")
+    expect(settings).to_contain_text("amplitude")
+    expect(settings).to_contain_text("30°")
+    expect(settings).to_contain_text("20 V/rad")
+
+
+def inside(box: FloatRect | None, height: int = 800) -> bool:
+    return box is not None and box["y"] >= 0 and box["y"] + box["height"] <= height
+
+
+@pytest.mark.parametrize("classroom", [False, True])
+def test_start_and_the_whole_plot_fit_1280x800(page: Page, classroom: bool) -> None:
+    page.goto("/")
+    page.evaluate(f"localStorage.setItem('elab.classroom', '{int(classroom)}')")
+    page.goto("/plants/flexible_link/analysis")
+    submit = page.locator("form.run-form button[type=submit]")
+    expect(submit).to_be_visible()
+    assert inside(submit.bounding_box()), submit.bounding_box()  # no scrolling to find it
+    page.locator("#f-duration").fill("20")
+    submit.click()
+    plot = page.locator(".run-panel [data-testid=live-plot]")
+    page.wait_for_function(f"() => ({SAMPLES})() >= 100")
+    assert inside(submit.bounding_box()) and inside(plot.bounding_box())
+    # down the form to its last field (where Start was): the run and Start stay in view
+    end = page.evaluate(
+        "() => document.querySelector('form.run-form').getBoundingClientRect().bottom"
+        " + window.scrollY - window.innerHeight"
+    )
+    assert end > 0  # the form is taller than the screen
+    for y in np.linspace(0, end, 4)[1:]:
+        page.evaluate(f"window.scrollTo(0, {y})")
+        page.wait_for_timeout(100)
+        assert inside(submit.bounding_box()), (y, submit.bounding_box())
+        assert inside(plot.bounding_box()), (y, plot.bounding_box())
+    page.get_by_role("button", name="Stop").click()
+
+
+def test_classroom_mode_scales_every_text(page: Page) -> None:
+    sizes = {}
+    probe = """(sel) => parseFloat(getComputedStyle(document.querySelector(sel)).fontSize)"""
+    selectors = ["body", ".panel h2", ".hint", ".field label", "header.page h1"]
+    for on in (False, True):
+        page.goto("/")
+        page.evaluate(f"localStorage.setItem('elab.classroom', '{int(on)}')")
+        page.goto("/plants/flexible_link/analysis")
+        page.locator(".panel h2").first.wait_for()
+        sizes[on] = {s: page.evaluate(probe, s) for s in selectors}
+    for s in selectors:
+        assert sizes[True][s] > sizes[False][s], (s, sizes)
+    assert sizes[True][".panel h2"] > sizes[True]["body"]  # headings above body text
+    assert sizes[True][".hint"] >= 16, sizes[True]  # the small print is readable too
