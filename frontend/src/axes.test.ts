@@ -24,3 +24,16 @@ describe("outputAxes", () => {
     expect(titles).toEqual(["outputs (°)", "u (V)"]);
   });
 });
+
+describe("channelColor", () => {
+  it("gives each signal one colour on every plot of a plant (issue 15)", async () => {
+    const { channelColor } = await import("./plot");
+    const outs = ["alpha", "beta1", "beta2"];
+    expect(channelColor("r", outs)).toBe(channelColor("r", ["theta"]));
+    expect(channelColor("u", outs)).not.toBe(channelColor("r", outs));
+    const colours = outs.map((o) => channelColor(o, outs));
+    expect(new Set(colours).size).toBe(3);
+    expect(colours).not.toContain(channelColor("u", outs));
+    expect(channelColor("nothing", outs)).toBeUndefined();
+  });
+});

@@ -5,6 +5,18 @@ import { decimate, type SampleRing } from "./series";
 
 const COLORS = ["#2563eb", "#dc2626", "#059669", "#d97706", "#7c3aed", "#0891b2", "#be185d", "#4b5563"];
 
+/** One colour per signal on every plot of a plant (issue 15: θ was blue live and red in the
+ * step plot): the reference grey, the control amber, the outputs in the plant's order. */
+const REFERENCE_COLOR = "#4b5563";
+const CONTROL_COLOR = "#d97706";
+const OUTPUT_COLORS = ["#2563eb", "#dc2626", "#059669", "#7c3aed", "#0891b2", "#be185d"];
+export function channelColor(channel: string, outputs: readonly string[]): string | undefined {
+  if (channel === "r") return REFERENCE_COLOR;
+  if (channel === "u") return CONTROL_COLOR;
+  const k = outputs.indexOf(channel);
+  return k >= 0 ? OUTPUT_COLORS[k % OUTPUT_COLORS.length] : undefined;
+}
+
 function fontSize(): number {
   return document.body.classList.contains("classroom") ? 18 : 13;
 }
@@ -45,6 +57,8 @@ export interface LiveTrace {
   axis: number;
   /** displayed = scale · value */
   scale: number;
+  /** the signal's colour (channelColor); default: by position */
+  color?: string;
   dash?: "solid" | "dash" | "dot";
   /** the ring holding the channel when it is not the plot's: another run drawn over this
    * one, sample k over sample k (same Ts) */
@@ -253,6 +267,7 @@ export class LivePlot {
    * same channel (θ solid and θ dotted, side by side). */
   private color(i: number): string {
     const tr = this.traces[i];
+    if (tr.color) return tr.color;
     const same = tr.ring ? this.traces.findIndex((t) => !t.ring && t.channel === tr.channel) : -1;
     return COLORS[(same >= 0 ? same : i) % COLORS.length];
   }
@@ -297,6 +312,8 @@ export interface Series {
   axis?: 1 | 2;
   dash?: "solid" | "dash" | "dot";
   mode?: "lines" | "markers";
+  /** the signal's colour (channelColor); default: by position */
+  color?: string;
 }
 
 export interface ChartOptions {
@@ -318,8 +335,8 @@ export function chart(div: HTMLElement, series: Series[], opts: ChartOptions): v
     x: Array.from(s.x),
     y: Array.from(s.y),
     yaxis: s.axis === 2 ? "y2" : "y",
-    line: { color: COLORS[i % COLORS.length], width: 1.8, dash: s.dash ?? "solid" },
-    marker: { color: COLORS[i % COLORS.length], size: 9, symbol: "x" },
+    line: { color: s.color ?? COLORS[i % COLORS.length], width: 1.8, dash: s.dash ?? "solid" },
+    marker: { color: s.color ?? COLORS[i % COLORS.length], size: 9, symbol: "x" },
   }));
   const layout: Partial<Plotly.Layout> = {
     ...baseLayout(),

@@ -9,7 +9,7 @@ import { computeText } from "./controllertext";
 import { copyText, csv, h, fill, saveText } from "./dom";
 import { identity } from "./identity";
 import { type ChangeEntry, type ChangeLike, ParamLog, shortLabel } from "./paramlog";
-import { LivePlot, type LiveTrace } from "./plot";
+import { channelColor, LivePlot, type LiveTrace } from "./plot";
 import type { ComputeTimes, PlantDetail, RunInfo } from "./protocol.gen";
 import { ReplayControls } from "./replay";
 import { PlantSchematic } from "./schematicview";
@@ -216,9 +216,11 @@ export class RunPanel {
     for (const o of plant.outputs)
       if (chosen.includes(o.name) && have.has(o.name)) traces.push({ channel: o.name, label: o.label, axis: axis.get(o.name) ?? 1, scale: display(o.unit).scale });
     if (have.has("u")) traces.push({ channel: "u", label: "control u", axis: axis.get("u") ?? 2, scale: 1 });
-    // the run drawn over this one: its channels on the same axes as this run's
+    // the run drawn over this one: its channels on the same axes as this run's; every
+    // signal in its own colour, the same on every plot of the plant
+    const names = plant.outputs.map((o) => o.name);
     const over = (this.companion?.traces(plant, chosen) ?? []).map((tr) => ({ ...tr, axis: axis.get(tr.channel) ?? tr.axis }));
-    return [...traces, ...over];
+    return [...traces, ...over].map((tr) => ({ ...tr, color: channelColor(tr.channel, names) }));
   }
 
   private yTitles(plant: PlantDetail): string[] {

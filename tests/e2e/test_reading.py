@@ -76,3 +76,14 @@ def test_the_pendulums_outputs_get_axes_of_their_own_size(page: Page) -> None:
     others = [a for name, a in axes.items() if "β₁" in name or "α" in name]
     assert beta2 and others and set(beta2).isdisjoint(others), axes
     assert axes.get("control u") == "y3", axes
+
+
+def test_transfer_functions_say_what_they_map(page: Page) -> None:
+    """Issue 15: the analysis page's transfer functions were not labelled (θ/u? α/u?)."""
+    page.goto("/plants/flexible_link/analysis")
+    for name, symbol in (("theta", "θ"), ("alpha", "α")):
+        tf = page.get_by_test_id(f"tf-{name}")
+        expect(tf).to_be_visible(timeout=20_000)
+        annotation = tf.locator("annotation").first.text_content() or ""
+        assert annotation.startswith(f"\\frac{{\\{name}(s)}}{{u(s)}} = "), annotation
+        assert symbol in tf.inner_text()

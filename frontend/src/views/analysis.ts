@@ -211,8 +211,8 @@ class AnalysisView {
 
   private tfPanel(el: HTMLElement, a: AnalysisInfo): void {
     const items = a.transfer_functions.map((t) => {
-      const m = h("div.math");
-      m.innerHTML = tex(t.latex, true);
+      const m = h("div.math", { "data-testid": `tf-${t.output}` });
+      m.innerHTML = tex(`\\frac{${texName(t.output)}(s)}{${texName(t.input)}(s)} = ${t.latex}`, true);
       return m;
     });
     fill(el, h("h2", "Transfer functions"), ...items);
@@ -270,4 +270,16 @@ class AnalysisView {
     for (const d of this.plots) purge(d);
     for (const st of this.steps) st.destroy();
   }
+}
+
+const GREEK = new Set(["alpha", "beta", "gamma", "delta", "theta", "phi", "psi", "omega", "eta"]);
+
+/** A channel name as TeX: theta → \\theta, beta2 → \\beta_{2}, x → x (issue 15: the
+ * transfer functions were not labelled θ/u, α/u). */
+export function texName(name: string): string {
+  const m = /^([A-Za-z]+?)_?(\d*)$/.exec(name);
+  if (!m) return `\\mathrm{${name.replace(/[^A-Za-z0-9]/g, "")}}`;
+  const [, base, index] = m;
+  const head = GREEK.has(base) ? `\\${base}` : base.length > 1 ? `\\mathrm{${base}}` : base;
+  return index ? `${head}_{${index}}` : head;
 }

@@ -74,7 +74,7 @@ export class IdentAnalysis {
       h("h2", source.kind === "run" ? "Identify a model from this run" : "Identify a model from a data file"),
       ...sourceBox,
       this.validation.root,
-      h("div.grid", split.root, h("div.field", h("label", { for: `${pre}-detrend` }, "Detrend (each part)"), this.detrend)),
+      h("div.grid", split.root, h("div.field.span2", h("label", { for: `${pre}-detrend` }, "Detrend (each part)"), this.detrend)),
       h("fieldset", h("legend", "Analyses"), corrLabel, specLabel, arxLabel, h("div.grid", num("arx_search.na.0", "na from", 1, 0, 50), num("arx_search.na.1", "na to", 10, 0, 50), num("arx_search.nb.0", "nb from", 1, 1, 50), num("arx_search.nb.1", "nb to", 10, 1, 50), num("arx_search.nk.0", "nk from", 1, 0, 50), num("arx_search.nk.1", "nk to", 10, 0, 50)), n4sidLabel, h("div.grid", num("n4sid_orders.0", "order from", 1, 1, 99), num("n4sid_orders.1", "order to", 10, 1, 99), num("horizon", "horizon s (0: default)", 0, 0, 100))),
       h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values); separate with ;"), this.modelsMsg),
       h("div.actions", h("button.primary", { type: "submit" }, "Identify"), this.progress, this.stage),

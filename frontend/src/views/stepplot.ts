@@ -2,7 +2,7 @@
 // (the pendulum's α moves a radian while β₁ and β₂ move a ten-thousandth of it), and a
 // response the server cut where it left the plant's range says so.
 import { fill, h } from "../dom";
-import { chart, purge, type Series } from "../plot";
+import { channelColor, chart, purge, type Series } from "../plot";
 import type { PlantDetail, StepOut } from "../protocol.gen";
 import { display, fmt } from "../units";
 import { downloadButton } from "./common";
@@ -49,15 +49,17 @@ export class StepPlot {
       const out = p.outputs.find((o) => o.name === name);
       const d = display(out?.unit ?? "");
       const shown = y.map((v) => v * d.scale);
-      return { name, unit: out?.unit ?? "", label: `${name} (${d.unit})`, y: shown, peak: Math.max(0, ...shown.map(Math.abs)) };
+      // the same name and colour as on the live plot
+      return { name, unit: out?.unit ?? "", label: out?.label ?? name, axisLabel: `${out?.label ?? name} (${d.unit})`, y: shown, peak: Math.max(0, ...shown.map(Math.abs)) };
     });
     const groups = groupByRange(outputs.map((o) => o.peak));
     this.charts = groups.map((_, i) => h("div.chart", { "data-testid": `${this.name}-axes-${i}` }));
     fill(this.root, ...this.charts, this.cutNote(s), downloadButton(`${this.name}.csv`, ["t (s)", ...outputs.map((o) => `${o.name} (${o.unit})`), "u (V)"], [s.t, ...Object.values(s.outputs), s.u]));
     groups.forEach((g, i) => {
-      const series: Series[] = g.map((j) => ({ x: s.t, y: outputs[j].y, name: outputs[j].label, axis: 1 }));
-      const title = g.map((j) => outputs[j].label).join(", ");
-      if (i === 0) chart(this.charts[i], [...series, { x: s.t, y: s.u, name: "u (V)", axis: 2 }], { xTitle: "time t (s)", yTitles: [title, "u (V)"] });
+      const names = this.plant.outputs.map((o) => o.name);
+      const series: Series[] = g.map((j) => ({ x: s.t, y: outputs[j].y, name: outputs[j].label, axis: 1, color: channelColor(outputs[j].name, names) }));
+      const title = g.map((j) => outputs[j].axisLabel).join(", ");
+      if (i === 0) chart(this.charts[i], [...series, { x: s.t, y: s.u, name: "control u", axis: 2, color: channelColor("u", names) }], { xTitle: "time t (s)", yTitles: [title, "u (V)"] });
       else chart(this.charts[i], series, { xTitle: "time t (s)", yTitles: [title], height: 240 });
     });
   }

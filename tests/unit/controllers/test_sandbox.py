@@ -80,6 +80,12 @@ ESCAPES = {
 }
 
 
+# contained when the run either goes on with clean answers or fails: printing 10 MB is
+# harmless (stdout is a sink inside), though building the string can make the steps slow
+# enough to fail them — which of the two depends on the machine's speed at that moment
+HARMLESS = {"output bomb"}
+
+
 @pytest.mark.parametrize("attempt", list(ESCAPES))
 def test_every_escape_attempt_is_contained(attempt: str, tmp_path: object) -> None:
     before = set(os.listdir("/tmp"))
@@ -90,7 +96,10 @@ def test_every_escape_attempt_is_contained(attempt: str, tmp_path: object) -> No
             outcome = [c.step(k * 1e-3, [0.0], 1.0) for k in range(20)]
         except ControllerFailed as exc:
             outcome = exc
-    assert isinstance(outcome, ControllerFailed), f"{attempt}: not contained: {outcome}"
+    if attempt in HARMLESS and outcome == [0.0] * 20:
+        pass  # print() goes nowhere and the pipe stays clean: contained without a failure
+    else:
+        assert isinstance(outcome, ControllerFailed), f"{attempt}: not contained: {outcome}"
     assert time.monotonic() - started < 30
     assert "pwned" not in set(os.listdir("/tmp")) - before
     # and the next controller is fine
