@@ -78,7 +78,9 @@ def test_the_schematic_turns_with_the_streamed_angle(page: Page, owner: httpx.Cl
     # transform has 3 decimals and the stream float32 (1e-6° at 30°)
     assert -a1 == pytest.approx(theta[k1], abs=2e-3)
     assert -a2 == pytest.approx(theta[k2], abs=2e-3)
-    assert abs(a2 - a1) > 1, (a1, a2)  # it moved
+    # it moved (how far depends on where in the square wave's period the page joined: one
+    # run drew 16.42° then 17.06°, both exactly the recorded θ)
+    assert abs(a2 - a1) > 0.1, (a1, a2)
     # the readout beside it shows the values of the sample drawn (read in one go: the last
     # frames may still be arriving)
     k, shown = page.evaluate(
