@@ -60,13 +60,17 @@ lint: install $(LINT_STAMP)
 typecheck: install
 	$(VENV)/bin/mypy
 
+# pytest on both cores (pytest-xdist; each test module on one worker, which keeps the
+# servers of a module together)
 unit: install test-debs
-	$(PY) -m pytest
+	$(PY) -m pytest -n 2 --dist loadscope
 
 frontend-test: install
 	cd frontend && npx vitest run
 
-test: lint typecheck frontend-test unit
+# Everything, the static checks beside pytest (scripts/test.sh).
+test: install test-debs $(LINT_STAMP)
+	scripts/test.sh
 
 bench: install chromium
 	$(PY) tests/bench/run.py

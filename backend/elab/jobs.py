@@ -3,9 +3,13 @@
 An identification of 100,000 samples takes seconds of CPU. In the web process it
 would hold the GIL against every stream; here it runs in a worker process of its
 own, at a lower priority (``nice``), at most ``workers`` at once. A job waits for
-a free worker at most ``wait`` seconds (then :class:`~elab.errors.TooMany`); one
+a free, ready worker at most ``wait`` seconds (then :class:`~elab.errors.TooMany`); one
 that runs past ``timeout`` seconds, or whose caller goes away (its task is
 cancelled), is stopped by killing its process, and a fresh worker takes its place.
+
+A worker is ready once it has imported the modules the pool ``preload``s: the time limit
+counts the job, not a fresh worker's start-up (seconds of imports at a low priority on a
+busy machine), so the same job passes or fails its limit whenever it comes.
 
 Jobs and results cross by pickle between this process and workers it started
 itself (nothing from outside is unpickled).
@@ -14,6 +18,7 @@ itself (nothing from outside is unpickled).
 from __future__ import annotations
 
 import asyncio
+import importlib
 import logging
 import multiprocessing
 import os
@@ -30,14 +35,31 @@ Progress = Callable[[str, float], None]
 
 
 class _Worker:
-    def __init__(self, nice: int) -> None:
+    def __init__(self, nice: int, preload: tuple[str, ...]) -> None:
         ctx = multiprocessing.get_context("spawn")  # no copy of the server's threads and loop
         self.conn, child = ctx.Pipe()
         self.proc: BaseProcess = ctx.Process(
-            target=_serve, args=(child, nice), daemon=True, name="elab-job"
+            target=_serve, args=(child, nice, preload), daemon=True, name="elab-job"
         )
         self.proc.start()
         child.close()
+        # the worker's first message says it has imported ``preload``; the receiving thread
+        # goes on if nobody waits for it (a request that gave up), so no message is lost
+        self._ready = asyncio.ensure_future(asyncio.to_thread(self.conn.recv))
+        self._ready.add_done_callback(lambda f: f.cancelled() or f.exception())  # seen here
+
+    @property
+    def ready(self) -> bool:
+        return self._ready.done()
+
+    async def until_ready(self) -> None:
+        try:
+            await asyncio.shield(self._ready)
+        except (EOFError, OSError):
+            raise ElabError(
+                f"an identification worker ended while starting (exit code "
+                f"{self.proc.exitcode}); the server log has its message"
+            ) from None
 
     def kill(self) -> None:
         """Kill the process (its zombie is reaped by multiprocessing's next start or join)."""
@@ -56,38 +78,41 @@ class JobPool:
         wait: float = 30.0,
         nice: int = 10,
         setting: str = "ELAB_IDENT_TIMEOUT",
+        preload: tuple[str, ...] = (),
     ) -> None:
         self.workers = workers
         self.timeout = timeout
         self.wait = wait
         self.nice = nice
         self.setting = setting
-        self._idle: asyncio.Queue[_Worker] | None = None
+        self.preload = preload
+        self._idle: asyncio.Queue[_Worker] = asyncio.Queue()  # bound to a loop on first use
+        self._all: list[_Worker] = []
         self.busy = 0
+
+    @property
+    def starting(self) -> int:
+        """Workers still importing: a job given to one waits for it."""
+        return sum(not w.ready for w in self._all)
+
+    def _spawn(self) -> _Worker:
+        worker = _Worker(self.nice, self.preload)
+        self._all.append(worker)
+        return worker
 
     async def start(self) -> None:
         """Start the workers (they load in the background)."""
-        self._idle = asyncio.Queue()
         for _ in range(self.workers):
-            self._idle.put_nowait(_Worker(self.nice))
+            self._idle.put_nowait(self._spawn())
 
     async def close(self) -> None:
-        assert self._idle is not None
-        while not self._idle.empty():
-            self._idle.get_nowait().kill()
+        for worker in self._all:
+            worker.kill()
 
     async def run(self, fn: Callable[..., T], *args: Any, progress: Progress | None = None) -> T:
         """``fn(*args, progress=…)`` in a worker (``progress`` called here, on the loop, for
         each report), or the :class:`ElabError` it raised."""
-        assert self._idle is not None, "start() first"
-        try:
-            worker = await asyncio.wait_for(self._idle.get(), self.wait)
-        except TimeoutError:
-            raise TooMany(
-                f"all {self.workers} identification workers are busy (ELAB_IDENT_WORKERS)"
-                f" and none was free within {self.wait:g} s; retry later",
-                retry_after=self.wait,
-            ) from None
+        worker = await self._free_worker()
         self.busy += 1
         healthy = False
         try:
@@ -103,14 +128,46 @@ class JobPool:
                 "fewer samples, a smaller order search or fewer models",
             ) from None
         except ElabError:
-            healthy = True  # the job failed, the worker is fine
+            healthy = worker.proc.is_alive()  # the job failed; the worker may be fine
             raise
         finally:
             self.busy -= 1
-            if not healthy:  # timed out, cancelled (its caller left) or broken: replace it
-                worker.kill()
-                worker = _Worker(self.nice)
+            # timed out, cancelled (its caller left) or broken: a fresh one takes its place
+            self._idle.put_nowait(worker if healthy else self._replace(worker))
+
+    def _replace(self, worker: _Worker) -> _Worker:
+        worker.kill()
+        self._all.remove(worker)
+        return self._spawn()
+
+    async def _free_worker(self) -> _Worker:
+        """An idle worker that is ready, within ``wait`` seconds in all."""
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + self.wait
+        try:
+            worker = await asyncio.wait_for(self._idle.get(), self.wait)
+        except TimeoutError:
+            raise TooMany(
+                f"all {self.workers} identification workers are busy (ELAB_IDENT_WORKERS)"
+                f" and none was free within {self.wait:g} s; retry later",
+                retry_after=self.wait,
+            ) from None
+        try:
+            await asyncio.wait_for(worker.until_ready(), max(0.0, deadline - loop.time()))
+        except TimeoutError:
+            self._idle.put_nowait(worker)  # still starting: it stays for the next job
+            raise TooMany(
+                f"the identification worker is still starting and was not ready within "
+                f"{self.wait:g} s (ELAB_IDENT_WAIT); retry shortly",
+                retry_after=self.wait,
+            ) from None
+        except ElabError:
+            self._idle.put_nowait(self._replace(worker))
+            raise
+        except BaseException:  # the caller left while it started
             self._idle.put_nowait(worker)
+            raise
+        return worker
 
     async def _results(self, worker: _Worker, progress: Progress | None) -> Any:
         while True:
@@ -130,8 +187,11 @@ class JobPool:
                 raise body[0]
 
 
-def _serve(conn: Connection, nice: int) -> None:  # pragma: no cover - in the worker process
-    os.nice(nice)  # lower the priority: always allowed
+def _serve(conn: Connection, nice: int, preload: tuple[str, ...]) -> None:  # pragma: no cover
+    for module in preload:  # at the server's priority: a fresh worker is soon ready
+        importlib.import_module(module)
+    os.nice(nice)  # jobs at a lower priority: always allowed
+    conn.send(("ready",))
     while True:
         try:
             fn, args, with_progress = conn.recv()

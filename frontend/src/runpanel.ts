@@ -160,7 +160,11 @@ export class RunPanel {
         fill(this.connEl, state === "open" ? "" : detail ?? state);
         if (state === "reconnecting") this.root.dataset.reconnects = String(Number(this.root.dataset.reconnects ?? 0) + 1);
       },
-      complete: () => {
+      complete: (n) => {
+        if (n < this.ring.end) {
+          this.ring.truncate(n); // streamed but never stored: not part of the run
+          this.plot.dirty();
+        }
         this.windowSel.value = "all"; // the whole recording is here: show it
         this.plot.setWindow(null);
         this.progress();

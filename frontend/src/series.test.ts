@@ -25,6 +25,17 @@ describe("SampleRing", () => {
     expect([ring.start, ring.end, ring.at("y", 100)]).toEqual([100, 102, 100]);
   });
 
+  it("drops the samples past a run's recording", () => {
+    const ring = new SampleRing(["y"], 10);
+    ring.push(0, 25, { y: ramp(0, 25) });
+    ring.truncate(22);
+    expect([ring.start, ring.end, ring.at("y", 21)]).toEqual([15, 22, 21]);
+    ring.truncate(30); // past the end: nothing to drop
+    expect(ring.end).toBe(22);
+    ring.truncate(5); // before the samples held: none stays
+    expect([ring.size, ring.end]).toEqual([0, 5]);
+  });
+
   it("refuses a capacity below one", () => {
     expect(() => new SampleRing(["y"], 0)).toThrow(/capacity/);
   });

@@ -46,6 +46,14 @@ export class SampleRing {
     this.size = Math.min(cap, this.size + n);
   }
 
+  /** Keep only samples before `end` (a run's recording can hold fewer than were streamed:
+   * samples not yet stored when its engine died or its store failed). */
+  truncate(end: number): void {
+    if (end >= this.end) return;
+    this.size = Math.max(0, this.size - (this.end - end));
+    this.end = Math.max(end, 0);
+  }
+
   /** Sample k of a channel (k within [start, end)). */
   at(name: string, k: number): number {
     return this.data[name][k % this.capacity];

@@ -141,10 +141,18 @@ describe("RunStream", () => {
     expect(listener.completed).toBe(30);
     expect(sockets[0].closed).toBe(1000);
 
+    // a recording that holds fewer samples than were streamed (its engine died before
+    // storing them): complete with the recording's count
+    open();
+    sockets[1].deliver({ type: "hello", protocol: "elab.v1", run: run("running", 0), live_seq: 0 });
+    sockets[1].deliver(frame(0, 30));
+    sockets[1].deliver({ type: "status", state: "interrupted", k: 24, error: "the engine died" });
+    expect(listener.completed).toBe(24);
+
     const other = open();
-    sockets[1].drop(4404);
+    sockets[2].drop(4404);
     vi.advanceTimersByTime(10_000);
-    expect(sockets).toHaveLength(2);
+    expect(sockets).toHaveLength(3);
     other.close();
   });
 });

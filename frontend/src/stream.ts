@@ -21,7 +21,8 @@ export interface StreamListener {
   params?(notice: ParamsNotice): void;
   error?(error: ErrorMessage): void;
   connection?(state: "connecting" | "open" | "reconnecting" | "closed", detail?: string): void;
-  /** Every sample of an ended run has arrived. */
+  /** Every sample of an ended run has arrived: `n`, the samples its recording holds (fewer
+   * than were streamed if its engine died or its store failed before storing them). */
   complete?(n: number): void;
 }
 
@@ -196,7 +197,7 @@ export class RunStream {
   private checkComplete(): void {
     if (this.endK === null || this.next < this.endK || this.ended) return;
     this.ended = true;
-    this.listener.complete?.(this.next);
+    this.listener.complete?.(this.endK); // the recording's samples: frames past it were lost
     this.ws?.close(1000, "complete");
     this.listener.connection?.("closed", "run complete");
   }

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import copy
 import os
 import signal
 import socket
@@ -40,13 +41,30 @@ class Server:
         self.port = free_port()
         self.proc: subprocess.Popen[bytes] | None = None
         self.log_path = data.parent / f"{data.name}-server.log"
+        self.log_from = 0  # where this view's part of the log starts (see visitor())
         # the identity of client(): one browser's, given by the server on first contact
         self.cookies = httpx.Cookies()
 
     @property
     def log(self) -> str:
-        """Everything the server has logged so far."""
-        return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
+        """What the server has logged so far (since this view was made)."""
+        if not self.log_path.exists():
+            return ""
+        with self.log_path.open("rb") as f:
+            f.seek(self.log_from)
+            return f.read().decode(errors="replace")
+
+    def visitor(self) -> Server:
+        """The same running server seen by a new visitor: its own identity for
+        ``client()`` and its own part of the log, so that tests sharing one server do not
+        see each other's runs, budgets or log lines. Only the server's owner stops it."""
+        view = copy.copy(self)
+        view.log_from = self.log_path.stat().st_size if self.log_path.exists() else 0
+        view.cookies = httpx.Cookies()
+        r = httpx.get(self.url + "/api/v1/me", timeout=30, cookies=view.cookies)
+        r.raise_for_status()
+        view.cookies.update(r.cookies)
+        return view
 
     @property
     def url(self) -> str:
@@ -73,9 +91,12 @@ class Server:
                 r = httpx.get(self.url + "/api/v1/me", timeout=1, cookies=self.cookies)
                 r.raise_for_status()
                 self.cookies.update(r.cookies)
-                return self
+                # ready: the identification workers have imported what their jobs need
+                if self.status()["ident"]["starting"] == 0:
+                    return self
             except httpx.HTTPError:
-                time.sleep(0.1)
+                pass
+            time.sleep(0.1)
         raise RuntimeError("server did not start in 60 s")
 
     def stop(self) -> None:

@@ -103,9 +103,9 @@ def test_a_finished_run_replays_and_scrubs(page: Page, owner: httpx.Client) -> N
     page.get_by_test_id("replay-play").click()
     page.wait_for_function(f"() => Number(document.querySelector('{POSITION}').value) > 200")
     first = int(scrubber.input_value())
-    page.wait_for_timeout(500)
+    page.wait_for_function(f"() => Number(document.querySelector('{POSITION}').value) > {first}")
     second = int(scrubber.input_value())
-    assert 0 < first < second < len(theta) - 1  # it plays from the start, at 2 × 1 kHz
+    assert 0 < first < second <= len(theta) - 1  # it plays on from the start
     page.get_by_test_id("replay-play").click()  # pause
     paused = int(scrubber.input_value())
     page.wait_for_timeout(400)

@@ -74,7 +74,10 @@ def create_app(settings: Settings | None = None) -> Starlette:
             secure=settings.secure_cookies,
         )
         jobs = JobPool(
-            workers=settings.ident_workers, timeout=settings.ident_timeout, wait=settings.ident_wait
+            workers=settings.ident_workers,
+            timeout=settings.ident_timeout,
+            wait=settings.ident_wait,
+            preload=ident.JOB_MODULES,
         )
         app.state.jobs = jobs
         app.state.ident_slots = ident.IdentSlots(settings.max_ident_per_identity)
@@ -85,8 +88,8 @@ def create_app(settings: Settings | None = None) -> Starlette:
         # held the GIL for ~110 ms on a slow host, stalling every stream at once.
         gc.collect()
         gc.freeze()
+        await jobs.start()  # the workers import while the engine starts
         await manager.start()
-        await jobs.start()
         try:
             yield
         finally:

@@ -36,6 +36,18 @@ from elab.ident import workflow as wf
 from elab.ident.files import Table, read_table
 from elab.jobs import JobPool
 
+# what the identification workers import before they take a job (elab.jobs): the jobs'
+# functions and the estimators they call lazily
+JOB_MODULES = (
+    "elab.api.convert",
+    "elab.ident.files",
+    "elab.ident.nonparametric",
+    "elab.ident.pem",
+    "elab.ident.polynomial",
+    "elab.ident.subspace",
+    "elab.ident.validation",
+)
+
 T = TypeVar("T")
 
 

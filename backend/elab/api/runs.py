@@ -220,9 +220,13 @@ async def server_status(request: Request) -> Response:
     """For operators and benchmarks: is the engine up and keeping up? Its ticks' lateness
     over the last minute and the trend of that lateness (the drift of the runs' clocks);
     whether its writes to the store work."""
-    jobs = request.app.state.jobs
+    jobs, uploads = request.app.state.jobs, request.app.state.uploads
     return ok(
-        server_model(manager(request).status(), s.JobsInfo(workers=jobs.workers, busy=jobs.busy))
+        server_model(
+            manager(request).status(),
+            s.JobsInfo(workers=jobs.workers, busy=jobs.busy, starting=jobs.starting),
+            s.UploadsInfo(receiving=uploads.reading, limit=uploads.limit),
+        )
     )
 
 
@@ -245,7 +249,9 @@ async def health(request: Request) -> Response:
     return ok(s.HealthInfo(status="ok", problems=[]))
 
 
-def server_model(status: dict[str, Any], jobs: s.JobsInfo) -> s.ServerStatus:
+def server_model(
+    status: dict[str, Any], jobs: s.JobsInfo, uploads: s.UploadsInfo
+) -> s.ServerStatus:
     st: EngineStatus = status["engine"]
     h = st.health
     timing = (
@@ -282,6 +288,7 @@ def server_model(status: dict[str, Any], jobs: s.JobsInfo) -> s.ServerStatus:
             pending_bytes=store.pending_bytes,
         ),
         ident=jobs,
+        uploads=uploads,
     )
 
 
@@ -460,23 +467,25 @@ async def get_data(request: Request) -> Response:
     parameter changes); numbers are the shortest decimals that read back exactly. The file
     is streamed as it is written, part by part (a download of any length holds one part of
     the recording in memory), and stops when the client goes away. A live run downloads
-    as recorded so far."""
+    as stored so far (samples reach the store within a quarter of a second): a download
+    never holds a sample that the recording could still lose."""
     fmt = query(request, "format")
     fmt = "csv" if fmt is None else fmt
     if fmt not in FORMATS:
         raise InvalidInput("format", fmt, ", ".join(FORMATS))
     m = manager(request)
     record = await m.get(request.path_params["run_id"], identity(request))
-    read = m.snapshot(record.id)  # at once after: the same moment of a live run
+    stored, read = m.durable(record.id)  # at once after: the same moment of a live run
+    n = record.n_stored if stored is None else min(stored, record.n_stored)
     changes = await m.param_changes(record.id)
     rec = export.Recording(
         _header(record),
         record.Ts,
         0,
-        record.n_stored,
+        n,
         record.channels,
         read,
-        tuple(c for c in changes if c.k < record.n_stored),
+        tuple(c for c in changes if c.k < n),
     )
     names = query(request, "channels")
     rec = export.select(

@@ -381,7 +381,17 @@ class JobsInfo(Model):
     """The identification workers."""
 
     workers: int
-    busy: int
+    busy: int = Field(description="workers running a job")
+    starting: int = Field(
+        description="workers still starting (a fresh one replaces one whose job was stopped)"
+    )
+
+
+class UploadsInfo(Model):
+    """Large bodies (uploads, identification data) being received."""
+
+    receiving: int
+    limit: int = Field(description="ELAB_MAX_UPLOADS: more at once get 429")
 
 
 class ServerStatus(Model):
@@ -391,6 +401,7 @@ class ServerStatus(Model):
     engine: EngineInfo
     store: StoreInfo
     ident: JobsInfo
+    uploads: UploadsInfo
 
 
 class HealthInfo(Model):

@@ -68,6 +68,17 @@ class Changed:
 
 
 @dataclass(frozen=True)
+class Ended:
+    """A run's final record as stored: its state, why it ended so (if not finished), and
+    ``n``, the samples the recording holds. A run is ``finished`` only with every planned
+    sample stored."""
+
+    state: RunState
+    error: str | None
+    n: int
+
+
+@dataclass(frozen=True)
 class StoreHealth:
     """The engine's writes: ``ok``, or failing since ``since`` (unix s) with ``error``;
     ``transient``: being retried (a lock held elsewhere), else failed until someone acts.
@@ -120,13 +131,17 @@ class EngineEvents(Protocol):
         """New samples (already handed to the engine's recorder)."""
 
     def changed(self, engine: str, change: Changed) -> None:
-        """A run paused, resumed or ended."""
+        """A run paused or resumed, or its stepping ended (its end is news once stored)."""
 
     def params(self, engine: str, run_id: str, change: ParamChange) -> None:
         """A run's parameters changed from sample ``change.k`` on."""
 
     def committed(self, engine: str, counts: dict[str, int]) -> None:
         """Samples ``[0, n)`` of each run are in the store."""
+
+    def ended(self, engine: str, run_id: str, ended: Ended) -> None:
+        """How an ended run ends, decided once its samples are committed (or dropped with a
+        failed store): it will not change."""
 
     def stored(self, engine: str, run_id: str) -> None:
         """An ended run's final record is in the store."""

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from elab.engines import wire
-from elab.engines.base import Block, Changed, Health
+from elab.engines.base import Block, Changed, Ended, Health
 from elab.engines.simulation import EngineSettings, SimulationEngine
 from elab.errors import ElabError
 from elab.runtime import return_memory
@@ -129,6 +129,9 @@ class WireEvents:
 
     def committed(self, engine: str, counts: dict[str, int]) -> None:
         self._out.put(wire.frame({"ev": "committed", "counts": counts}))
+
+    def ended(self, engine: str, run_id: str, ended: Ended) -> None:
+        self._out.put(wire.frame({"ev": "ended", "run": run_id, **wire.ended_out(ended)}))
 
     def stored(self, engine: str, run_id: str) -> None:
         self._out.put(wire.frame({"ev": "stored", "run": run_id}))

@@ -263,6 +263,8 @@ class ProcessEngine:
             events.committed(self.id, h["counts"])
         elif ev == "stored":
             events.stored(self.id, h["run"])
+        elif ev == "ended":
+            events.ended(self.id, h["run"], wire.ended_in(h))
         elif ev == "health":
             self._health, self._beat = wire.health_in(h), time.monotonic()
             events.health(self.id, self._health)

@@ -13,6 +13,13 @@ engine fails its live runs with the reason), samples not yet committed are
 dropped — the recordings keep everything committed before — and the changes
 still queued (the runs' final states) are retried every second, as is a probe
 write when nothing is queued, until the store works again.
+
+A run's end is a step of the recording: its final state is written only after every
+sample it produced is committed, and a run that ends with fewer samples committed than
+it produced (the store failed meanwhile) is recorded as such — ``finished`` becomes
+``failed`` with the count and the store's error. ``on_ended`` hears that decision
+(which cannot change: the samples are committed, or dropped with a failed store),
+``on_stored`` that the record holds it (for a failed store, once it works again).
 """
 
 from __future__ import annotations
@@ -22,12 +29,12 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.engines.base import Block, StoreHealth
+from elab.engines.base import Block, Ended, StoreHealth
 from elab.errors import ElabError
 from elab.lifecycle import RunState
 from elab.store.base import ParamChange, RunStore, StoreError
@@ -57,6 +64,8 @@ class _Status:
     error: str | None
     final: bool
     compute: dict[str, float | int] | None = None
+    k: int | None = None  # samples the run produced, for its end
+    ended: Ended | None = None  # its end as decided (the samples committed), for the store
 
 
 @dataclass(frozen=True)
@@ -76,6 +85,7 @@ class Recorder:
         retry_for: float = 30.0,
         max_pending: int = 256 << 20,
         on_committed: Callable[[dict[str, int]], None] = lambda counts: None,
+        on_ended: Callable[[str, Ended], None] = lambda run_id, ended: None,
         on_stored: Callable[[str], None] = lambda run_id: None,
         on_fault: Callable[[StoreHealth], None] = lambda health: None,
     ) -> None:
@@ -84,6 +94,7 @@ class Recorder:
         self.retry_for = retry_for
         self.max_pending = max_pending
         self._on_committed = on_committed
+        self._on_ended = on_ended
         self._on_stored = on_stored
         self._on_fault = on_fault
         self._lock = threading.Lock()
@@ -136,11 +147,15 @@ class Recorder:
         state: RunState,
         error: str | None = None,
         compute: dict[str, float | int] | None = None,
+        k: int | None = None,
     ) -> None:
         """Record a change of state (``compute``: a code controller's times, with its end);
-        ``state`` final: the run's last write (its samples not yet committed go first)."""
+        ``state`` final: the run's last write, after its ``k`` samples (every block
+        appended before this call) are committed."""
         with self._lock:
-            self._ops.append(_Status(run_id, state, error, final=not state.live, compute=compute))
+            self._ops.append(
+                _Status(run_id, state, error, final=not state.live, compute=compute, k=k)
+            )
             if self.failed and not state.live:
                 self._sort_blocks()
                 tail = self._tails.get(run_id)
@@ -208,6 +223,12 @@ class Recorder:
                 if not self._ops:
                     return
                 op = self._ops[0]
+            if isinstance(op, _Status) and op.final and op.ended is None:
+                op = self._decide_end(op)  # its samples first (may raise StoreError)
+                with self._lock:
+                    self._ops[0] = op
+                assert op.ended is not None
+                self._on_ended(op.run_id, op.ended)
             try:
                 if isinstance(op, _Param):
                     self.store.add_param_change(op.run_id, op.change)
@@ -229,6 +250,30 @@ class Recorder:
                     self._tails.pop(op.run_id, None)
             if isinstance(op, _Status) and op.final:
                 self._on_stored(op.run_id)
+
+    def _decide_end(self, op: _Status) -> _Status:
+        """Commit the ending run's samples still waiting (raises :class:`StoreError`), then
+        decide its end as the store will hold it: ``finished`` only with every sample it
+        produced committed; otherwise ``failed``, or its own end, saying how many were.
+        Decided once: a store that then fails keeps the decision for its retries."""
+        with self._lock:
+            self._sort_blocks()
+            tail = self._tails.get(op.run_id)
+            waiting = tail is not None and bool(tail.chunks)
+        if waiting:
+            self._flush_samples()
+        with self._lock:
+            tail = self._tails.get(op.run_id)
+            stored = tail.stored if tail is not None else (op.k or 0)
+        if op.k is not None and stored < op.k:
+            lost = f"only {stored} of its {op.k} samples could be stored"
+            if self.health.error:
+                lost += f" (the store: {self.health.error})"
+            if op.state is RunState.FINISHED:
+                op = replace(op, state=RunState.FAILED, error=lost)
+            else:
+                op = replace(op, error=f"{op.error}; {lost}" if op.error else lost)
+        return replace(op, ended=Ended(op.state, op.error, stored))
 
     def _loop(self) -> None:
         delay = self.interval

@@ -93,6 +93,7 @@ class SimulationEngine:
             retry_for=settings.retry_for,
             max_pending=settings.max_pending,
             on_committed=lambda counts: events.committed(self.id, counts),
+            on_ended=lambda run_id, ended: events.ended(self.id, run_id, ended),
             on_stored=lambda run_id: events.stored(self.id, run_id),
             on_fault=self._on_fault,
         )
@@ -276,7 +277,7 @@ class SimulationEngine:
         if blocks:
             self._events.blocks(self.id, blocks)
         for c in changes:
-            self.recorder.status(c.run_id, c.state, c.error, c.compute)
+            self.recorder.status(c.run_id, c.state, c.error, c.compute, c.k)
             if not c.state.live:
                 run = self._runs.pop(c.run_id, None)
                 if run is not None and isinstance(run.spec.law, CodeController):

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from elab import laws
-from elab.engines.base import Block, Changed, Health, RunOrder, StoreHealth
+from elab.engines.base import Block, Changed, Ended, Health, RunOrder, StoreHealth
 from elab.errors import Conflict, ElabError, InvalidInput, NotFound, TooMany, Unavailable
 from elab.lifecycle import RunState
 from elab.plants import get_plant
@@ -170,6 +170,14 @@ def changed_out(change: Changed) -> dict[str, Any]:
 
 def changed_in(h: dict[str, Any]) -> Changed:
     return Changed(h["run"], RunState(h["state"]), h["k"], h["error"], h.get("compute"))
+
+
+def ended_out(ended: Ended) -> dict[str, Any]:
+    return {"state": ended.state.value, "error": ended.error, "n": ended.n}
+
+
+def ended_in(h: dict[str, Any]) -> Ended:
+    return Ended(RunState(h["state"]), h["error"], h["n"])
 
 
 def health_out(health: Health) -> dict[str, Any]:

@@ -6,7 +6,9 @@ it through :class:`~elab.engines.base.EngineEvents`: new samples go to the
 run's channel (and to a short in-memory tail of what the store has not
 committed yet, so a watcher catching up reads one consecutive recording),
 state changes go to its watchers. A run the engine has ended stays here until
-the engine reports its final record stored; after that the store answers.
+the engine reports its final record stored, and only then do its watchers and
+clients hear how it ended, with the samples the recording holds (a run is
+``finished`` only with all of them stored); after that the store answers.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elab.access import Identity, may_view, require_control
-from elab.engines.base import Action, Block, Changed, Engine, Health, Pace, RunOrder
+from elab.engines.base import Action, Block, Changed, Ended, Engine, Health, Pace, RunOrder
 from elab.errors import Conflict, ElabError, NotFound, TooMany
 from elab.laws import ControlLaw
 from elab.lifecycle import RunState
@@ -40,6 +42,7 @@ log = logging.getLogger(__name__)
 
 Array = NDArray[np.float64]
 Reader = Callable[..., Array]  # (k0, k1=None) -> samples [k0, k1)
+END_WAIT = 10.0  # s: how long a stop waits for the run's end to be stored before answering
 
 
 @dataclass(eq=False)
@@ -50,7 +53,8 @@ class _Run:
     engine: str
     channel: RunChannel
     state: RunState = RunState.RUNNING
-    final_k: int = 0  # a finished or stopped run's samples (the last may be on their way)
+    ending: bool = False  # its engine ended it; how is decided once its samples are stored
+    final_k: int = 0  # an ended run's samples in the store
     seen: float = field(default_factory=time.monotonic)  # its owner was last connected
     idle_paused: bool = False  # paused because nobody watched it
     error: str | None = None
@@ -60,7 +64,8 @@ class _Run:
     changes: list[ParamChange] = field(default_factory=list)
     filling: list[tuple[int, Array]] | None = None  # blocks held while a gap is read back
     end_status: bytes | None = None  # the final status, held back while filling
-    stored: bool = False
+    settled: asyncio.Event = field(default_factory=asyncio.Event)  # its end is decided
+    stored: bool = False  # its final record is in the store
     moved: asyncio.Event = field(default_factory=asyncio.Event)  # committed grew / it ended
     forgotten: asyncio.Event = field(default_factory=asyncio.Event)  # stored; the store answers
 
@@ -68,7 +73,7 @@ class _Run:
         return replace(
             self.record,
             status=self.state.value,
-            n_stored=max(self.next_k, self.final_k),  # an ended run: all its samples
+            n_stored=self.next_k if self.state.live else self.final_k,
             error=self.error or self.record.error,
         )
 
@@ -174,6 +179,16 @@ class RunManager:
     async def read(self, run_id: str, k0: int = 0, k1: int | None = None) -> Array:
         """Samples ``[k0, k1)`` recorded so far (``None``: to the end), stored or not yet."""
         return await asyncio.to_thread(self.snapshot(run_id), k0, k1)
+
+    def durable(self, run_id: str) -> tuple[int | None, Reader]:
+        """What a download gives: the samples in the store now — ``n``, or ``None`` for a run
+        this process no longer follows (all of it) — and a reader of them. A sample streamed
+        but not yet stored could still be lost (its engine killed, its store failed)."""
+        store, run = self.store, self._runs.get(run_id)
+        if run is None:
+            return None, lambda k0, k1=None: store.read(run_id, k0, k1)
+        n = run.committed
+        return n, lambda k0, k1=None: store.read(run_id, k0, n if k1 is None else min(k1, n))
 
     def snapshot(self, run_id: str) -> Reader:
         """A reader of the recording as it is now, callable from any thread: ``read(k0, k1)``
@@ -295,13 +310,23 @@ class RunManager:
         run = self._runs.get(run_id)
         if run is not None:  # someone who may control it is there
             run.idle_paused, run.seen = False, time.monotonic()
+            if action == "stop":
+                await self._settle(run)  # answer with its end as stored
         return await self.get(run_id)
+
+    async def _settle(self, run: _Run) -> None:
+        """Until the end of a run its engine ended is decided (its samples stored), for at
+        most ``END_WAIT`` s (a store that stalls longer: the answer says it is live yet)."""
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(run.settled.wait(), END_WAIT)
 
     async def delete(self, run_id: str, who: Identity) -> None:
         """Delete an ended run with its recording, as its owner or an instructor."""
         record = await self.get(run_id, who)
         require_control(who, record.owner, f"run {run_id}", "delete")
         run = self._runs.get(run_id)
+        if run is not None and run.ending:
+            await self._settle(run)
         if run is not None and run.state.live:
             raise Conflict(f"run {run_id} is {record.status}: stop it before deleting it")
         if run is not None:  # just ended: its last record is on its way to the store
@@ -342,6 +367,8 @@ class RunManager:
             await self.engine.control(run_id, action, reason)
         except Conflict:
             run = self._runs.get(run_id)
+            if run is not None and run.ending:
+                await self._settle(run)
             if run is None or not run.state.live:  # it ended meanwhile
                 record = await self.get(run_id)
                 raise Conflict(
@@ -366,6 +393,8 @@ class RunManager:
 
     async def _require_live(self, run_id: str) -> None:
         run = self._runs.get(run_id)
+        if run is not None and run.ending:
+            await self._settle(run)
         if run is None or not run.state.live:
             record = await self.get(run_id)  # NotFound for unknown ids
             raise Conflict(f"run {run_id} has ended ({record.status}): it no longer steps")
@@ -426,19 +455,12 @@ class RunManager:
         run = self._runs.get(change.run_id)
         if run is None:
             return
+        if not change.state.live:  # said when its record is stored: stored()
+            run.ending = True
+            return
         run.state = change.state
         run.error = change.error  # while paused: who paused it or why, for late joiners
-        if change.state in (RunState.FINISHED, RunState.STOPPED):  # every sample recorded
-            run.final_k = change.k
-        status = self.codec.status(change.state.value, run.next_k, change.error)
-        if change.state.live:
-            run.channel.control(status)
-            return
-        run.moved.set()
-        if run.filling is not None:
-            run.end_status = status  # sent once the gap is filled
-        else:
-            self._end(run, status)
+        run.channel.control(self.codec.status(change.state.value, run.next_k, change.error))
 
     def params(self, engine: str, run_id: str, change: ParamChange) -> None:
         run = self._runs.get(run_id)
@@ -457,30 +479,54 @@ class RunManager:
             run.moved.set()
             run.channel.moved()
 
-    def stored(self, engine: str, run_id: str) -> None:
+    def ended(self, engine: str, run_id: str, ended: Ended) -> None:
+        """The run's end as decided with its samples stored: to its watchers, with how
+        many the recording holds."""
         run = self._runs.get(run_id)
-        if run is not None:
-            run.stored = True
-            if run.filling is None:
-                self._forget(run)
+        if run is None or run.settled.is_set():
+            return
+        run.state, run.error, run.final_k = ended.state, ended.error, ended.n
+        run.settled.set()
+        run.moved.set()
+        status = self.codec.status(ended.state.value, ended.n, ended.error)
+        if run.filling is not None:
+            run.end_status = status  # sent once the gap is filled
+        else:
+            self._end(run, status)
+
+    def stored(self, engine: str, run_id: str) -> None:
+        """The run's final record is in the store: from now on the store answers."""
+        run = self._runs.get(run_id)
+        if run is None:
+            return
+        run.stored = True
+        if run.filling is None and run.settled.is_set():
+            self._forget(run)
 
     def health(self, engine: str, health: Health) -> None:
         pass  # the engine keeps its last heartbeat; GET /server and /health read it there
 
     def lost(self, engine: str, reason: str) -> None:
-        """The engine died: its live runs are interrupted, with what it had committed."""
-        lost = [r for r in self._runs.values() if r.engine == engine and r.state.live]
+        """The engine died: its runs not yet stored are interrupted, with what it had
+        committed (their watchers hear it with the store's count)."""
+        lost = [r for r in self._runs.values() if r.engine == engine and not r.stored]
         for run in lost:
-            self.changed(engine, Changed(run.record.id, RunState.INTERRUPTED, run.next_k, reason))
+            run.ending = True
         self._spawn(self._store_lost(engine, reason, lost))
 
     async def _store_lost(self, engine: str, reason: str, runs: list[_Run]) -> None:
         try:
             await asyncio.to_thread(self.store.mark_interrupted, engine, reason)
+            records = [await asyncio.to_thread(self.store.get_run, r.record.id) for r in runs]
+            ends = [Ended(RunState(r.status), r.error, r.n_stored) for r in records]
         except ElabError:  # the engine marks them when it starts again; the log says why
             log.exception("could not mark the runs of engine %s interrupted", engine)
+            ends = [Ended(RunState.INTERRUPTED, reason, r.committed) for r in runs]
+            for run, ended in zip(runs, ends, strict=True):
+                self.ended(engine, run.record.id, ended)
             return
-        for run in runs:
+        for run, ended in zip(runs, ends, strict=True):
+            self.ended(engine, run.record.id, ended)
             self.stored(engine, run.record.id)
 
     # -- runs nobody watches, runs past their retention -----------------------------
@@ -500,7 +546,7 @@ class RunManager:
 
     def _look_after(self, run: _Run, now: float) -> None:
         owner = run.record.owner
-        if not run.state.live or run.record.spec.get("pace") == "fast":
+        if not run.state.live or run.ending or run.record.spec.get("pace") == "fast":
             return
         if owner and any(w.who == owner for w in run.channel.watchers):
             run.seen = now

@@ -13,7 +13,12 @@ export interface RowActions {
   failed(message: string): void;
 }
 
+/** The table in a box that scrolls sideways on a narrow screen (the page itself never does). */
 export function runTable(runs: RunSummaryInfo[], actions?: RowActions): HTMLElement {
+  return h("div.table-scroll", table(runs, actions));
+}
+
+function table(runs: RunSummaryInfo[], actions?: RowActions): HTMLElement {
   return h(
     "table.runs",
     h("thead", h("tr", h("th", "Run"), h("th", "Plant"), h("th", "Experiment"), h("th", "Owner"), h("th", "Status"), h("th", "Length"), h("th", "Started"), actions ? h("th", h("span.visually-hidden", "Actions")) : null)),

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# `make test` after the install: the static checks (lint, types, the app's unit tests) in
+# the background while pytest runs on both cores, their output after pytest's. Fails if
+# either fails; pytest's "no tests collected" (exit code 5) is a failure too.
+set -u
+cd "$(dirname "$0")/.."
+checks=$(mktemp)
+( make --no-print-directory lint typecheck frontend-test >"$checks" 2>&1; echo $? >"$checks.rc" ) &
+.venv/bin/python -m pytest -n 2 --dist loadscope "$@"
+tests=$?
+wait
+echo "== lint, typecheck, frontend tests =="
+cat "$checks"
+static=$(cat "$checks.rc")
+rm -f "$checks" "$checks.rc"
+if [ "$static" -ne 0 ]; then echo "make test: the static checks failed (see above)"; exit "$static"; fi
+if [ "$tests" -ne 0 ]; then echo "make test: pytest failed (exit code $tests)"; exit "$tests"; fi
+echo "make test: all passed"
