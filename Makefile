@@ -9,7 +9,7 @@ APP    := backend/elab/api/static/index.html
 APP_SRC := $(shell find frontend/src frontend/index.html frontend/vite.config.ts \
                         frontend/tsconfig.json -type f 2>/dev/null)
 
-.PHONY: install run test lint typecheck unit frontend-test chromium test-debs bench docs protocol \
+.PHONY: install run test ci lint typecheck unit frontend-test chromium test-debs bench docs protocol \
         screenshots clean
 
 install: $(STAMP) $(NODE_STAMP) $(APP)
@@ -48,10 +48,13 @@ chromium: test-debs
 run: install
 	$(VENV)/bin/elab serve --host 127.0.0.1 --port 8000
 
-# The house rules, held by tools: ruff (lint and format), the import layers (pyproject's
-# [tool.importlinter]: nothing below api speaks HTTP, pydantic or msgpack; dependencies
-# point inward), ESLint on the app (no any, exhaustive switches, no floating promises).
+# The house rules, held by tools: every import declared in pyproject.toml
+# (scripts/check_deps.py: nothing relies on a package left on the machine), ruff (lint and
+# format), the import layers (pyproject's [tool.importlinter]: nothing below api speaks
+# HTTP, pydantic or msgpack; dependencies point inward), ESLint on the app (no any,
+# exhaustive switches, no floating promises).
 lint: install $(LINT_STAMP)
+	$(PY) scripts/check_deps.py
 	$(VENV)/bin/ruff check backend tests scripts
 	$(VENV)/bin/ruff format --check backend tests scripts
 	cd backend && ../$(VENV)/bin/lint-imports --config ../pyproject.toml
@@ -71,6 +74,13 @@ frontend-test: install
 # Everything, the static checks beside pytest (scripts/test.sh).
 test: install test-debs $(LINT_STAMP)
 	scripts/test.sh
+
+# What CI does, as a newcomer would: a clean clone of the last commit in build/ci, its own
+# virtualenv and node_modules installed from nothing, then make test there.
+ci:
+	rm -rf build/ci
+	git clone --quiet --no-hardlinks . build/ci
+	$(MAKE) -C build/ci test
 
 bench: install chromium
 	$(PY) tests/bench/run.py
