@@ -212,13 +212,14 @@ class Watcher:
                 return msg
 
     def assemble(self, n: int) -> dict[str, np.ndarray]:
-        """Every channel's samples 0..n-1 from all frames received (overlaps must agree);
-        asserts none is missing."""
+        """Every channel's samples 0..n-1 from all frames received (overlaps must agree;
+        samples past n are left out); asserts none is missing."""
         names = [c["name"] for c in self.hello["run"]["channels"]]
         out = {name: np.full(n, np.nan, dtype="<f4") for name in names}
         for k0, cols in self.columns.items():
             for name, v in cols.items():
                 seg = out[name][k0 : k0 + v.size]
+                v = v[: seg.size]
                 seen = ~np.isnan(seg)
                 assert np.array_equal(seg[seen], v[seen]), f"frames disagree near sample {k0}"
                 seg[:] = v
