@@ -134,13 +134,8 @@ async def upload_controller(request: Request) -> Response:
     with request.app.state.pending.hold("controllers", who.id) as others:
         have = await asyncio.to_thread(store(request).count_controllers, who.id)
         within_budget(have + others, limit, "controllers", "ELAB_MAX_CONTROLLERS_PER_IDENTITY")
-        code = request.app.state.settings.engine
         parsed, report = await asyncio.to_thread(
-            _read_and_check,
-            data,
-            req.format,
-            plant,
-            CodeSettings(code.code_deadline, code.code_misses),
+            _read_and_check, data, req.format, plant, request.app.state.settings.engine.code
         )
         stored = StoredController(
             id="c-" + secrets.token_hex(6),

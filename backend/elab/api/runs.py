@@ -254,24 +254,12 @@ def server_model(
 ) -> s.ServerStatus:
     st: EngineStatus = status["engine"]
     h = st.health
-    timing = (
-        h.timing
-        if h is not None
-        else {
-            "ticks": 0,
-            "tick_s": 0.0,
-            "window_s": 0.0,
-            "late_p50_ms": 0.0,
-            "late_p99_ms": 0.0,
-            "late_max_ms": 0.0,
-            "drift_ms_per_min": 0.0,
-        }
-    )
+    timing = s.StepperTiming() if h is None else s.StepperTiming.model_validate(h.timing)
     store = h.store if h is not None else StoreHealth()
     return s.ServerStatus(
         live_runs=status["live_runs"],
         watchers=status["watchers"],
-        stepper=s.StepperTiming.model_validate(timing),
+        stepper=timing,
         engine=s.EngineInfo(
             id=st.engine,
             up=st.up,

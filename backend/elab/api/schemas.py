@@ -340,16 +340,32 @@ class DemoInfo(Model):
 
 
 class StepperTiming(Model):
-    """The stepping thread over the last minute of ticks."""
+    """The stepping thread over the last minute of ticks, and the runs with Python
+    controllers, each stepped by a thread of its own."""
 
-    ticks: int = Field(description="ticks since the server started")
-    tick_s: float = Field(description="tick period (s)")
-    window_s: float = Field(description="time spanned by the ticks below (s)")
-    late_p50_ms: float = Field(description="how late a tick began: median (ms)")
-    late_p99_ms: float
-    late_max_ms: float
+    ticks: int = Field(default=0, description="ticks since the server started")
+    tick_s: float = Field(default=0.0, description="tick period (s)")
+    window_s: float = Field(default=0.0, description="time spanned by the ticks below (s)")
+    late_p50_ms: float = Field(default=0.0, description="how late a tick began: median (ms)")
+    late_p99_ms: float = 0.0
+    late_max_ms: float = 0.0
     drift_ms_per_min: float = Field(
-        description="trend of that lateness (ms per minute): the drift of real-time runs' clocks"
+        default=0.0,
+        description="trend of that lateness (ms per minute): the drift of real-time runs' clocks",
+    )
+    tick_rate: float = Field(
+        default=0.0, description="ticks per second over the window (the plan: 1 / tick_s)"
+    )
+    clock_lag_max_ms: float = Field(
+        default=0.0,
+        description="how far the most belated real-time run's clock fell behind the wall clock "
+        "after a tick (ms): a tick that overran shows here even if the next is on time",
+    )
+    code_runs: int = Field(default=0, description="live runs with Python controllers")
+    code_clock_lag_max_ms: float = Field(
+        default=0.0,
+        description="the same for the runs with Python controllers: a slow controller delays "
+        "its own run's clock, nobody else's",
     )
 
 

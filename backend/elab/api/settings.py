@@ -32,7 +32,8 @@ class Settings:
     ``ELAB_STORE_RETRY`` s a busy store is retried, ``ELAB_STORE_PENDING`` bytes that may
     wait for it, Python controllers: ``ELAB_MAX_CODE_RUNS`` live at once (8),
     ``ELAB_CODE_DEADLINE`` s per step (0.0005), ``ELAB_CODE_MISSES`` late steps in a row
-    that fail a run (10)), its real-time priority (``ELAB_ENGINE_REALTIME``, 10: the stepping thread
+    that fail a run (10), ``ELAB_CODE_BUDGET`` the share of a run's time a controller may
+    compute in all (0.5)), its real-time priority (``ELAB_ENGINE_REALTIME``, 10: the stepping thread
     SCHED_FIFO at 10 and the rest of the engine process at 9, where allowed, else ordinary;
     0: ordinary), its process's ``engine_nice`` when not real-time (``ELAB_ENGINE_NICE``,
     0), its queue to the web process ``engine_queue`` bytes (``ELAB_ENGINE_QUEUE``, 64 MiB),
@@ -114,6 +115,7 @@ class Settings:
             max_code_runs=_int(env, "ELAB_MAX_CODE_RUNS", e.max_code_runs),
             code_deadline=_float(env, "ELAB_CODE_DEADLINE", e.code_deadline),
             code_misses=_int(env, "ELAB_CODE_MISSES", e.code_misses),
+            code_budget=_float(env, "ELAB_CODE_BUDGET", e.code_budget),
         )
         return cls(
             data_dir=Path(env.get("ELAB_DATA", "data")),

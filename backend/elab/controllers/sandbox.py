@@ -52,6 +52,7 @@ INSIDE = Path(__file__).with_name("_inside.py")
 MAX_CODE = 64 * 1024
 ANSWER = struct.Struct("<qdd")  # k, u, the step's compute time inside (s)
 SPIN = 50e-6  # s an answer is polled for before the process sleeps in select()
+BUDGET_GRACE = 0.1  # s of compute a controller may take at its start beyond its budget
 RT_SOFT_US = 500_000  # µs a real-time controller process may run without waiting
 
 
@@ -74,12 +75,14 @@ class StepTimes:
         self.misses = 0
         self.slow = 0
         self.steps = 0
+        self.compute = 0.0  # s: the controller's own compute time, all steps together
         self._buf = np.zeros((2, 4096))
         self._n = 0
         self._counts = np.zeros((2, self.EDGES.size + 1), np.int64)
         self._max = np.zeros(2)
 
     def add(self, compute: float, round_trip: float) -> None:
+        self.compute += compute
         buf, n = self._buf, self._n
         buf[0, n], buf[1, n] = compute, round_trip
         self._n = n + 1
@@ -154,6 +157,7 @@ class Sandboxed:
         filename: str = "controller.py",
         hold: bool = True,
         patience: float = 1.0,
+        budget: float | None = None,
     ) -> None:
         why = available()
         if why is not None:
@@ -165,6 +169,7 @@ class Sandboxed:
         self.max_misses = max_misses
         self.hold = hold
         self.patience = patience
+        self.budget = budget
         self.times = StepTimes()
         self._k = 0
         self._u = 0.0
@@ -253,6 +258,14 @@ class Sandboxed:
                     f"{self.deadline * 1e3:g} ms {self._misses} times in a row (at t = {t:g} "
                     f"s; the last took {got[2] * 1e3:.3g} ms): too slow for this sample time"
                 )
+        if self.budget is not None and self.times.compute > self.budget * t + BUDGET_GRACE:
+            self.close()
+            raise ControllerFailed(
+                f"the controller computed for {self.times.compute:.3g} s in the first "
+                f"{t:.3g} s of its run, more than its budget of {self.budget:.0%} of the "
+                f"run's time (after a start of {BUDGET_GRACE:g} s; ELAB_CODE_BUDGET): too "
+                "slow for this sample time"
+            )
         self._u = got[1]
         return self._u
 

@@ -39,10 +39,13 @@ LATE_SHARE = 0.001  # steps slower than the deadline past this share are a warni
 class CodeSettings:
     """``deadline``: s a step may take; ``max_misses``: steps in a row whose own compute
     time passed it that fail the run (a simulation waits for a late answer, so a busy
-    machine never changes the samples or fails a run; the rig will hold the last u)."""
+    machine never changes the samples or fails a run; the rig will hold the last u);
+    ``budget``: the share of the run's time the controller may compute in all (a
+    controller slow in 9 steps of 10 never misses 10 in a row, but passes this)."""
 
     deadline: float = 0.5e-3
     max_misses: int = 10
+    budget: float = 0.5
     # s a simulation waits for one answer before the controller fails: a stalled
     # controller holds the engine's stepping thread that long (once: then its run fails)
     patience: float = 0.2
@@ -92,6 +95,7 @@ class CodedRun:
             filename=law.name,
             hold=False,  # a simulated plant waits: the samples never depend on the load
             patience=settings.patience,
+            budget=settings.budget,
         )
 
     @property

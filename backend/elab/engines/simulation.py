@@ -50,7 +50,8 @@ class EngineSettings:
     ``max_pending``: bytes of samples that may wait for a busy store; ``realtime``: the
     stepping thread's real-time priority (SCHED_FIFO; 0: none). Code controllers:
     ``max_code_runs`` live at once, ``code_deadline`` s per step before the last u is held,
-    ``code_misses`` late steps in a row that fail the run."""
+    ``code_misses`` late steps in a row that fail the run, ``code_budget`` the share of the
+    run's time it may compute in all."""
 
     tick: float = 0.02
     flush_interval: float = 0.25
@@ -60,6 +61,12 @@ class EngineSettings:
     max_code_runs: int = 8
     code_deadline: float = 0.5e-3
     code_misses: int = 10
+    code_budget: float = 0.5
+
+    @property
+    def code(self) -> CodeSettings:
+        """What a Python controller may take (its runs and its upload trial)."""
+        return CodeSettings(self.code_deadline, self.code_misses, self.code_budget)
 
 
 def channels_of(run: CompiledRun) -> tuple[tuple[str, str], ...]:
@@ -97,9 +104,12 @@ class SimulationEngine:
             on_stored=lambda run_id: events.stored(self.id, run_id),
             on_fault=self._on_fault,
         )
+        self._backlog = backlog
         self.stepper = Stepper(
             self._on_tick, tick=settings.tick, backlog=backlog, realtime=settings.realtime
         )
+        # runs with code controllers, each stepped by a stepper (a thread) of its own
+        self._coders: dict[str, Stepper] = {}
         self._runs: dict[str, CompiledRun] = {}  # live runs as last changed
         self._changing = threading.Lock()
         self._code_runs = 0  # live runs with a code controller, and those starting
@@ -117,12 +127,20 @@ class SimulationEngine:
 
     def close(self, reason: str = "server shut down") -> None:
         """Interrupt the live runs with ``reason`` and store everything."""
-        try:
-            self.stepper.end(None, RunState.INTERRUPTED, reason).result(timeout=10)
-        except TimeoutError:
-            log.error("the stepping thread did not answer; closing anyway")
-        self.stepper.close()
+        for stepper in self._steppers():
+            try:
+                stepper.end(None, RunState.INTERRUPTED, reason).result(timeout=10)
+            except (TimeoutError, Conflict):
+                log.error("a stepping thread did not answer; closing anyway")
+            stepper.close()
         self.recorder.close()
+
+    def _steppers(self) -> list[Stepper]:
+        """The shared stepper and those of the live code runs."""
+        return [self.stepper, *list(self._coders.values())]
+
+    def _stepper_of(self, run_id: str) -> Stepper:
+        return self._coders.get(run_id, self.stepper)
 
     # -- commands ---------------------------------------------------------------------
     def add(self, order: RunOrder) -> RunRecord:
@@ -168,7 +186,18 @@ class SimulationEngine:
         self.recorder.open(record.id, len(record.channels))
         self._runs[record.id] = run
         self._events.started(self.id, record)
-        self.stepper.add(record.id, run, order.pace, t_origin=origin, coded=coded)
+        stepper = self.stepper
+        if coded is not None:  # its own thread: a slow controller delays only its run
+            stepper = Stepper(
+                self._on_tick,
+                tick=self.settings.tick,
+                backlog=self._backlog,
+                lone=True,
+                ordinary=True,
+            )
+            self._coders[record.id] = stepper
+            stepper.start()
+        stepper.add(record.id, run, order.pace, t_origin=origin, coded=coded)
         return record
 
     def _start_coded(self, run: CompiledRun) -> CodedRun:
@@ -185,7 +214,7 @@ class SimulationEngine:
         try:
             return CodedRun(
                 run,
-                CodeSettings(self.settings.code_deadline, self.settings.code_misses),
+                self.settings.code,
             )
         except ControllerFailed as exc:
             self._ended_coded()
@@ -201,7 +230,7 @@ class SimulationEngine:
             self._code_runs -= 1
 
     def control(self, run_id: str, action: Action, reason: str | None = None) -> Future[int]:
-        return self.stepper.control(run_id, action, reason)
+        return self._stepper_of(run_id).control(run_id, action, reason)
 
     def replace(
         self,
@@ -236,9 +265,11 @@ class SimulationEngine:
                     "controller state size cannot change mid-run); start a new "
                     "run instead",
                 )
-            k = self.stepper.replace(
-                run_id, run, controller=law is not None, signals=reference is not None
-            ).result()
+            k = (
+                self._stepper_of(run_id)
+                .replace(run_id, run, controller=law is not None, signals=reference is not None)
+                .result()
+            )
             self._runs[run_id] = run
         change = ParamChange(k=k, params=params, at=time.time())
         self.recorder.param(run_id, change)
@@ -247,9 +278,10 @@ class SimulationEngine:
 
     # -- health ---------------------------------------------------------------------
     def health(self) -> Health:
-        """Live runs, the stepping thread's timing, the store, and whether both threads are
-        alive and working (the stepper began a tick within a second, the writer finished a
-        try within its longest wait)."""
+        """Live runs, the stepping threads' timing (the shared one's, and how far the code
+        runs' clocks lag), the store, and whether both shared threads are alive and working
+        (the stepper began a tick within a second, the writer finished a try within its
+        longest wait)."""
         now = time.monotonic()
         quiet = now - self.stepper.last_tick
         stepping = self.stepper.alive and quiet < max(1.0, 10 * self.stepper.tick)
@@ -259,11 +291,15 @@ class SimulationEngine:
                 ok=False, error="the writer thread is not working", since=store.since or time.time()
             )
         store = replace(store, pending_bytes=self.recorder.pending_bytes())
+        timing = self.stepper.timing()
+        coders = [c.timing() for c in list(self._coders.values())]
+        timing["code_runs"] = len(coders)
+        timing["code_clock_lag_max_ms"] = max((c["clock_lag_max_ms"] for c in coders), default=0.0)
         return Health(
             engine=self.id,
             pid=os.getpid(),
-            live_runs=self.stepper.live_count,
-            timing=self.stepper.timing(),
+            live_runs=self.stepper.live_count + len(coders),
+            timing=timing,
             store=store,
             stepping=stepping,
             at=time.time(),
@@ -280,6 +316,7 @@ class SimulationEngine:
             self.recorder.status(c.run_id, c.state, c.error, c.compute, c.k)
             if not c.state.live:
                 run = self._runs.pop(c.run_id, None)
+                self._coders.pop(c.run_id, None)  # its thread ends by itself
                 if run is not None and isinstance(run.spec.law, CodeController):
                     self._ended_coded()
             self._events.changed(self.id, c)
@@ -289,11 +326,13 @@ class SimulationEngine:
         out first, so whoever sees a run fail for it already sees the store failed."""
         self._events.health(self.id, self.health())
         if not health.ok and not health.transient:
-            self.stepper.end(
-                None,
-                RunState.FAILED,
-                f"storage failed: {health.error}; the recording keeps the samples stored before",
-            )
+            for stepper in self._steppers():
+                stepper.end(
+                    None,
+                    RunState.FAILED,
+                    f"storage failed: {health.error}; the recording keeps the samples stored "
+                    "before",
+                )
 
 
 def _warm() -> None:

@@ -8,10 +8,13 @@ samples due at the tick's scheduled time (sample ``k`` is due at
 not change which samples a tick holds) and each fast run by a block, then hands
 the new samples and the runs that ended to ``on_tick`` in one call.
 
-A run whose controller is code (:mod:`elab.engines.coded`) keeps a slot of the batch (its
-place in the timetable) but is stepped by itself, sample by sample, asking its sandboxed
-controller for each u; a fast one by at most ``code_block`` samples a pass, so it cannot
-hold the real-time runs back.
+A run whose controller is code (:mod:`elab.engines.coded`) gets a stepper of its own
+(``lone``: its thread ends with the run; ``ordinary``: not real-time), in which it keeps a
+slot of the batch (its place in the timetable) but is stepped by itself, sample by sample,
+asking its sandboxed controller for each u, at most ``code_block`` samples a pass (so a
+command waits for no more). A slow controller thus delays its own run only, never the
+thread that steps everyone else's (issue 24: it stepped on the shared thread, and one
+slow in 9 of 10 steps took a bystander from 1000 to 0-256 samples a second).
 
 It is where every command on a run is decided: the run's state lives here, and
 commands are applied one at a time in arrival order, so of two simultaneous
@@ -86,9 +89,15 @@ class Stepper:
         backlog: Callable[[], bool] = lambda: False,
         realtime: int = 0,
         code_block: int = 64,
+        lone: bool = False,
+        ordinary: bool = False,
     ) -> None:
         self._on_tick = on_tick
         self._code_block = code_block
+        self._lone = lone  # one run: the thread ends when it has ended
+        self._ordinary = ordinary  # SCHED_OTHER, whatever the process's policy
+        self._closed = False  # no more commands (a lone stepper whose run ended)
+        self._accepting = threading.Lock()
         self.tick = tick
         self._fast_block = fast_block
         self._clock = clock
@@ -105,8 +114,9 @@ class Stepper:
         self._thread = threading.Thread(target=self._loop, name="elab-stepper", daemon=True)
         self.ticks = 0
         self.last_tick = clock()  # when the thread last began a tick (its watchdog reads it)
-        # (scheduled time, how late the tick began) of the last minute's ticks
-        self._late: deque[tuple[float, float]] = deque(maxlen=round(60.0 / tick))
+        # (scheduled time, how late the tick began, how far the runs' clocks lag after it)
+        # of the last minute's ticks
+        self._late: deque[tuple[float, float, float]] = deque(maxlen=round(60.0 / tick))
 
     def start(self) -> None:
         self._thread.start()
@@ -135,7 +145,7 @@ class Stepper:
         """Step ``run`` from the next tick; sample 0 is due at ``t_origin`` (on this stepper's
         clock; default: when the command is applied). ``coded``: its code controller,
         started; closed when the run ends."""
-        self._commands.put(lambda: self._add(run_id, run, pace, t_origin, coded))
+        self._put(lambda: self._add(run_id, run, pace, t_origin, coded))
 
     def control(self, run_id: str, action: str, reason: str | None = None) -> Future[int]:
         """Pause, resume or stop (``reason``: who and why, carried by the change); the sample
@@ -167,8 +177,15 @@ class Stepper:
             except Exception as exc:  # handed to the caller through the future
                 fut.set_exception(exc)
 
-        self._commands.put(command)
+        if not self._put(command):
+            fut.set_exception(Conflict("the run has ended: it no longer steps"))
         return fut
+
+    def _put(self, command: Command) -> bool:
+        with self._accepting:
+            if not self._closed:
+                self._commands.put(command)
+            return not self._closed
 
     # -- in the thread ---------------------------------------------------------
     def _add(
@@ -258,24 +275,33 @@ class Stepper:
                 self._columns[layout] = np.array(cols, dtype=np.intp)
             self._table.layout[live.slot] = layout
 
+    def _commands_now(self) -> None:
+        while True:
+            try:
+                command = self._commands.get_nowait()
+            except queue.Empty:
+                return
+            try:
+                command()
+            except Exception:  # a failed add: the run never starts; the others go on
+                log.exception("stepper command failed")
+
     def _loop(self) -> None:
         if self.realtime:
             self.realtime = _realtime(self.realtime)
+        if self._ordinary:
+            _ordinary()
         deadline = self.align(self._clock())
         while not self._stop.is_set():
-            while True:
-                try:
-                    command = self._commands.get_nowait()
-                except queue.Empty:
-                    break
-                try:
-                    command()
-                except Exception:  # a failed add: the run never starts; the others go on
-                    log.exception("stepper command failed")
+            self._commands_now()
+            if self._lone and self.ticks and not self._runs:
+                with self._accepting:  # its run has ended: answer what came, then stop
+                    self._closed = True
+                self._commands_now()
+                return
             now = self._clock()
             self.ticks += 1
             self.last_tick = now
-            self._late.append((deadline, max(0.0, now - deadline)))
             try:  # the tick's scheduled time, unless it is early (the first pass, fast runs)
                 blocks, ended = self._step(min(now, deadline))
             except Exception as exc:  # a bug must not stop the thread and hang every run
@@ -287,6 +313,7 @@ class Stepper:
                         for live in list(self._runs.values())
                     ],
                 )
+            self._late.append((deadline, max(0.0, now - deadline), self._table.clock_lag(now)))
             if blocks or ended:
                 self._on_tick(blocks, ended)
             fast = self._table.fast_due()
@@ -309,15 +336,20 @@ class Stepper:
             "late_p99_ms": 0.0,
             "late_max_ms": 0.0,
             "drift_ms_per_min": 0.0,
+            "tick_rate": 0.0,
+            "clock_lag_max_ms": 0.0,
         }
         if late.shape[0] >= 2:
             t, lag = late[:, 0], late[:, 1] * 1e3
+            window = float(t[-1] - t[0])
             out.update(
-                window_s=float(t[-1] - t[0]),
+                window_s=window,
                 late_p50_ms=float(np.percentile(lag, 50)),
                 late_p99_ms=float(np.percentile(lag, 99)),
                 late_max_ms=float(lag.max()),
                 drift_ms_per_min=_trend(t - t[0], lag) * 60.0,
+                tick_rate=(late.shape[0] - 1) / window if window > 0 else 0.0,
+                clock_lag_max_ms=float(late[:, 2].max() * 1e3),
             )
         return out
 
@@ -340,7 +372,7 @@ class Stepper:
         ended: list[Changed] = []
         coded = np.flatnonzero(table.coded & (due > 0))
         if coded.size:  # stepped by themselves, after the batch
-            code_due = np.where(table.fast, np.minimum(due, self._code_block), due)[coded]
+            code_due = np.minimum(due, self._code_block)[coded]
             due[coded] = 0
         stepped = np.flatnonzero(due)
         for n in np.unique(due[stepped]).tolist():
@@ -420,6 +452,16 @@ def _realtime(priority: int) -> int:
         log.warning("real-time scheduling of the stepping thread refused: %s", exc)
         return 0
     return priority
+
+
+def _ordinary() -> None:
+    """Put the calling thread under the ordinary scheduler (the engine process may be
+    real-time, and its threads inherit that): a thread that waits for a student's code
+    must never keep an ordinary process from running."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    except (OSError, AttributeError) as exc:
+        log.warning("could not make a code run's thread ordinary: %s", exc)
 
 
 def _trend(t: Array, y: Array, parts: int = 12) -> float:

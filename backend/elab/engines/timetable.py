@@ -64,6 +64,15 @@ class Timetable:
         out: Ints = np.maximum(due, 0)
         return out
 
+    def clock_lag(self, now: float) -> float:
+        """How far the most belated real-time run's clock is behind ``now`` (s): its next
+        sample was due that long ago (0 when every due sample is stepped)."""
+        running = self.live & ~self.paused & ~self.fast
+        if not running.any():
+            return 0.0
+        due = self.origin[running] + self.k[running] * self.Ts[running]
+        return max(0.0, float(now - due.min()))
+
     def fast_due(self) -> bool:
         return bool(np.any(self.live & self.fast & ~self.paused))
 

@@ -213,3 +213,21 @@ def test_a_controller_too_slow_for_its_sample_time_gets_a_warning() -> None:
     assert report.compute is not None and report.compute["slow"] >= 300
     assert any("longer than the deadline of 0.5 ms" in w for w in report.warnings)
     assert report.rig_ready  # slow is a warning: held u's, not a failure
+
+
+def test_a_controller_over_its_compute_budget_fails_with_the_budget_named() -> None:
+    """Issue 24: 9 slow steps of 10 (about 20 ms each at a 2 ms sample time) never miss the
+    deadline 10 times in a row, but use about 9 times the run's time: over the budget of
+    half of it, the run fails within its first tenths of a second, saying so."""
+    from tests.api.test_code_isolation import SLOW_IN_THE_RUN
+
+    flex = get_plant("flexible_link")
+    spec = RunSpec(flex, CodeController(SLOW_IN_THE_RUN), Step(0.1), duration=5.0, Ts=0.002)
+    out = run_through(compile_run(spec), CodeSettings(budget=0.5))
+    assert out.failed is not None and "more than its budget of 50% of the run" in out.failed
+    assert "ELAB_CODE_BUDGET" in out.failed
+    assert 0 < out.rows.shape[0] * 0.002 < 1.0  # it failed early
+    ok = run_through(
+        compile_run(RunSpec(flex, CodeController(SLOW_IN_THE_RUN), Step(0.1), duration=2.0))
+    )
+    assert ok.failed is None  # at 1 ms it is fast: the budget holds nothing against it

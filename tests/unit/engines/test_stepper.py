@@ -134,11 +134,13 @@ def test_timing_reports_how_late_ticks_began_and_the_trend_as_clock_drift() -> N
     late = 0.2e-3 + 0.5e-3 * t / 60 + 1e-4 * (np.arange(3000) % 3 == 0)
     late[100:110] = 0.2
     for ti, lag in zip(t, late, strict=True):
-        stepper._late.append((ti, lag))
+        stepper._late.append((ti, lag, lag))  # (a run's clock lags as late as its tick)
     timing = stepper.timing()
     assert timing["drift_ms_per_min"] == pytest.approx(0.5, rel=0.05)  # the stall: no tilt
     assert timing["window_s"] == pytest.approx(59.98)
     assert 0.2 < timing["late_p50_ms"] < 0.81 and timing["late_max_ms"] == pytest.approx(200)
+    assert timing["tick_rate"] == pytest.approx(50, rel=1e-3)  # 1 / 20 ms, as planned
+    assert timing["clock_lag_max_ms"] == pytest.approx(200)
 
 
 def test_a_diverging_run_fails_at_its_divergence_and_its_neighbours_go_on(
