@@ -23,6 +23,7 @@ import logging
 import multiprocessing
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from typing import Any, TypeVar
@@ -34,12 +35,22 @@ T = TypeVar("T")
 Progress = Callable[[str, float], None]
 
 
+@dataclass(frozen=True)
+class Names:
+    """What a pool's errors call its work and its settings."""
+
+    work: str = "identification"
+    workers: str = "ELAB_IDENT_WORKERS"
+    timeout: str = "ELAB_IDENT_TIMEOUT"
+    wait: str = "ELAB_IDENT_WAIT"
+
+
 class _Worker:
-    def __init__(self, nice: int, preload: tuple[str, ...]) -> None:
+    def __init__(self, nice: int, preload: tuple[str, ...], work: str) -> None:
         ctx = multiprocessing.get_context("spawn")  # no copy of the server's threads and loop
         self.conn, child = ctx.Pipe()
         self.proc: BaseProcess = ctx.Process(
-            target=_serve, args=(child, nice, preload), daemon=True, name="elab-job"
+            target=_serve, args=(child, nice, preload, work), daemon=True, name="elab-job"
         )
         self.proc.start()
         child.close()
@@ -47,6 +58,7 @@ class _Worker:
         # goes on if nobody waits for it (a request that gave up), so no message is lost
         self._ready = asyncio.ensure_future(asyncio.to_thread(self.conn.recv))
         self._ready.add_done_callback(lambda f: f.cancelled() or f.exception())  # seen here
+        self.work = work
 
     @property
     def ready(self) -> bool:
@@ -57,7 +69,7 @@ class _Worker:
             await asyncio.shield(self._ready)
         except (EOFError, OSError):
             raise ElabError(
-                f"an identification worker ended while starting (exit code "
+                f"a {self.work} worker ended while starting (exit code "
                 f"{self.proc.exitcode}); the server log has its message"
             ) from None
 
@@ -77,14 +89,14 @@ class JobPool:
         timeout: float = 120.0,
         wait: float = 30.0,
         nice: int = 10,
-        setting: str = "ELAB_IDENT_TIMEOUT",
+        names: Names = Names(),
         preload: tuple[str, ...] = (),
     ) -> None:
         self.workers = workers
         self.timeout = timeout
         self.wait = wait
         self.nice = nice
-        self.setting = setting
+        self.names = names
         self.preload = preload
         self._idle: asyncio.Queue[_Worker] = asyncio.Queue()  # bound to a loop on first use
         self._all: list[_Worker] = []
@@ -96,7 +108,7 @@ class JobPool:
         return sum(not w.ready for w in self._all)
 
     def _spawn(self) -> _Worker:
-        worker = _Worker(self.nice, self.preload)
+        worker = _Worker(self.nice, self.preload, self.names.work)
         self._all.append(worker)
         return worker
 
@@ -124,7 +136,7 @@ class JobPool:
             raise InvalidInput(
                 "body",
                 f"a job over {self.timeout:g} s",
-                f"work that finishes within {self.setting} = {self.timeout:g} s: "
+                f"work that finishes within {self.names.timeout} = {self.timeout:g} s: "
                 "fewer samples, a smaller order search or fewer models",
             ) from None
         except ElabError:
@@ -148,7 +160,7 @@ class JobPool:
             worker = await asyncio.wait_for(self._idle.get(), self.wait)
         except TimeoutError:
             raise TooMany(
-                f"all {self.workers} identification workers are busy (ELAB_IDENT_WORKERS)"
+                f"all {self.workers} {self.names.work} workers are busy ({self.names.workers})"
                 f" and none was free within {self.wait:g} s; retry later",
                 retry_after=self.wait,
             ) from None
@@ -157,8 +169,8 @@ class JobPool:
         except TimeoutError:
             self._idle.put_nowait(worker)  # still starting: it stays for the next job
             raise TooMany(
-                f"the identification worker is still starting and was not ready within "
-                f"{self.wait:g} s (ELAB_IDENT_WAIT); retry shortly",
+                f"the {self.names.work} worker is still starting and was not ready within "
+                f"{self.wait:g} s ({self.names.wait}); retry shortly",
                 retry_after=self.wait,
             ) from None
         except ElabError:
@@ -176,7 +188,7 @@ class JobPool:
             except (EOFError, OSError):
                 code = worker.proc.exitcode
                 raise ElabError(
-                    f"the identification worker ended unexpectedly (exit code "
+                    f"the {self.names.work} worker ended unexpectedly (exit code "
                     f"{code}); the server log has its message"
                 ) from None
             if kind == "progress" and progress is not None:
@@ -187,7 +199,9 @@ class JobPool:
                 raise body[0]
 
 
-def _serve(conn: Connection, nice: int, preload: tuple[str, ...]) -> None:  # pragma: no cover
+def _serve(  # pragma: no cover - in the worker process
+    conn: Connection, nice: int, preload: tuple[str, ...], work: str
+) -> None:
     for module in preload:  # at the server's priority: a fresh worker is soon ready
         importlib.import_module(module)
     os.nice(nice)  # jobs at a lower priority: always allowed
@@ -208,4 +222,4 @@ def _serve(conn: Connection, nice: int, preload: tuple[str, ...]) -> None:  # pr
             conn.send(("error", exc))
         except Exception as exc:  # a bug: its traceback to the server's log, an error back
             log.exception("job %s failed", getattr(fn, "__name__", fn))
-            conn.send(("error", ElabError(f"internal error in the identification: {exc!r}")))
+            conn.send(("error", ElabError(f"internal error in the {work}: {exc!r}")))

@@ -8,13 +8,15 @@
 export type ClientMessage = SetParams | Pause | Resume | Stop | ResumeFrom;
 /**
  * Why the server closes a stream (the close frame's reason says more): 4400 the
- * request was wrong (no ``elab.v1`` subprotocol, a bad ``from_seq``), 4404 no such run.
- * A client should not reconnect after either.
+ * request was wrong (no ``elab.v1`` subprotocol, a bad ``from_seq``), 4404 no such run,
+ * 4429 the identity has ``ELAB_MAX_STREAMS_PER_IDENTITY`` streams open: a client should
+ * not reconnect after these. 4408: the client stopped reading while it kept sending (its
+ * answers piled up); it may reconnect.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "CloseCode".
  */
-export type CloseCode = 4400 | 4404;
+export type CloseCode = 4400 | 4404 | 4408 | 4429;
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "Controller-Input".
@@ -923,7 +925,8 @@ export interface ErrorDetail {
     | "unavailable"
     | "forbidden"
     | "unauthorized"
-    | "unsupported_media_type";
+    | "unsupported_media_type"
+    | "timeout";
   message: string;
   field: string | null;
   errors: FieldError[];

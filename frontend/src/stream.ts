@@ -8,9 +8,14 @@ import type { ClientMessage, CloseCode, ErrorMessage, Hello, ParamsNotice, RunIn
 import { serverMessage, WireError } from "./wire";
 
 export const PROTOCOL = "elab.v1";
-/** The server's close codes (CloseCode in the schema): after these, no reconnecting. A code
- * the schema adds fails the type check here until it is handled. */
-const REFUSED: Record<CloseCode, string> = { 4400: "the request was refused", 4404: "no such run" };
+/** The server's close codes (CloseCode in the schema), and whether to reconnect after
+ * each. A code the schema adds fails the type check here until it is handled. */
+const CLOSES: Record<CloseCode, { text: string; retry: boolean }> = {
+  4400: { text: "the request was refused", retry: false },
+  4404: { text: "no such run", retry: false },
+  4408: { text: "the page did not read the stream", retry: true },
+  4429: { text: "too many streams open", retry: false },
+};
 const ENDED = new Set(["finished", "stopped", "failed", "interrupted"]);
 
 export interface StreamListener {
@@ -118,8 +123,9 @@ export class RunStream {
   private closed(ev: CloseEvent): void {
     this.ws = null;
     if (this.closedByUser || this.ended) return;
-    if (ev.code in REFUSED) {
-      this.listener.connection?.("closed", ev.reason || REFUSED[ev.code as CloseCode]);
+    const known = ev.code in CLOSES ? CLOSES[ev.code as CloseCode] : null;
+    if (known && !known.retry) {
+      this.listener.connection?.("closed", ev.reason || known.text);
       return;
     }
     const delay = this.backoff[Math.min(this.attempts, this.backoff.length - 1)];

@@ -4,6 +4,7 @@ the OpenAPI document and its reference page, JSON errors, lifespan."""
 from __future__ import annotations
 
 import gc
+from collections import Counter
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -30,13 +31,13 @@ from elab.api import (  # noqa: F401  (registers their endpoints)
 from elab.api.auth import Authority, Identify, load_secret, read_instructors
 from elab.api.frames import MsgpackCodec
 from elab.api.guard import Guard
-from elab.api.http import ENDPOINTS, Handler, Pending, Uploads, error_response
+from elab.api.http import ENDPOINTS, BodyTimeout, Handler, Pending, Uploads, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
 from elab.api.stream import RawSend, Stream
 from elab.engines.process import ProcessEngine
 from elab.errors import ElabError
-from elab.jobs import JobPool
+from elab.jobs import JobPool, Names
 from elab.runs.manager import RunManager
 from elab.store.sqlite import SQLiteStore
 
@@ -80,20 +81,33 @@ def create_app(settings: Settings | None = None) -> Starlette:
             preload=ident.JOB_MODULES,
         )
         app.state.jobs = jobs
+        trials = JobPool(
+            workers=settings.trial_workers,
+            timeout=settings.trial_timeout,
+            wait=settings.ident_wait,
+            names=Names(
+                "controller trial", "ELAB_TRIAL_WORKERS", "ELAB_TRIAL_TIMEOUT", "ELAB_IDENT_WAIT"
+            ),
+            preload=controllers.JOB_MODULES,
+        )
+        app.state.trials = trials
         app.state.ident_slots = ident.IdentSlots(settings.max_ident_per_identity)
         app.state.pending = Pending()
         app.state.uploads = Uploads(settings.max_uploads, settings.max_uploads_per_identity)
+        app.state.streams = Counter()  # websocket streams open, by identity
         # Everything imported so far (numpy, scipy, control, numba: ~160,000 objects) lives
         # as long as the process. Frozen, the collector stops scanning it: a full collection
         # held the GIL for ~110 ms on a slow host, stalling every stream at once.
         gc.collect()
         gc.freeze()
         await jobs.start()  # the workers import while the engine starts
+        await trials.start()
         await manager.start()
         try:
             yield
         finally:
             await jobs.close()
+            await trials.close()
             await manager.close()
             store.close()
 
@@ -120,6 +134,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
             Middleware(RawSend),
             Middleware(Guard, hosts=settings.hosts, origins=settings.origins),
             Middleware(Identify),
+            Middleware(BodyTimeout, seconds=settings.body_timeout),
             Middleware(GZipMiddleware, minimum_size=4096),
         ],
         exception_handlers={ElabError: _error, ValidationError: _error, HTTPException: _http_error},

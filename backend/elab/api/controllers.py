@@ -34,6 +34,9 @@ from elab.laws import CodeController, ControlLaw
 from elab.plants import PLANTS, get_plant
 from elab.store.base import ControllerStore, StoredController
 
+# what a trial worker imports before it takes a check (elab.jobs)
+JOB_MODULES = ("elab.api.controllers", "elab.engines.coded", "elab.controllers.report")
+
 CONTROLLER_ID = Param(
     "controller_id", "path", "controller id (from POST /controllers)", required=True
 )
@@ -134,7 +137,9 @@ async def upload_controller(request: Request) -> Response:
     with request.app.state.pending.hold("controllers", who.id) as others:
         have = await asyncio.to_thread(store(request).count_controllers, who.id)
         within_budget(have + others, limit, "controllers", "ELAB_MAX_CONTROLLERS_PER_IDENTITY")
-        parsed, report = await asyncio.to_thread(
+        # in a worker process of the trial pool: a wall-clock limit kills a trial that
+        # takes too long, and trials never hold the threads that answer other requests
+        parsed, report = await request.app.state.trials.run(
             _read_and_check, data, req.format, plant, request.app.state.settings.engine.code
         )
         stored = StoredController(

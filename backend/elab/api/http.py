@@ -12,6 +12,7 @@ Every error body is ``{"error": {"code", "message", "field", "errors"}}``.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import math
 import re
@@ -24,6 +25,7 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, ValidationError
 from starlette.requests import HTTPConnection, Request
 from starlette.responses import JSONResponse, Response
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from elab.api.schemas import ErrorBody, ErrorDetail, FieldError
 from elab.errors import (
@@ -46,6 +48,47 @@ class TooLarge(ElabError):
 
     def __init__(self, limit: int, setting: str = "ELAB_MAX_BODY") -> None:
         super().__init__(f"request body is larger than {limit} bytes ({setting})")
+
+
+class SlowBody(ElabError):
+    """A request body that stopped coming (HTTP 408)."""
+
+    def __init__(self, seconds: float) -> None:
+        super().__init__(
+            f"the request body stopped coming: nothing for {seconds:g} s (ELAB_BODY_TIMEOUT); "
+            "send it again"
+        )
+
+
+class BodyTimeout:
+    """ASGI middleware: while a request's body is being received, each part must come
+    within ``seconds`` (``ELAB_BODY_TIMEOUT``), else :class:`SlowBody` (408). A client that
+    declares a body and never sends it would otherwise hold its upload slot for ever (issue
+    24: four such connections held every ``ELAB_MAX_UPLOADS`` slot). Once the body is in,
+    ``receive`` waits as long as it likes (for a disconnect during a download)."""
+
+    def __init__(self, app: ASGIApp, seconds: float) -> None:
+        self.app = app
+        self.seconds = seconds
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        done = False
+
+        async def timed() -> Message:
+            nonlocal done
+            if done:
+                return await receive()
+            try:
+                message = await asyncio.wait_for(receive(), self.seconds)
+            except TimeoutError:
+                raise SlowBody(self.seconds) from None
+            done = message["type"] != "http.request" or not message.get("more_body", False)
+            return message
+
+        await self.app(scope, timed, send)
 
 
 @dataclass(frozen=True)
@@ -236,6 +279,8 @@ def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
         return 429, ErrorDetail(code="too_many", message=str(exc))
     if isinstance(exc, TooLarge):
         return 413, ErrorDetail(code="too_large", message=str(exc))
+    if isinstance(exc, SlowBody):
+        return 408, ErrorDetail(code="timeout", message=str(exc))
     if isinstance(exc, Unavailable):
         return 503, ErrorDetail(code="unavailable", message=str(exc))
     raise exc

@@ -21,6 +21,7 @@ STATUS_TEXT = {
     401: "An unknown or revoked API token, or a wrong password",
     403: "Not yours: only the owner or an instructor may (or a request from another site)",
     404: "Unknown id (or a private run of someone else)",
+    408: "The body stopped coming for ELAB_BODY_TIMEOUT s",
     415: "The body is not application/json",
     409: "Conflict with the run's state",
     413: "Body too large",
@@ -176,7 +177,8 @@ def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict
             target: {"operationId": target, "parameters": {param: "$response.body#/id"}}
             for target, param in e.links
         }
-    for code in e.errors:
+    body_codes = (408,) if e.body is not None or e.form is not None else ()
+    for code in sorted({*e.errors, *body_codes}):
         op["responses"][str(code)] = {
             "description": STATUS_TEXT[code],
             "content": {"application/json": {"schema": ref[id(s.ErrorBody), "serialization"]}},

@@ -728,6 +728,7 @@ class ErrorDetail(Model):
         "forbidden",
         "unauthorized",
         "unsupported_media_type",
+        "timeout",
     ]
     message: str
     field: str | None = None
@@ -1254,11 +1255,15 @@ class ControllerFileRequest(Model):
 # -- websocket messages ------------------------------------------------------------
 class CloseCode(IntEnum):
     """Why the server closes a stream (the close frame's reason says more): 4400 the
-    request was wrong (no ``elab.v1`` subprotocol, a bad ``from_seq``), 4404 no such run.
-    A client should not reconnect after either."""
+    request was wrong (no ``elab.v1`` subprotocol, a bad ``from_seq``), 4404 no such run,
+    4429 the identity has ``ELAB_MAX_STREAMS_PER_IDENTITY`` streams open: a client should
+    not reconnect after these. 4408: the client stopped reading while it kept sending (its
+    answers piled up); it may reconnect."""
 
     BAD_REQUEST = 4400
     NOT_FOUND = 4404
+    NOT_READING = 4408
+    TOO_MANY = 4429
 
 
 class StreamClose(Model):

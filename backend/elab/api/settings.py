@@ -23,39 +23,41 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
 @dataclass(frozen=True)
 class Settings:
-    """``ELAB_DATA`` (default ``./data``): where the SQLite file lives. Limits: ``limits``
-    (runs; see :class:`~elab.runs.limits.Limits`), ``max_body`` bytes of a request
-    (``ELAB_MAX_BODY``, 1 MiB), ``max_upload`` bytes of identification data
-    (``ELAB_MAX_UPLOAD``, 16 MiB), ``max_uploads`` large bodies read at once
-    (``ELAB_MAX_UPLOADS``, 4), ``watcher_frames`` queued per watcher before it skips
-    (``ELAB_WATCHER_FRAMES``, 100 ≈ 2 s). The engine: ``engine`` (tick, flush interval,
-    ``ELAB_STORE_RETRY`` s a busy store is retried, ``ELAB_STORE_PENDING`` bytes that may
-    wait for it, Python controllers: ``ELAB_MAX_CODE_RUNS`` live at once (8),
-    ``ELAB_CODE_DEADLINE`` s per step (0.0005), ``ELAB_CODE_MISSES`` late steps in a row
-    that fail a run (10), ``ELAB_CODE_BUDGET`` the share of a run's time a controller may
-    compute in all (0.5)), its real-time priority (``ELAB_ENGINE_REALTIME``, 10: the stepping thread
-    SCHED_FIFO at 10 and the rest of the engine process at 9, where allowed, else ordinary;
-    0: ordinary), its process's ``engine_nice`` when not real-time (``ELAB_ENGINE_NICE``,
-    0), its queue to the web process ``engine_queue`` bytes (``ELAB_ENGINE_QUEUE``, 64 MiB),
-    ``engine_timeout`` s to answer a command (``ELAB_ENGINE_TIMEOUT``, 10) and
-    ``engine_stall`` s without a heartbeat before it is restarted (``ELAB_ENGINE_STALL``,
-    30). Identification: ``ident_workers`` processes (``ELAB_IDENT_WORKERS``, 1),
-    ``ident_timeout`` s per job (``ELAB_IDENT_TIMEOUT``, 120), ``ident_wait`` s a request
-    waits for a worker (``ELAB_IDENT_WAIT``, 30); per identity at once: identifications
-    ``max_ident_per_identity`` (``ELAB_MAX_IDENT_PER_IDENTITY``, 2) and large bodies
-    ``max_uploads_per_identity`` (``ELAB_MAX_UPLOADS_PER_IDENTITY``, 2); API tokens an
-    identity may have ``max_tokens_per_identity`` (``ELAB_MAX_TOKENS_PER_IDENTITY``, 20),
-    uploaded controllers it may keep ``max_controllers_per_identity``
-    (``ELAB_MAX_CONTROLLERS_PER_IDENTITY``, 100), identified models
-    ``max_models_per_identity`` (``ELAB_MAX_MODELS_PER_IDENTITY``, 100).
+    """``ELAB_DATA`` (default ``./data``): where the SQLite file lives. Limits: ``limits`` (runs;
+    see :class:`~elab.runs.limits.Limits`), ``max_body`` bytes of a request (``ELAB_MAX_BODY``,
+    1 MiB), ``max_upload`` bytes of identification data (``ELAB_MAX_UPLOAD``, 16 MiB),
+    ``max_uploads`` large bodies read at once (``ELAB_MAX_UPLOADS``, 4), websocket streams one
+    identity may have open ``max_streams_per_identity`` (``ELAB_MAX_STREAMS_PER_IDENTITY``, 32),
+    ``body_timeout`` s a body may pause before 408 (``ELAB_BODY_TIMEOUT``, 10),
+    ``watcher_frames`` queued per watcher before it skips (``ELAB_WATCHER_FRAMES``, 100 ≈ 2 s).
+    The engine: ``engine`` (tick, flush interval, ``ELAB_STORE_RETRY`` s a busy store is
+    retried, ``ELAB_STORE_PENDING`` bytes that may wait for it, Python controllers:
+    ``ELAB_MAX_CODE_RUNS`` live at once (8), ``ELAB_CODE_DEADLINE`` s per step (0.0005),
+    ``ELAB_CODE_MISSES`` late steps in a row that fail a run (10), ``ELAB_CODE_BUDGET`` the
+    share of a run's time a controller may compute in all (0.5)), its real-time priority
+    (``ELAB_ENGINE_REALTIME``, 10: the stepping thread SCHED_FIFO at 10 and the rest of the
+    engine process at 9, where allowed, else ordinary; 0: ordinary), its process's
+    ``engine_nice`` when not real-time (``ELAB_ENGINE_NICE``, 0), its queue to the web process
+    ``engine_queue`` bytes (``ELAB_ENGINE_QUEUE``, 64 MiB), ``engine_timeout`` s to answer a
+    command (``ELAB_ENGINE_TIMEOUT``, 10) and ``engine_stall`` s without a heartbeat before it
+    is restarted (``ELAB_ENGINE_STALL``, 30). Identification: ``ident_workers`` processes
+    (``ELAB_IDENT_WORKERS``, 1), ``ident_timeout`` s per job (``ELAB_IDENT_TIMEOUT``, 120),
+    ``ident_wait`` s a request waits for a worker (``ELAB_IDENT_WAIT``, 30). Controller uploads
+    are checked (a Python controller tried in its sandbox) by ``trial_workers`` processes
+    (``ELAB_TRIAL_WORKERS``, 2), each check within ``trial_timeout`` s (``ELAB_TRIAL_TIMEOUT``,
+    60). Per identity at once: identifications ``max_ident_per_identity``
+    (``ELAB_MAX_IDENT_PER_IDENTITY``, 2) and large bodies ``max_uploads_per_identity``
+    (``ELAB_MAX_UPLOADS_PER_IDENTITY``, 2); API tokens an identity may have
+    ``max_tokens_per_identity`` (``ELAB_MAX_TOKENS_PER_IDENTITY``, 20), uploaded controllers it
+    may keep ``max_controllers_per_identity`` (``ELAB_MAX_CONTROLLERS_PER_IDENTITY``, 100),
+    identified models ``max_models_per_identity`` (``ELAB_MAX_MODELS_PER_IDENTITY``, 100).
 
-    Access (docs/access.md): ``secret`` signs identity cookies (``ELAB_SECRET``; default:
-    made once and kept in the data directory), ``hosts`` the ``Host`` names the server
-    answers (``ELAB_HOSTS``, loopback names; ``*``: any), ``origins`` other origins whose
-    pages may call it (``ELAB_ORIGINS``; default: none but its own), ``instructors`` a
-    file of instructor accounts (``ELAB_INSTRUCTORS``), ``secure_cookies`` behind HTTPS
-    (``ELAB_SECURE_COOKIES``, 0), ``session_hours`` an instructor's sign-in lasts
-    (``ELAB_SESSION_HOURS``, 12)."""
+    Access (docs/access.md): ``secret`` signs identity cookies (``ELAB_SECRET``; default: made
+    once and kept in the data directory), ``hosts`` the ``Host`` names the server answers
+    (``ELAB_HOSTS``, loopback names; ``*``: any), ``origins`` other origins whose pages may call
+    it (``ELAB_ORIGINS``; default: none but its own), ``instructors`` a file of instructor
+    accounts (``ELAB_INSTRUCTORS``), ``secure_cookies`` behind HTTPS (``ELAB_SECURE_COOKIES``,
+    0), ``session_hours`` an instructor's sign-in lasts (``ELAB_SESSION_HOURS``, 12)."""
 
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
@@ -82,6 +84,10 @@ class Settings:
     instructors: Path | None = None
     secure_cookies: bool = False
     session_hours: float = 12.0
+    body_timeout: float = 10.0
+    trial_workers: int = 2
+    max_streams_per_identity: int = 32
+    trial_timeout: float = 60.0
 
     @property
     def database(self) -> Path:
@@ -123,6 +129,10 @@ class Settings:
             max_body=_int(env, "ELAB_MAX_BODY", 1 << 20),
             max_upload=_int(env, "ELAB_MAX_UPLOAD", 16 << 20),
             max_uploads=_int(env, "ELAB_MAX_UPLOADS", 4),
+            body_timeout=_float(env, "ELAB_BODY_TIMEOUT", 10.0),
+            trial_workers=_int(env, "ELAB_TRIAL_WORKERS", 2, hi=64),
+            max_streams_per_identity=_int(env, "ELAB_MAX_STREAMS_PER_IDENTITY", 32),
+            trial_timeout=_float(env, "ELAB_TRIAL_TIMEOUT", 60.0),
             watcher_frames=_int(env, "ELAB_WATCHER_FRAMES", 100),
             engine=engine,
             engine_nice=_int(env, "ELAB_ENGINE_NICE", 0, lo=-20, hi=19),

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import struct
+from collections import Counter
 from collections.abc import Awaitable, Callable, Mapping
 from typing import Any
 
@@ -29,7 +30,7 @@ from elab.api.auth import identity
 from elab.api.frames import pack
 from elab.api.http import error_detail, query_int
 from elab.api.runs import apply_params, run_info
-from elab.errors import ElabError, InvalidInput, NotFound
+from elab.errors import ElabError, InvalidInput, NotFound, TooMany
 from elab.runs.fanout import Watcher
 
 CLIENT = TypeAdapter(s.ClientMessage)
@@ -141,14 +142,42 @@ async def stream(
         return
     m = ws.app.state.manager
     who = identity(ws)
+    streams: Counter[str] = ws.app.state.streams
+    key = who.id or f"address {ws.client.host if ws.client else ''}"
+    limit = ws.app.state.settings.max_streams_per_identity
     try:
         from_seq = query_int(ws, "from_seq", -1, 0, 2**62)
         record = await m.get(ws.path_params["run_id"], who)
-    except (NotFound, InvalidInput) as exc:
+        if streams[key] >= limit:
+            raise TooMany(
+                f"{streams[key]} streams open, the limit per identity "
+                f"(ELAB_MAX_STREAMS_PER_IDENTITY = {limit}); close one"
+            )
+    except (NotFound, InvalidInput, TooMany) as exc:
         await ws.accept(subprotocol=s.PROTOCOL)
-        code = s.CloseCode.NOT_FOUND if isinstance(exc, NotFound) else s.CloseCode.BAD_REQUEST
+        code = {NotFound: s.CloseCode.NOT_FOUND, TooMany: s.CloseCode.TOO_MANY}.get(
+            type(exc), s.CloseCode.BAD_REQUEST
+        )
         await ws.close(code, str(exc)[:120])  # a close reason holds 123 bytes
         return
+    streams[key] += 1
+    try:
+        await _watch(ws, m, record, who, from_seq, send_bytes, write)
+    finally:
+        streams[key] -= 1
+        if not streams[key]:
+            del streams[key]
+
+
+async def _watch(
+    ws: WebSocket,
+    m: Any,
+    record: Any,
+    who: Identity,
+    from_seq: int,
+    send_bytes: Callable[[bytes], Awaitable[None]],
+    write: Callable[[bytes], bool] | None,
+) -> None:
     await ws.accept(subprotocol=s.PROTOCOL)
     channel = m.channel(record)
     watcher = Watcher(
@@ -195,6 +224,12 @@ async def _receive(
             await _handle(ws, _message(message), run_id, channel, watcher, who)
         except (ValidationError, ElabError, ValueError) as exc:
             channel.tell(watcher, pack(_error(exc)))
+        if watcher.overrun:  # it sends and does not read: its answers would pile up
+            await ws.close(
+                s.CloseCode.NOT_READING,
+                "too many answers unread: read the stream's messages, or send fewer",
+            )
+            return
 
 
 def _message(message: Mapping[str, Any]) -> Any:

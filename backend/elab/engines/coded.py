@@ -47,8 +47,12 @@ class CodeSettings:
     max_misses: int = 10
     budget: float = 0.5
     # s a simulation waits for one answer before the controller fails: a stalled
-    # controller holds the engine's stepping thread that long (once: then its run fails)
+    # controller holds its run's stepping thread that long (once: then its run fails)
     patience: float = 0.2
+    # s its process may take to load and reset(): less than the engine's 10 s to answer a
+    # command (ELAB_ENGINE_TIMEOUT), so a reset() that never returns is this run's 422,
+    # not the engine's 503
+    start: float = 5.0
 
 
 def controller_params(run: CompiledRun) -> dict[str, Any]:
@@ -96,6 +100,7 @@ class CodedRun:
             hold=False,  # a simulated plant waits: the samples never depend on the load
             patience=settings.patience,
             budget=settings.budget,
+            start_timeout=settings.start,
         )
 
     @property

@@ -39,6 +39,7 @@ Array = NDArray[np.float64]
 Reader = Callable[[int, int], Awaitable[Array]]
 FRAME_SECONDS = 0.02
 PULL_FRAMES = 50  # frames per message while catching up from the recording
+MAX_CONTROLS = 256  # answers and notices that may wait for one watcher
 
 
 def frame_samples(Ts: float) -> int:
@@ -81,6 +82,7 @@ class Watcher:
     # (first sample of a frame, or None for a control message, payload)
     items: deque[tuple[int | None, bytes]] = field(default_factory=deque)
     frames_queued: int = 0
+    controls_queued: int = 0  # answers and notices waiting (bounded: see control())
     skipped: tuple[int, int] | None = None  # first and last seq not delivered
     pull_from: int | None = None  # next sample to read from the recording
     closed: bool = False
@@ -106,6 +108,13 @@ class Watcher:
 
     def control(self, payload: bytes) -> None:
         self.items.append((None, payload))
+        self.controls_queued += 1
+
+    @property
+    def overrun(self) -> bool:
+        """More answers wait than a reading client ever lets pile up: it sends but does
+        not read (issue 24: 3 M bad messages grew the server by 440 MB)."""
+        return self.controls_queued > MAX_CONTROLS
 
     def close(self) -> None:
         self.closed = True
@@ -126,6 +135,7 @@ class Watcher:
         else:
             k0, _ = self.items.popleft()
             self.frames_queued -= k0 is not None
+            self.controls_queued -= k0 is None
 
     async def send_next(self) -> None:
         """Send the next message (waiting for room if the connection has none)."""

@@ -1,0 +1,169 @@
+"""Requests meant to stall or bloat the server (issue 24), against a real one: a cookie
+built for CPython's quadratic cookie parser, a tiny ``.mat`` file that declares 60 million
+elements, uploads that declare a body and never send it, a websocket client that sends
+without reading, and more streams than an identity may open."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import io
+import socket
+import threading
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+import scipy.io
+from websockets.asyncio.client import connect
+from websockets.exceptions import ConnectionClosed
+
+from tests.api.server import Server, identity_of, until
+
+
+def _rss_mib(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    raise AssertionError("no VmRSS")
+
+
+def test_a_cookie_made_for_the_quadratic_parser_stalls_nothing(server: Server) -> None:
+    """Issue 24: one 120 KB ``Cookie: elab_id="\\3\\"\\3\\"…"`` held every request and
+    stream for 35 s (CVE-2024-7592, in CPython's unquoting). Now the header is split in
+    one pass: the request is answered at once, and so is everyone else meanwhile."""
+    evil = 'elab_id="' + '\\3\\"' * 30_000 + '"'
+    answered: dict[str, float] = {}
+
+    def attack() -> None:
+        t = time.monotonic()
+        r = httpx.get(server.url + "/api/v1/me", headers={"cookie": evil}, timeout=60)
+        answered["evil"] = time.monotonic() - t
+        answered["status"] = r.status_code
+
+    thread = threading.Thread(target=attack)
+    thread.start()
+    slowest = 0.0
+    while thread.is_alive():
+        t = time.monotonic()
+        assert httpx.get(server.url + "/api/v1/health", timeout=60).status_code == 200
+        slowest = max(slowest, time.monotonic() - t)
+    thread.join()
+    assert answered["status"] == 200  # a new visitor: the cookie is nobody's
+    # generous bounds (a busy machine): it took 35 s before
+    assert answered["evil"] < 5.0 and slowest < 2.0, (answered, slowest)
+
+
+def test_a_mat_file_declaring_60_million_elements_is_refused_before_it_expands(
+    server: Server,
+) -> None:
+    buf = io.BytesIO()
+    scipy.io.savemat(buf, {"K": np.zeros((60_000_000, 1), np.uint8)}, do_compression=True)
+    bomb = buf.getvalue()
+    assert len(bomb) < 64 * 1024  # under the upload limit
+    assert server.proc is not None
+    before = _rss_mib(server.proc.pid)
+    with server.client() as c:
+        r = c.post(
+            "/controllers",
+            files={"file": ("k.mat", bomb, "application/octet-stream")},
+            data={"plant": "flexible_link"},
+        )
+    assert r.status_code == 422, r.text
+    err = r.json()["error"]
+    assert err["field"] == "K" and "60000000×1" in err["message"], err
+    assert _rss_mib(server.proc.pid) - before < 50  # issue 24: +2.8 GB
+
+
+def _idle_upload(port: int) -> socket.socket:
+    """A connection that declares a 1 MB identification body and sends none of it."""
+    sock = socket.create_connection(("127.0.0.1", port))
+    sock.sendall(
+        b"POST /api/v1/ident HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+        b"Content-Type: application/json\r\nContent-Length: 1000000\r\n\r\n"
+    )
+    return sock
+
+
+def test_uploads_that_never_send_their_body_are_dropped_and_free_their_slots(
+    tmp_path: Path,
+) -> None:
+    """Issue 24: four such connections held every ``ELAB_MAX_UPLOADS`` slot for as long as
+    they stayed. Each part of a body must now come within ``ELAB_BODY_TIMEOUT``."""
+    srv = Server(tmp_path / "data", ELAB_BODY_TIMEOUT="2").start()
+    try:
+        idle = [_idle_upload(srv.port) for _ in range(4)]
+        until(lambda: srv.status()["uploads"]["receiving"] == 4, 30)
+        answers = []
+        for sock in idle:
+            sock.settimeout(30)
+            answers.append(sock.recv(4096).decode(errors="replace"))
+            sock.close()
+        for text in answers:
+            assert text.startswith("HTTP/1.1 408") and "ELAB_BODY_TIMEOUT" in text, text[:300]
+        assert srv.status()["uploads"]["receiving"] == 0
+        body = {"data": {"source": "file", "text": "u,y\n1,2\n2,3\n3,5\n", "Ts": 1.0}}
+        r = httpx.post(srv.url + "/api/v1/ident", json=body, timeout=60)
+        assert r.status_code != 429, r.text  # slots are free again
+    finally:
+        srv.stop()
+
+
+def test_a_client_that_sends_and_never_reads_is_closed_saying_so(server: Server) -> None:
+    """Issue 24: 3 M invalid one-byte messages from a client that read nothing grew the
+    web process by 440 MB, never returned. Its answers now wait in a bounded queue."""
+    with server.client() as c:
+        rid = c.post("/runs", json={"plant": "belt_conveyor", "duration": 30}).json()["id"]
+    assert server.proc is not None
+    before = _rss_mib(server.proc.pid)
+
+    async def flood() -> tuple[int | None, str | None]:
+        async with connect(
+            f"{server.ws_url}/api/v1/runs/{rid}/stream",
+            subprotocols=["elab.v1"],  # type: ignore[list-item]
+            additional_headers=identity_of(server),
+            max_queue=1,  # this client stops reading once one message waits
+        ) as ws:
+            with contextlib.suppress(ConnectionClosed):
+                for _ in range(200_000):
+                    await ws.send(b"\xc1")  # never valid msgpack
+            await asyncio.wait_for(ws.wait_closed(), 60)
+            return ws.close_code, ws.close_reason
+
+    code, reason = asyncio.run(flood())
+    assert code == 4408 and reason is not None and "unread" in reason, (code, reason)
+    assert _rss_mib(server.proc.pid) - before < 50
+    with server.client() as c:
+        c.post(f"/runs/{rid}/stop")
+
+
+def test_an_identity_may_open_only_so_many_streams(tmp_path: Path) -> None:
+    srv = Server(tmp_path / "data", ELAB_MAX_STREAMS_PER_IDENTITY="3").start()
+    try:
+        with srv.client() as c:
+            rid = c.post("/runs", json={"plant": "belt_conveyor", "duration": 30}).json()["id"]
+
+        async def scenario() -> tuple[int | None, str | None]:
+            url = f"{srv.ws_url}/api/v1/runs/{rid}/stream"
+            kw = {"subprotocols": ["elab.v1"], "additional_headers": identity_of(srv)}
+            open_ = [await connect(url, **kw) for _ in range(3)]  # type: ignore[arg-type]
+            async with connect(url, **kw) as fourth:  # type: ignore[arg-type]
+                with pytest.raises(ConnectionClosed):
+                    while True:
+                        await asyncio.wait_for(fourth.recv(), 10)
+            await open_[0].close()
+            async with connect(url, **kw) as again:  # type: ignore[arg-type]
+                assert (await asyncio.wait_for(again.recv(), 10))[:1]  # a hello
+            for ws in open_[1:]:
+                await ws.close()
+            return fourth.close_code, fourth.close_reason
+
+        code, reason = asyncio.run(scenario())
+        assert code == 4429 and reason is not None
+        assert "ELAB_MAX_STREAMS_PER_IDENTITY = 3" in reason
+        with srv.client() as c:
+            c.post(f"/runs/{rid}/stop")
+    finally:
+        srv.stop()
