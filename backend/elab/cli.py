@@ -498,6 +498,10 @@ def cmd_serve(args: argparse.Namespace) -> str:
         log_level="warning",
         ws_max_size=1 << 20,
         ws_per_message_deflate=False,
+        # X-Forwarded-* only from the configured proxies (uvicorn trusts 127.0.0.1 by
+        # default: rotating X-Forwarded-For beat the sign-in limit from loopback)
+        proxy_headers=bool(settings.trusted_proxies),
+        forwarded_allow_ips=list(settings.trusted_proxies) or None,
     )
     return "E-Lab stopped"
 

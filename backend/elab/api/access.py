@@ -14,7 +14,15 @@ from starlette.responses import Response
 
 from elab.access import Identity, display_name
 from elab.api import schemas as s
-from elab.api.auth import Authority, identity, me_fields, session_cookie_value
+from elab.api.auth import (
+    ID_COOKIE,
+    SESSION_COOKIE,
+    Authority,
+    cookies_of,
+    identity,
+    me_fields,
+    session_cookie_value,
+)
 from elab.api.http import Param, endpoint, ok, read_model, within_budget
 from elab.api.runs import manager, run_summary
 from elab.errors import Forbidden, NotFound
@@ -49,7 +57,7 @@ async def sign_in(request: Request) -> Response:
     auth = authority(request)
     address = request.client.host if request.client else ""
     value = await asyncio.to_thread(auth.sign_in, req.name, req.password, address)
-    who = auth.session(value)
+    who = await auth.session(value)
     assert who is not None
     response = ok(s.Me(**me_fields(who, auth)))
     response.headers.append("set-cookie", session_cookie_value(auth, value))
@@ -64,9 +72,11 @@ async def sign_in(request: Request) -> Response:
     errors=(),
 )
 async def sign_out(request: Request) -> Response:
+    """The session ends on the server: its cookie, even kept, no longer signs in."""
     auth = authority(request)
-    cookie = request.cookies.get("elab_id")
-    who = auth.anonymous(cookie) or Identity("", via="none")
+    cookies = cookies_of(request.scope)
+    await asyncio.to_thread(auth.sign_out, cookies.get(SESSION_COOKIE))
+    who = auth.anonymous(cookies.get(ID_COOKIE)) or Identity("", via="none")
     response = ok(s.Me(**me_fields(who, auth)))
     response.headers.append("set-cookie", session_cookie_value(auth, None))
     return response

@@ -24,8 +24,10 @@ import base64
 import contextlib
 import hashlib
 import hmac
+import math
 import os
 import secrets
+import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -133,10 +135,13 @@ class Authority:
     secure: bool = False
     _tokens: dict[str, tuple[float, Token | None]] = field(default_factory=dict)
     _failures: dict[str, list[float]] = field(default_factory=dict)
+    _ended: set[str] = field(default_factory=set)  # sessions signed out (from the store)
+    _ended_read: float = -math.inf  # when _ended was last read from the store (monotonic s)
 
     def __post_init__(self) -> None:
         self._ids = Signer(self.secret, salt="elab.identity")
-        self._sessions = URLSafeTimedSerializer(self.secret, salt="elab.session")
+        self._sessions = URLSafeTimedSerializer(self.secret, salt="elab.session.2")
+        self._signing_in = threading.Lock()
 
     # cookies
     def new_anonymous(self) -> tuple[Identity, str]:
@@ -152,35 +157,71 @@ class Authority:
             return None
         return Identity(value, Role.STUDENT, "cookie") if value.startswith(ANONYMOUS) else None
 
-    def session(self, cookie: str | None) -> Identity | None:
+    def _session(self, cookie: str | None) -> tuple[str, str, float] | None:
+        """The account, the session id and when it was signed (unix s) of a valid session
+        cookie (signed, not expired, its account still configured)."""
         if not cookie:
             return None
         try:
-            name = self._sessions.loads(cookie, max_age=round(self.session_s))
+            value, signed = self._sessions.loads(
+                cookie, max_age=round(self.session_s), return_timestamp=True
+            )
         except BadSignature:
             return None
-        if not isinstance(name, str) or name not in self.instructors:
+        if not (
+            isinstance(value, list) and len(value) == 2 and all(isinstance(v, str) for v in value)
+        ):
+            return None
+        name, sid = value
+        if name not in self.instructors:
             return None  # an account removed from the file signs out
+        return name, sid, signed.timestamp()
+
+    async def session(self, cookie: str | None) -> Identity | None:
+        """The instructor of a session cookie, unless that session was signed out (on any
+        server of the lab: the store says so; read at most once a minute, at once here)."""
+        found = self._session(cookie)
+        if found is None:
+            return None
+        name, sid, _ = found
+        if time.monotonic() - self._ended_read > _TOKEN_CACHE_S:
+            self._ended_read = time.monotonic()
+            self._ended = await asyncio.to_thread(self.store.ended_sessions, time.time())
+        if sid in self._ended:
+            return None
         return Identity(INSTRUCTOR + name, Role.INSTRUCTOR, "session")
 
+    def sign_out(self, cookie: str | None) -> None:
+        """End the session of ``cookie`` for good: the cookie no longer signs in, even kept
+        and sent again (issue 24: a cookie captured before sign-out worked for 12 h)."""
+        found = self._session(cookie)
+        if found is not None:
+            _, sid, signed = found
+            self.store.end_session(sid, signed + self.session_s)
+            self._ended.add(sid)
+
     def sign_in(self, name: str, password: str, address: str) -> str:
-        """The session cookie's value, or :class:`Unauthorized`; 5 failures a minute from
-        one address, then :class:`TooMany` (scrypt makes each guess cost 50 ms anyway)."""
+        """The session cookie's value, or :class:`Unauthorized`; 5 attempts a minute from
+        one address without success, then :class:`TooMany` (scrypt makes each guess cost 50
+        ms anyway). An attempt counts before its password is checked, so attempts at once
+        cannot all pass the limit before the first failure is counted."""
         now = time.monotonic()
-        recent = [t for t in self._failures.get(address, []) if now - t < 60.0]
-        if len(recent) >= 5:
-            raise TooMany(
-                "5 failed sign-ins from your address in the last minute; wait a minute",
-                retry_after=60.0 - (now - recent[0]),
-            )
+        with self._signing_in:
+            recent = [t for t in self._failures.get(address, []) if now - t < 60.0]
+            if len(recent) >= 5:
+                raise TooMany(
+                    "5 failed sign-ins from your address in the last minute; wait a minute",
+                    retry_after=60.0 - (now - recent[0]),
+                )
+            self._failures[address] = [*recent, now]
         stored = self.instructors.get(name)
         # a missing account costs the same scrypt as a wrong password
         ok = check_password(password, stored or _DUMMY) and stored is not None
         if not ok:
-            self._failures[address] = [*recent, now]
             raise Unauthorized("unknown instructor or wrong password")
-        self._failures.pop(address, None)
-        return self._sessions.dumps(name)
+        with self._signing_in:
+            self._failures.pop(address, None)
+        return self._sessions.dumps([name, secrets.token_urlsafe(16)])
 
     # tokens
     async def token(self, raw: str) -> Identity:
@@ -251,7 +292,7 @@ class Identify:
             await self.app(scope, receive, send)
             return
         auth: Authority = scope["app"].state.authority
-        cookies = _cookies(scope)
+        cookies = cookies_of(scope)
         new_cookie: str | None = None
         who: Identity | None
         bearer = _bearer(scope)
@@ -259,7 +300,7 @@ class Identify:
             if bearer is not None:
                 who = await auth.token(bearer)
             else:
-                who = auth.session(cookies.get(SESSION_COOKIE)) or auth.anonymous(
+                who = await auth.session(cookies.get(SESSION_COOKIE)) or auth.anonymous(
                     cookies.get(ID_COOKIE)
                 )
         except ElabError as exc:
@@ -286,7 +327,7 @@ class Identify:
         await self.app(scope, receive, send_with_cookie)
 
 
-def _cookies(scope: Scope) -> Mapping[str, str]:
+def cookies_of(scope: Scope) -> Mapping[str, str]:
     """The request's cookies by name, in one pass over the header (RFC 6265's
     ``name=value; …``; the first of a name wins). No unquoting: E-Lab's cookies are never
     quoted, and CPython's ``http.cookies`` unquoting is quadratic in backslashes

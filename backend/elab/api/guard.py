@@ -20,6 +20,8 @@
 
 from __future__ import annotations
 
+import re
+
 from starlette.datastructures import Headers, MutableHeaders
 from starlette.responses import JSONResponse
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
@@ -92,7 +94,7 @@ class Guard:
         if scope["type"] == "websocket" or method not in SAFE_METHODS:
             site = headers.get("sec-fetch-site")
             origin = headers.get("origin")
-            if origin is not None and not self._own(origin, host):
+            if origin is not None and not self._own(origin, host, scope.get("scheme", "http")):
                 return (
                     403,
                     "forbidden",
@@ -117,21 +119,28 @@ class Guard:
                 )
         return None
 
-    def _own(self, origin: str, host: str) -> bool:
-        """``origin`` is the server's own (same host and port as the request was sent
-        to, whatever the scheme a TLS proxy in front changed) or a configured one."""
+    def _own(self, origin: str, host: str, scheme: str) -> bool:
+        """``origin`` is exactly the server's own (the scheme, host and port the request
+        came to: ``https`` behind a TLS proxy in ``ELAB_TRUSTED_PROXIES``, which says so)
+        or a configured one (``ELAB_ORIGINS``)."""
         if origin.lower() in self.origins:
             return True
-        _, sep, netloc = origin.partition("://")
-        return bool(sep) and netloc.lower() == host.lower()
+        ours = {"ws": "http", "wss": "https"}.get(scheme, scheme)
+        return origin.lower() == f"{ours}://{host.strip().lower()}"
 
 
-def _hostname(host: str) -> str:
-    """``Host`` without its port (``[::1]:8000`` → ``::1``)."""
+_HOST = re.compile(r"(\[[0-9a-f:.]+\]|[a-z0-9]([a-z0-9.-]*[a-z0-9])?)(:[0-9]{1,5})?")
+
+
+def _hostname(host: str) -> str | None:
+    """``Host`` without its port (``[::1]:8000`` → ``::1``), or ``None`` if it is not a
+    host name or address with an optional port (``127.0.0.1:8000@evil.example`` is not)."""
     host = host.strip().lower()
-    if host.startswith("["):
-        return host[1 : host.find("]")] if "]" in host else host
-    return host.rsplit(":", 1)[0] if host.count(":") == 1 else host
+    m = _HOST.fullmatch(host)
+    if m is None:
+        return None
+    name = m.group(1)
+    return name[1:-1] if name.startswith("[") else name
 
 
 async def _secured(response: JSONResponse, scope: Scope, receive: Receive, send: Send) -> None:

@@ -57,7 +57,10 @@ class Settings:
     (``ELAB_HOSTS``, loopback names; ``*``: any), ``origins`` other origins whose pages may call
     it (``ELAB_ORIGINS``; default: none but its own), ``instructors`` a file of instructor
     accounts (``ELAB_INSTRUCTORS``), ``secure_cookies`` behind HTTPS (``ELAB_SECURE_COOKIES``,
-    0), ``session_hours`` an instructor's sign-in lasts (``ELAB_SESSION_HOURS``, 12)."""
+    0), ``session_hours`` an instructor's sign-in lasts (``ELAB_SESSION_HOURS``, 12).
+    ``trusted_proxies``: the addresses of reverse proxies whose ``X-Forwarded-For`` and
+    ``X-Forwarded-Proto`` are believed (``ELAB_TRUSTED_PROXIES``; none by default: a client's
+    own ``X-Forwarded-For`` never changes its address)."""
 
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
@@ -87,6 +90,7 @@ class Settings:
     body_timeout: float = 10.0
     trial_workers: int = 2
     max_streams_per_identity: int = 32
+    trusted_proxies: tuple[str, ...] = ()
     trial_timeout: float = 60.0
 
     @property
@@ -149,6 +153,7 @@ class Settings:
             max_models_per_identity=_int(env, "ELAB_MAX_MODELS_PER_IDENTITY", 100),
             secret=_secret(env),
             hosts=_names(env, "ELAB_HOSTS", LOOPBACK),
+            trusted_proxies=_names(env, "ELAB_TRUSTED_PROXIES", ()),
             origins=tuple(_origin(o) for o in _names(env, "ELAB_ORIGINS", ())),
             instructors=Path(env["ELAB_INSTRUCTORS"]) if env.get("ELAB_INSTRUCTORS") else None,
             secure_cookies=_int(env, "ELAB_SECURE_COOKIES", 0, lo=0, hi=1) == 1,

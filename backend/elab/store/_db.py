@@ -75,6 +75,10 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             name TEXT NOT NULL, model TEXT NOT NULL, created_at REAL NOT NULL)""",
         "CREATE INDEX models_by_owner ON models (owner, created_at)",
     ),
+    (  # 7: instructors' sessions ended by signing out, kept until they would have expired
+        """CREATE TABLE ended_sessions (
+            sid TEXT PRIMARY KEY, until REAL NOT NULL)""",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 

@@ -172,8 +172,9 @@ class ModelStore(Protocol):
 
 
 class AccessStore(Protocol):
-    """API tokens and pinned runs (identities themselves are not stored: an anonymous one
-    lives in its browser's signed cookie, instructors in the server's configuration)."""
+    """API tokens, pinned runs and ended sessions (identities themselves are not stored: an
+    anonymous one lives in its browser's signed cookie, instructors in the server's
+    configuration)."""
 
     def add_token(self, token: Token, digest: str) -> None: ...
 
@@ -193,6 +194,13 @@ class AccessStore(Protocol):
     def pin(self, name: str) -> Pin | None: ...
 
     def clear_pin(self, name: str) -> None: ...
+
+    def end_session(self, sid: str, until: float) -> None:
+        """Session ``sid`` is over (signed out); it would have expired at ``until`` (unix s),
+        after which its record may go."""
+
+    def ended_sessions(self, now: float) -> set[str]:
+        """The sessions ended and not yet expired at ``now``."""
 
 
 class RunStore(Protocol):

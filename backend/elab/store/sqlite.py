@@ -469,6 +469,18 @@ class SQLiteStore:
             if cur.rowcount == 0:
                 raise NotFound("token", token_id)
 
+    def end_session(self, sid: str, until: float) -> None:
+        with self._transaction() as conn:
+            conn.execute("DELETE FROM ended_sessions WHERE until < ?", (time.time(),))
+            conn.execute(
+                "INSERT OR REPLACE INTO ended_sessions (sid, until) VALUES (?, ?)", (sid, until)
+            )
+
+    def ended_sessions(self, now: float) -> set[str]:
+        with self._snapshot() as conn:
+            rows = conn.execute("SELECT sid FROM ended_sessions WHERE until >= ?", (now,))
+            return {sid for (sid,) in rows}
+
     def set_pin(self, pin: Pin) -> None:
         with self._transaction() as conn:
             _size(conn, pin.run_id)  # NotFound for an unknown run
