@@ -4,6 +4,7 @@ store (real files), and a file of schema version 2 upgraded with its runs intact
 from __future__ import annotations
 
 import sqlite3
+import time
 from pathlib import Path
 
 import numpy as np
@@ -158,3 +159,20 @@ def test_a_version_4_file_keeps_runs_and_controllers_and_takes_compute_times(
         times = {"steps": 3, "median_us": 12.5, "p99_us": 30.0, "max_us": 31.0, "misses": 0}
         store.set_status(run.id, "finished", compute=times)
         assert store.get_run(run.id).compute == times
+
+
+V6 = Path(__file__).resolve().parents[2] / "reference" / "store" / "v6.sql"
+
+
+def test_a_version_6_file_opens_upgraded_and_sessions_can_end(tmp_path: Path) -> None:
+    """Migration 7: the sessions ended by signing out, kept until they would expire."""
+    path = restored(V6, tmp_path / "v6.sqlite3")
+    with SQLiteStore(path) as store:
+        assert store.get_run("r-0000000000b6").status == "finished"
+        assert [t.id for t in store.tokens("instructor:prof")] == ["t-0000000000b6"]
+        now = time.time()
+        assert store.ended_sessions(now) == set()
+        store.end_session("s-old", until=now - 10)  # already expired: no record needed
+        store.end_session("s-gone", until=now + 3600)
+        assert store.ended_sessions(now) == {"s-gone"}
+        assert store.ended_sessions(now + 7200) == set()
