@@ -6,13 +6,19 @@ Each returns a clean float64 array or float, or raises
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.errors import DimensionError, InvalidInput
+from elab.errors import DimensionError, ElabError, InvalidInput
+
+# what numpy, scipy and python-control raise when a computation meets numbers it cannot
+# carry (an overflow to inf, a division by an underflowed zero, a matrix left non-finite)
+_NUMERIC = (ArithmeticError, np.linalg.LinAlgError)
+_NUMERIC_WORDS = ("inf", "nan", "finite", "ill-conditioned", "singular", "did not converge")
 
 
 def finite_array(
@@ -68,3 +74,34 @@ def _range_text(lo: float | None, hi: float | None, lo_open: bool) -> str:
     if lo is None:
         return f" ≤ {hi:g}"
     return f" in {'(' if lo_open else '['}{lo:g}, {hi:g}]"
+
+
+@contextmanager
+def computable(field: str, value: Any, allowed: str) -> Iterator[None]:
+    """Run a computation on numbers a client gave: where they make it fail (issue 24: K =
+    1e308 overflowed a discretisation, a time constant of 5e-324 divided by zero, Q = 1e154
+    made a Riccati solver give up), :class:`InvalidInput` naming ``field`` and saying what
+    is ``allowed``, instead of an internal error. Errors of E-Lab's own pass through."""
+    try:
+        yield
+    except ElabError:
+        raise
+    except _NUMERIC as exc:
+        raise InvalidInput(field, value, f"{allowed} ({_reason(exc)})") from None
+    except ValueError as exc:
+        if not any(word in str(exc).lower() for word in _NUMERIC_WORDS):
+            raise
+        raise InvalidInput(field, value, f"{allowed} ({_reason(exc)})") from None
+
+
+def finite_result(field: str, value: Any, allowed: str, *arrays: Any) -> None:
+    """:class:`InvalidInput` for ``field`` unless every one of ``arrays`` is finite: what a
+    client's numbers gave overflowed."""
+    for a in arrays:
+        if not np.all(np.isfinite(np.asarray(a, dtype=np.complex128))):
+            raise InvalidInput(field, value, f"{allowed} (the arithmetic overflowed)")
+
+
+def _reason(exc: Exception) -> str:
+    text = str(exc).split("\n")[0][:120] or type(exc).__name__
+    return f"the arithmetic failed: {text}"

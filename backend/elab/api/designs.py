@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import asyncio
 import math
-from collections.abc import Callable
 from typing import Any, TypeVar
 
 import control as ct
@@ -26,7 +25,7 @@ from elab import controllers as ctl
 from elab.api import convert
 from elab.api import schemas as s
 from elab.api.controllers import MEDIA
-from elab.api.http import Param, endpoint, ok, read_model
+from elab.api.http import Param, computed, endpoint, ok, read_model
 from elab.api.models import MODEL_ID, core_model, not_runnable, reference_index, stored
 from elab.design import loop, observed
 from elab.design.closed_loop import closed_loop, loop_transfer
@@ -64,25 +63,7 @@ async def design_on_model(request: Request) -> Response:
     input, and ``controller``: the law for ``POST /runs`` (with ``Ts`` = ``run_Ts``)."""
     req = (await read_model(request, s.ModelDesignRequest)).root
     kept = await stored(request)
-    return ok(await asyncio.to_thread(_computable, model_design, kept, req))
-
-
-def _computable(f: Callable[..., M], *args: Any) -> M:
-    """``f(*args)``, with a numerical failure (numbers that overflow double precision) as
-    the input's fault: 422, not 500."""
-    try:
-        with np.errstate(all="ignore"):
-            out = f(*args)
-        out.model_dump_json()  # every number finite (null where the schema allows)
-    except InvalidInput:
-        raise
-    except (np.linalg.LinAlgError, ValueError, OverflowError, ZeroDivisionError) as exc:
-        raise InvalidInput(
-            "controller",
-            "these gains",
-            f"numbers whose loop can be computed in double precision ({exc})",
-        ) from None
-    return out
+    return ok(await asyncio.to_thread(computed, model_design, kept, req))
 
 
 def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
@@ -223,7 +204,7 @@ async def plant_loop(request: Request) -> Response:
     req = await read_model(request, s.LoopRequest)
     law = convert.law(req.controller, plant)
     amplitude = _amplitude(req.amplitude, plant)
-    return ok(await asyncio.to_thread(_computable, _plant_loop, plant, law, amplitude))
+    return ok(await asyncio.to_thread(computed, _plant_loop, plant, law, amplitude))
 
 
 def _plant_loop(plant: Plant, law: ControlLaw, amplitude: float) -> s.LoopOut:
@@ -265,7 +246,7 @@ async def controller_file(request: Request) -> Response:
     plant = get_plant(request.path_params["plant_id"])
     req = await read_model(request, s.ControllerFileRequest)
     law = convert.law(req.controller, plant)
-    data = await asyncio.to_thread(_file, plant, law, req.format, req.name)
+    data = await asyncio.to_thread(computed, _file, plant, law, req.format, req.name)
     stem = "".join(
         c if (c.isascii() and c.isalnum()) or c in "-_" else "-" for c in (req.name or "designed")
     )

@@ -22,6 +22,7 @@ from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
+import numpy as np
 from pydantic import BaseModel, ValidationError
 from starlette.requests import HTTPConnection, Request
 from starlette.responses import JSONResponse, Response
@@ -38,9 +39,11 @@ from elab.errors import (
     Unauthorized,
     Unavailable,
 )
+from elab.validate import computable
 
 Handler = Callable[[Request], Awaitable[Response]]
 M = TypeVar("M", bound=BaseModel)
+R = TypeVar("R")
 
 
 class TooLarge(ElabError):
@@ -198,6 +201,23 @@ async def read_body(request: Request, upload: bool = False) -> bytes:
             if len(body) > limit:
                 raise TooLarge(limit, setting)
     return bytes(body)
+
+
+def computed(
+    f: Callable[..., R], *args: Any, field: str = "controller", value: Any = "these gains"
+) -> R:
+    """``f(*args)`` on a client's numbers, with a numerical failure (numbers that overflow
+    double precision) as the input's fault, naming ``field``: 422, not 500. A result with a
+    number JSON cannot hold (inf, NaN where the schema has none) is such a failure too."""
+    allowed = "numbers whose result can be computed in double precision"
+    with computable(field, value, allowed), np.errstate(all="ignore"):
+        out = f(*args)
+        if isinstance(out, BaseModel):
+            try:
+                out.model_dump_json()
+            except ValueError:
+                raise InvalidInput(field, value, f"{allowed} (it overflowed)") from None
+    return out
 
 
 class Pending:

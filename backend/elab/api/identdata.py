@@ -90,6 +90,12 @@ async def _dataset(
                     name,
                     f"channels of run {record.id}: {', '.join(names)}",
                 )
+    end = record.n_stored * record.Ts
+    for name, t in (("t_from", src.t_from), ("t_to", src.t_to)):
+        if t is not None and not 0 <= t <= end:
+            raise InvalidInput(
+                f"{prefix}.{name}", t, f"a time in [0, {end:g}] s (run {record.id}'s recording)"
+            )
     k0 = 0 if src.t_from is None else round(src.t_from / record.Ts)
     k1 = None if src.t_to is None else round(src.t_to / record.Ts) + 1
     if k1 is not None and k1 <= k0:

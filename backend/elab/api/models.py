@@ -24,7 +24,16 @@ from elab.access import Identity, display_name, may_control, require_control
 from elab.api import convert
 from elab.api import schemas as s
 from elab.api.auth import identity
-from elab.api.http import Param, endpoint, ok, query, query_float, read_model, within_budget
+from elab.api.http import (
+    Param,
+    computed,
+    endpoint,
+    ok,
+    query,
+    query_float,
+    read_model,
+    within_budget,
+)
 from elab.design import loop
 from elab.design.model import Model
 from elab.design.response import default_horizon
@@ -48,7 +57,7 @@ def store(conn: HTTPConnection) -> ModelStore:
     body=s.ModelCreate,
     response=s.IdentifiedModel,
     status=201,
-    errors=(413, 422, 429),
+    errors=(413, 422, 429, 503),
     links=(
         ("get_model", "model_id"),
         ("model_step", "model_id"),
@@ -154,7 +163,7 @@ async def get_model(request: Request) -> Response:
     "Delete an identified model (its owner or an instructor)",
     params=(MODEL_ID,),
     status=204,
-    errors=(403, 404),
+    errors=(403, 404, 503),
 )
 async def delete_model(request: Request) -> Response:
     kept = await stored(request)
@@ -185,7 +194,7 @@ async def model_step(request: Request) -> Response:
     if T is not None and not 0 < T <= 3600:
         raise InvalidInput("T", T, "a horizon in (0, 3600] s")
     kept = await stored(request)
-    return ok(await asyncio.to_thread(_open_step, kept, T))
+    return ok(await asyncio.to_thread(computed, _open_step, kept, T, field="model", value=kept.id))
 
 
 def _open_step(kept: StoredModel, T: float | None) -> s.StepOut:

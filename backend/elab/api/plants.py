@@ -13,7 +13,7 @@ from starlette.responses import Response
 from elab import design
 from elab.api import convert
 from elab.api import schemas as s
-from elab.api.http import Param, endpoint, ok, query, read_model
+from elab.api.http import Param, computed, endpoint, ok, query, read_model
 from elab.errors import InvalidInput, NotFound
 from elab.laws import OpenLoop
 from elab.plants import PLANTS, Channel, Plant, get_plant
@@ -186,7 +186,7 @@ async def step(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
     req = await read_model(request, s.StepRequest)
     law = OpenLoop() if req.controller is None else convert.law(req.controller, p)
-    return ok(await asyncio.to_thread(_step, p, law, req))
+    return ok(await asyncio.to_thread(computed, _step, p, law, req))
 
 
 def _step(p: Plant, law: object, req: s.StepRequest) -> s.StepOut:
@@ -256,7 +256,9 @@ def _finite(v: np.ndarray) -> list[float]:
 async def design_lqr(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
     req = await read_model(request, s.LQRRequest)
-    res = await asyncio.to_thread(design.design_lqr, p, req.Q, req.R)
+    res = await asyncio.to_thread(
+        computed, design.design_lqr, p, req.Q, req.R, field="Q", value=req.Q
+    )
     return ok(
         s.DesignOut(
             plant=p.id,
@@ -279,7 +281,9 @@ async def design_place(request: Request) -> Response:
     p = get_plant(request.path_params["plant_id"])
     req = await read_model(request, s.PlaceRequest)
     poles = [complex(z.re, z.im) for z in req.poles]
-    res = await asyncio.to_thread(design.design_place, p, poles)
+    res = await asyncio.to_thread(
+        computed, design.design_place, p, poles, field="poles", value=req.poles
+    )
     return ok(
         s.DesignOut(
             plant=p.id,

@@ -162,6 +162,8 @@ def _text_fields(data: bytes, fmt: str) -> dict[str, Any]:
         ) from None
     except RecursionError:
         raise InvalidInput("file", "nested too deeply", f"a flat {fmt} file") from None
+    except ValueError as exc:  # an integer of more digits than Python converts (4,300)
+        raise InvalidInput("file", str(exc)[:80], "numbers of at most 4,300 digits") from None
     if not isinstance(parsed, dict):
         raise InvalidInput("file", type(parsed).__name__, "a table of fields (kind = …)")
     if "version" not in parsed:
@@ -546,7 +548,10 @@ _LAWS: dict[str, Callable[[Mapping[str, Any], Plant], ControlLaw]] = {
 def _number(field: str, value: Any, positive: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise InvalidInput(field, value, "a number")
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:  # an integer past 1.8e308
+        x = math.inf
     if not math.isfinite(x) or (positive and x <= 0):
         raise InvalidInput(
             field, value, "a positive finite number" if positive else "a finite number"

@@ -31,6 +31,7 @@ from elab.design.observed import two_dof
 from elab.design.response import margins, step_response
 from elab.laws import ControlLaw, LTIController, OpenLoop
 from elab.plants import Plant
+from elab.validate import computable, finite_result
 
 
 @dataclass(frozen=True)
@@ -90,7 +91,16 @@ class Report:
 
 
 def check(plant: Plant, law: ControlLaw) -> Report:
-    """The report of ``law`` on ``plant``'s linear model."""
+    """The report of ``law`` on ``plant``'s linear model; :class:`InvalidInput` for a law
+    whose numbers overflow double precision in it (K = 1e308, a denominator of 1e-320)."""
+    allowed = "a controller whose numbers keep its loop's arithmetic finite"
+    with computable("controller", law, allowed), np.errstate(all="ignore"):
+        report = _check(plant, law)
+        finite_result("controller", law, allowed, report.poles)
+    return report
+
+
+def _check(plant: Plant, law: ControlLaw) -> Report:
     problems: list[str] = []
     warnings: list[str] = []
     if (

@@ -24,6 +24,7 @@ from elab.design.analysis import stability
 from elab.design.locus import RootLocus, root_locus
 from elab.design.model import Model
 from elab.design.response import (
+    MIN_HORIZON,
     Margins,
     StepInfo,
     StepResponse,
@@ -132,7 +133,8 @@ def step(loop: Loop, Ts: float | None, amplitude: float, T: float | None = None)
     (:func:`horizon` by default): outputs y and the input u, on every sample in discrete
     time (at most :data:`MAX_SAMPLES`), on 4001 points in continuous time."""
     amplitude = finite_float("amplitude", amplitude)
-    T = horizon(loop, Ts) if T is None else finite_float("T", T, 0.0, 3600.0, lo_open=True)
+    shortest = MIN_HORIZON if Ts is None else max(MIN_HORIZON, 2 * Ts)  # two samples at least
+    T = horizon(loop, Ts) if T is None else finite_float("T", T, shortest, 3600.0)
     if Ts is None:
         return step_response(loop.closed, T, 4001, amplitude, u_output=-1)
     n = min(MAX_SAMPLES, round(T / Ts) + 1)

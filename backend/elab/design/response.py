@@ -25,6 +25,9 @@ class StepResponse:
     outputs: tuple[str, ...]
 
 
+MIN_HORIZON = 1e-6  # s: the shortest step response computed
+
+
 def step_response(
     sys: ct.StateSpace,
     T: float,
@@ -45,7 +48,7 @@ def step_response(
     sys : control.StateSpace
         Continuous, one input.
     T : float
-        Final time (s), > 0.
+        Final time (s), ≥ :data:`MIN_HORIZON` (1 µs: a shorter one has no distinct times).
     n : int
         Number of time points, ≥ 2.
     amplitude : float
@@ -60,7 +63,7 @@ def step_response(
     K. J. Åström and R. M. Murray, *Feedback Systems*, 2nd ed., 2021, §6.3.
     """
     _check_siso_input(sys, "sys")
-    T = finite_float("T", T, 0.0, lo_open=True)
+    T = finite_float("T", T, MIN_HORIZON)
     amplitude = finite_float("amplitude", amplitude)
     if isinstance(n, bool) or not isinstance(n, int) or n < 2:
         raise InvalidInput("n", n, "an integer ≥ 2")

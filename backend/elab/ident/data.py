@@ -35,6 +35,12 @@ def _columns(name: str, values: ArrayLike) -> Array:
     return a
 
 
+#: sample times a data set may have (s): from 1 GHz sampling to one sample in 30 years; the
+#: time axis and every frequency stay well inside double precision (a sample time of 5e-324
+#: or 1e308 overflowed them)
+TS_RANGE = (1e-9, 1e9)
+
+
 @dataclass(frozen=True)
 class IdData:
     """``N`` samples of outputs ``y`` ``(N, ny)`` and inputs ``u`` ``(N, nu)`` at ``Ts``."""
@@ -59,8 +65,8 @@ class IdData:
         if y.shape[0] > MAX_SAMPLES:
             raise InvalidInput("y", f"{y.shape[0]} samples", f"at most {MAX_SAMPLES:,} samples")
         Ts = self.Ts
-        if not isinstance(Ts, int | float) or not np.isfinite(Ts) or Ts <= 0:
-            raise InvalidInput("Ts", Ts, "a sample time > 0 s")
+        if not isinstance(Ts, int | float) or not TS_RANGE[0] <= Ts <= TS_RANGE[1]:
+            raise InvalidInput("Ts", Ts, f"a sample time in [{TS_RANGE[0]:g}, {TS_RANGE[1]:g}] s")
         y.flags.writeable = False
         u.flags.writeable = False
         object.__setattr__(self, "y", y)

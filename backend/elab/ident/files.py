@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
-from elab.ident.data import MAX_SAMPLES, IdData
+from elab.ident.data import MAX_SAMPLES, TS_RANGE, IdData
 
 Array = NDArray[np.float64]
 
@@ -212,8 +212,8 @@ def _table(names: list[str], units: list[str], data: Array, Ts: float | None) ->
         steps = np.diff(t)
         if steps.size and steps[0] > 0 and np.allclose(steps, steps[0], rtol=1e-6, atol=0):
             Ts = float(steps[0])
-    if Ts is not None and not (np.isfinite(Ts) and Ts > 0):
-        raise InvalidInput("Ts", Ts, "a sample time > 0 s")
+    if Ts is not None and not TS_RANGE[0] <= Ts <= TS_RANGE[1]:
+        raise InvalidInput("Ts", Ts, f"a sample time in [{TS_RANGE[0]:g}, {TS_RANGE[1]:g}] s")
     return Table(tuple(names), tuple(units), data, Ts)
 
 

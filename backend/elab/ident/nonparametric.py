@@ -215,8 +215,14 @@ def sine_response(
             frequency_hz,
             f"a frequency in (0, {nyquist:g}) Hz (below Nyquist, 1/(2 Ts))",
         )
-    period = 1 / (frequency_hz * data.Ts)  # samples per period
     N = data.N
+    if frequency_hz * data.Ts * N < 1:  # not one period in the record
+        raise InvalidInput(
+            "frequency_hz",
+            frequency_hz,
+            f"a frequency with a whole period in the record: ≥ {1 / (N * data.Ts):g} Hz",
+        )
+    period = 1 / (frequency_hz * data.Ts)  # samples per period
     if periods_skip is None:
         skip = max(1, math.ceil(N / 4 / period - 1e-9))
     elif not isinstance(periods_skip, int) or isinstance(periods_skip, bool) or periods_skip < 0:

@@ -21,7 +21,7 @@ from elab.plants.base import Plant
 from elab.sim.controllers import DiscreteController, controller_poles, discretise
 from elab.sim.noise import sensor_noise
 from elab.sim.signals import Chirp, Signal, Sine, Square, Step
-from elab.validate import finite_array, finite_float
+from elab.validate import computable, finite_array, finite_float, finite_result
 
 Array = NDArray[np.float64]
 
@@ -97,7 +97,15 @@ def compile_run(spec: RunSpec) -> CompiledRun:
         )
     _check_periods("signal", spec.reference, Ts)
     _check_periods("excitation", spec.excitation, Ts)
-    _check_sample_time(spec.law, plant, Ts)
+    allowed = (
+        "a controller whose numbers keep its arithmetic finite: no gain, coefficient or "
+        "time constant so large or so small that it overflows or divides by zero"
+    )
+    with computable("controller", spec.law, allowed):
+        _check_sample_time(spec.law, plant, Ts)
+        controller = discretise(spec.law, plant, Ts)
+        c = controller
+        finite_result("controller", spec.law, allowed, c.Ac, c.Bc, c.Cc, c.Dc, c.Lw)
     d = ct.c2d(ct.ss(plant.A, plant.B, plant.C, plant.D), Ts, method="zoh")
     saturate = plant.saturate if spec.saturate is None else spec.saturate
     u_max = (
@@ -109,7 +117,7 @@ def compile_run(spec: RunSpec) -> CompiledRun:
         n_samples=n_samples,
         Ad=np.asarray(d.A, dtype=np.float64),
         Bd=np.asarray(d.B, dtype=np.float64)[:, 0],
-        controller=discretise(spec.law, plant, Ts),
+        controller=controller,
         u_lim=u_max if saturate else math.inf,
         quantum=np.array(plant.sensors.quantum if spec.quantize else (0.0,) * plant.ny),
         noise_std=np.array(plant.sensors.noise_std),
