@@ -498,6 +498,10 @@ def cmd_serve(args: argparse.Namespace) -> str:
         log_level="warning",
         ws_max_size=1 << 20,
         ws_per_message_deflate=False,
+        # h11 refuses a head still incomplete past this many bytes, so whether a long one
+        # (a 120 KB cookie) was answered depended on how its packets arrived (16 KiB by
+        # default): one budget, checked the same way every time
+        h11_max_incomplete_event_size=settings.max_head,
         # X-Forwarded-* only from the configured proxies (uvicorn trusts 127.0.0.1 by
         # default: rotating X-Forwarded-For beat the sign-in limit from loopback)
         proxy_headers=bool(settings.trusted_proxies),

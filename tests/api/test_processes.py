@@ -158,6 +158,28 @@ def test_a_stopped_engine_is_reported_and_its_runs_complete_after_it_goes_on(
         srv.stop()
 
 
+def test_an_engine_stalled_past_its_limit_is_killed_and_its_runs_say_why(tmp_path: Path) -> None:
+    """Issue 24: a run ended by the stall watchdog said "killed by SIGKILL", as if someone
+    had killed the engine; it now says the server did, and why."""
+    srv = Server(tmp_path / "data", ELAB_ENGINE_STALL="3").start()
+    try:
+        with srv.client() as c:
+            rid = c.post("/runs", json={"plant": "belt_conveyor", "duration": 120}).json()["id"]
+            until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] > 300)
+            pid = srv.engine_pid
+            os.kill(pid, signal.SIGSTOP)
+            info = until(
+                lambda: (i := c.get(f"/runs/{rid}").json())["status"] == "interrupted" and i,
+                60,
+            )
+            assert "was killed: it sent nothing for 3 s (ELAB_ENGINE_STALL)" in info["error"]
+            assert info["n_samples"] > 300
+            until(lambda: c.get("/health").status_code == 200, 60)
+            assert srv.status()["engine"]["pid"] != pid
+    finally:
+        srv.stop()
+
+
 @pytest.fixture
 def long_run(server: Server) -> str:
     with server.client() as c:

@@ -48,7 +48,7 @@ async def me(request: Request) -> Response:
     "Sign in as an instructor (sets the session cookie)",
     body=s.SignIn,
     response=s.Me,
-    errors=(401, 413, 415, 422, 429),
+    errors=(401, 413, 415, 422, 429, 503),
 )
 async def sign_in(request: Request) -> Response:
     """Accounts are configured by the operator (``ELAB_INSTRUCTORS``). Five failed
@@ -69,7 +69,7 @@ async def sign_in(request: Request) -> Response:
     "/session",
     "Sign out (back to the browser's anonymous identity)",
     response=s.Me,
-    errors=(),
+    errors=(503,),
 )
 async def sign_out(request: Request) -> Response:
     """The session ends on the server: its cookie, even kept, no longer signs in."""
@@ -114,7 +114,7 @@ async def list_tokens(request: Request) -> Response:
     body=s.TokenCreate,
     response=s.TokenCreated,
     status=201,
-    errors=(403, 413, 415, 422, 429),
+    errors=(403, 413, 415, 422, 429, 503),
     links=(("revoke_token", "token_id"),),
 )
 async def create_token(request: Request) -> Response:
@@ -143,7 +143,7 @@ async def create_token(request: Request) -> Response:
     "Revoke one of the caller's API tokens",
     params=(Param("token_id", "path", "token id (from POST /tokens)", required=True),),
     status=204,
-    errors=(404,),
+    errors=(404, 503),
 )
 async def revoke_token(request: Request) -> Response:
     who = identity(request)
@@ -188,7 +188,7 @@ def _instructor(request: Request, action: str) -> Identity:
     "Pin a run as the class demo (instructors)",
     body=s.DemoPin,
     response=s.DemoInfo,
-    errors=(403, 404, 413, 415, 422),
+    errors=(403, 404, 413, 415, 422, 503),
 )
 async def pin_demo(request: Request) -> Response:
     req = await read_model(request, s.DemoPin)
@@ -200,7 +200,7 @@ async def pin_demo(request: Request) -> Response:
     return await get_demo(request)
 
 
-@endpoint("DELETE", "/demo", "Unpin the class demo (instructors)", status=204, errors=(403,))
+@endpoint("DELETE", "/demo", "Unpin the class demo (instructors)", status=204, errors=(403, 503))
 async def unpin_demo(request: Request) -> Response:
     _instructor(request, "unpin")
     await asyncio.to_thread(authority(request).store.clear_pin, DEMO)

@@ -4,6 +4,7 @@ the OpenAPI document and its reference page, JSON errors, lifespan."""
 from __future__ import annotations
 
 import gc
+import logging
 from collections import Counter
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -14,7 +15,7 @@ from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
 from starlette.middleware.gzip import GZipMiddleware
-from starlette.requests import Request
+from starlette.requests import ClientDisconnect, Request
 from starlette.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse, Response
 from starlette.routing import BaseRoute, Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
@@ -40,6 +41,8 @@ from elab.errors import ElabError
 from elab.jobs import JobPool, Names
 from elab.runs.manager import RunManager
 from elab.store.sqlite import SQLiteStore
+
+log = logging.getLogger(__name__)
 
 API = "/api/v1"
 #: The built browser app (``make install`` runs the frontend build into it).
@@ -137,7 +140,12 @@ def create_app(settings: Settings | None = None) -> Starlette:
             Middleware(BodyTimeout, seconds=settings.body_timeout),
             Middleware(GZipMiddleware, minimum_size=4096),
         ],
-        exception_handlers={ElabError: _error, ValidationError: _error, HTTPException: _http_error},
+        exception_handlers={
+            ElabError: _error,
+            ValidationError: _error,
+            HTTPException: _http_error,
+            ClientDisconnect: _gone,
+        },
     )
     app.state.settings = settings
     app.state.index = STATIC / "index.html" if (STATIC / "index.html").is_file() else None
@@ -179,6 +187,13 @@ def _app_routes(static: Path) -> list[BaseRoute]:
 
 async def _error(request: Request, exc: Exception) -> Response:
     return error_response(exc)
+
+
+async def _gone(request: Request, exc: Exception) -> Response:
+    """The client went away while sending its body: nobody to answer, nothing to fix here
+    (it was logged as an exception in the ASGI application, with its traceback)."""
+    log.info("%s %s: the client left before its body was in", request.method, request.url.path)
+    return Response(status_code=400)
 
 
 async def _http_error(request: Request, exc: Exception) -> Response:

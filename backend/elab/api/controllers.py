@@ -107,7 +107,7 @@ FORM = {
     form=FORM,
     response=s.UploadedController,
     status=201,
-    errors=(404, 413, 415, 422, 429),
+    errors=(404, 413, 415, 422, 429, 503),
     links=(("get_controller", "controller_id"), ("delete_controller", "controller_id")),
 )
 async def upload_controller(request: Request) -> Response:
@@ -270,7 +270,7 @@ async def get_controller(request: Request) -> Response:
     "Delete an uploaded controller (runs made with it keep their record of it)",
     params=(CONTROLLER_ID,),
     status=204,
-    errors=(404,),
+    errors=(404, 503),
 )
 async def delete_controller(request: Request) -> Response:
     c = await visible(request, request.path_params["controller_id"], identity(request))

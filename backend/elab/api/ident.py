@@ -57,7 +57,7 @@ T = TypeVar("T")
     "Identify models from a run's data or an uploaded table",
     body=s.IdentRequest,
     response=s.IdentOut,
-    errors=(404, 413, 422, 429),
+    errors=(404, 413, 422, 429, 503),
     stream=s.IdentLine,
 )
 async def identify(request: Request) -> Response:

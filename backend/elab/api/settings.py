@@ -65,6 +65,7 @@ class Settings:
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
     max_body: int = 1 << 20
+    max_head: int = 256 << 10
     max_upload: int = 16 << 20
     max_uploads: int = 4
     watcher_frames: int = 100
@@ -131,6 +132,7 @@ class Settings:
             data_dir=Path(env.get("ELAB_DATA", "data")),
             limits=limits,
             max_body=_int(env, "ELAB_MAX_BODY", 1 << 20),
+            max_head=_int(env, "ELAB_MAX_HEAD", 256 << 10),
             max_upload=_int(env, "ELAB_MAX_UPLOAD", 16 << 20),
             max_uploads=_int(env, "ELAB_MAX_UPLOADS", 4),
             body_timeout=_float(env, "ELAB_BODY_TIMEOUT", 10.0),

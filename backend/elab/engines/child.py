@@ -261,9 +261,13 @@ def _receive(sock: socket.socket) -> dict[str, Any] | None:
 
 
 def _exactly(sock: socket.socket, n: int) -> bytes | None:
+    """``n`` bytes, or ``None`` once the web process has gone (closed, or killed: reset)."""
     buf = bytearray()
     while len(buf) < n:
-        part = sock.recv(n - len(buf))
+        try:
+            part = sock.recv(n - len(buf))
+        except ConnectionResetError:
+            return None
         if not part:
             return None
         buf += part

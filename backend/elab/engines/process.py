@@ -70,6 +70,7 @@ class ProcessEngine:
         self._ready = False
         self._closing = False
         self._problem: str | None = "not started"
+        self._killed: str | None = None  # why the supervisor killed the process, if it did
         self._pending: dict[int, asyncio.Future[Any]] = {}
         self._ids = itertools.count()
         self._health: Health | None = None
@@ -282,6 +283,9 @@ class ProcessEngine:
                 proc.kill()
                 code = await asyncio.to_thread(proc.wait)
         reason = f"the engine process ended ({_ended(code)})"
+        if self._killed is not None:
+            reason = f"the engine process was killed: {self._killed}"
+            self._killed = None
         self._problem = None if self._closing else reason
         for fut in self._pending.values():
             if not fut.done():
@@ -299,9 +303,11 @@ class ProcessEngine:
             proc, beat = self._proc, self._beat
             if self._ready and beat is not None and proc is not None:
                 if time.monotonic() - beat > self.stall_timeout:
-                    log.error(
-                        "engine %s sent nothing for %g s: killing it", self.id, self.stall_timeout
+                    self._killed = (
+                        f"it sent nothing for {self.stall_timeout:g} s (ELAB_ENGINE_STALL), "
+                        "so it was stalled: stopped, hung or starved of CPU"
                     )
+                    log.error("engine %s: %s; killing it", self.id, self._killed)
                     proc.send_signal(signal.SIGKILL)
                 continue
             if self._ready or (self._reading is not None and not self._reading.done()):
