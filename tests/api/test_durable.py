@@ -57,8 +57,8 @@ def test_a_burst_of_300_runs_from_300_identities_ends_with_every_sample(tmp_path
     and real-time runs lost their last frame: the end was announced before the last
     blocks were committed, and those were dropped."""
     srv = Server(tmp_path / "data").start()
-    fast = {"plant": "flexible_link", "signal": SQUARE, "duration": 5.0, "pace": "fast"}
-    live = {"plant": "flexible_link", "signal": SQUARE, "duration": 3.0}
+    fast = {"plant": "flexible_link", "signal": SQUARE, "duration": 2.5, "pace": "fast"}
+    live = {"plant": "flexible_link", "signal": SQUARE, "duration": 2.0}
 
     async def scenario() -> list[tuple[dict[str, Any], np.ndarray]]:
         runs = await _burst(srv, [fast] * 200 + [live] * 100)
@@ -72,7 +72,7 @@ def test_a_burst_of_300_runs_from_300_identities_ends_with_every_sample(tmp_path
 
     try:
         ended = asyncio.run(scenario())
-        want = {5000: offline(5.0), 3000: offline(3.0)}
+        want = {2500: offline(2.5), 2000: offline(2.0)}
         for info, data in ended:
             planned = info["n_planned"]
             assert (info["status"], info["n_samples"], info["error"]) == ("finished", planned, None)

@@ -5,10 +5,11 @@ from 13 sites and one dropped websocket, all from numbers like ±1e308, 5e-324 o
 For each request body the API takes (a valid one per endpoint, every controller kind, the
 signals, identification from a file and from a run, controller files in every text
 format), every number in it — also those inside a controller file's text and an
-identification table — is set in turn to each of :data:`EXTREMES`, and a hypothesis
-search sets several at once. Each answer must be a success or a 4xx that says what is
-wrong, naming a field when it is a 422; the websocket's ``set_params`` gets the same
-values and must answer each without closing the connection."""
+identification table — is set in turn to each of :data:`SWEEP` (one extreme of each
+kind), and a hypothesis search sets several at once to any of :data:`EXTREMES`. Each
+answer must be a success or a 4xx that says what is wrong, naming a field when it is a
+422; the websocket's ``set_params`` gets every extreme and must answer each without
+closing the connection."""
 
 from __future__ import annotations
 
@@ -44,6 +45,11 @@ EXTREMES: tuple[float | int, ...] = (
     -(2**63) - 1,
     BIG_INT,
 )
+
+#: what every number of every body is set to in turn: one of each kind (the largest of both
+#: signs, the smallest subnormal, negative zero, a huge integer); the hypothesis search
+#: below draws from all of EXTREMES, several numbers at once
+SWEEP: tuple[float | int, ...] = (1e308, -1e308, 5e-324, -0.0, BIG_INT)
 
 SF = {"kind": "state_feedback", "K": [20, -93.5614, 3.3621, 0.9623]}
 OBSERVER = {
@@ -439,14 +445,14 @@ def test_every_number_of_every_body_at_every_extreme(lab: Lab, case: Case) -> No
     assert r.status_code < 300, f"the valid request failed: {r.status_code} {r.text[:400]}"
     problems = []
     for path in _leaves(base):
-        for x in EXTREMES:
+        for x in SWEEP:
             body = copy.deepcopy(base)
             _set(body, path, x)
             what = f"{'.'.join(map(str, path))} = {_label(x)}"
             problems.append(_problem(lab.send(case, body), what))
     if case.text is not None:
         for i in range(len(BASE_TEXT)):
-            for x in EXTREMES:
+            for x in SWEEP:
                 values = list(BASE_TEXT)
                 values[i] = _number_text(x)
                 what = f"the text's number {i} = {_label(x)}"

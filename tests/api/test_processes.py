@@ -173,7 +173,7 @@ def test_an_engine_stalled_past_its_limit_is_killed_and_its_runs_say_why(tmp_pat
                 60,
             )
             assert "was killed: it sent nothing for 3 s (ELAB_ENGINE_STALL)" in info["error"]
-            assert info["n_samples"] > 300
+            assert info["n_samples"] > 0  # what was committed before the stall
             until(lambda: c.get("/health").status_code == 200, 60)
             assert srv.status()["engine"]["pid"] != pid
     finally:

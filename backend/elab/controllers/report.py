@@ -18,14 +18,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from typing import Any
-from warnings import catch_warnings, simplefilter
 
 import control as ct
 import numpy as np
-from scipy.signal import BadCoefficients
 
 from elab.design.closed_loop import closed_loop, loop_transfer
-from elab.design.loop import close, credible, step
+from elab.design.loop import close, credible, frd_margins, step
 from elab.design.model import Model
 from elab.design.observed import two_dof
 from elab.design.response import margins, step_response
@@ -177,11 +175,7 @@ def _discrete(plant: Plant, law: LTIController, problems: list[str], warnings: l
         problems.append(f"the closed loop is unstable (pole {_pole(worst)} with |z| ≥ 1)")
     # on the frequency response: the polynomial method is ill-conditioned for z at 1 kHz
     # (scipy still warns while python-control converts the loop on the way)
-    with catch_warnings():
-        simplefilter("ignore", BadCoefficients)
-        gm, pm, *_ = ct.stability_margins(C * P, method="frd")
-    with np.errstate(divide="ignore"):
-        gm_db = float(20 * np.log10(gm)) if np.isfinite(gm) else float(gm)
+    m = frd_margins(C * P)
     amplitude = plant.signal.amplitude or 1.0
     peak = None
     if stable:
@@ -194,8 +188,8 @@ def _discrete(plant: Plant, law: LTIController, problems: list[str], warnings: l
         kind="LTIController",
         poles=tuple(sorted(poles, key=lambda p: (p.real, p.imag))),
         stable=stable,
-        gain_margin_db=gm_db,
-        phase_margin_deg=float(pm),
+        gain_margin_db=m.gain_margin_db,
+        phase_margin_deg=m.phase_margin_deg,
         peak_u=peak,
         u_max=plant.u_max,
         step_amplitude=amplitude,

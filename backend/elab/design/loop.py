@@ -152,10 +152,21 @@ def loop_margins(loop: Loop, Ts: float | None) -> Margins:
     z = 1), as :func:`elab.controllers.report.check` does."""
     if Ts is None:
         return credible(margins(loop.L), loop.L)
+    return frd_margins(loop.L)
+
+
+def frd_margins(L: ct.StateSpace) -> Margins:
+    """Margins of a discrete loop ``L`` on its frequency response (python-control's
+    ``stability_margins(method="frd")``); ArithmeticError when that response is not finite
+    (a gain of 1e308: its spline fit refused the points)."""
     with catch_warnings():
         simplefilter("ignore", BadCoefficients)
+        simplefilter("ignore", RuntimeWarning)  # complex overflow warns despite errstate
         with np.errstate(all="ignore"):
-            gm, pm, _, wpc, wgc, _ = ct.stability_margins(loop.L, method="frd")
+            try:
+                gm, pm, _, wpc, wgc, _ = ct.stability_margins(L, method="frd")
+            except ValueError as exc:
+                raise ArithmeticError(f"the loop's frequency response: {exc}") from None
     with np.errstate(divide="ignore"):
         gm_db = float(20.0 * np.log10(gm)) if np.isfinite(gm) else float(gm)
     return Margins(gm_db, float(pm), float(wgc), float(wpc))

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from elab.controllers import check, template
+from elab.errors import InvalidInput
 from elab.laws import PID, LTIController, StateFeedback
 from elab.plants import PLANTS, get_plant
 
@@ -114,3 +115,24 @@ def test_elab_check_prints_the_report_of_a_template(tmp_path: Path) -> None:
         [ELAB, "check", str(bad), "--plant", "belt_conveyor"], capture_output=True, text=True
     )
     assert r.returncode == 2 and "line 4, the end of the file" in r.stderr
+
+
+@pytest.mark.parametrize(
+    "law",
+    [
+        LTIController(num=(1e308, 2.0), den=(1.0, 1e-300), dt=0.001),  # found by hypothesis
+        LTIController(num=(1e308,), den=(1.0, 0.5), dt=0.001),
+        LTIController(num=(1.0,), den=(5e-324, 1.0), dt=0.001),
+        StateFeedback((1e308, -93.5614, 3.3621, 0.9623)),
+        PID(Kp=1e308, Ki=1e308),
+    ],
+)
+def test_numbers_that_overflow_the_report_name_the_controller(law: object) -> None:
+    """Issue 24: such laws gave 500s (a spline fit of an infinite frequency response)."""
+    plant = get_plant("flexible_link" if isinstance(law, StateFeedback) else "belt_conveyor")
+    try:
+        report = check(plant, law)  # type: ignore[arg-type]
+    except InvalidInput as exc:
+        assert exc.field == "controller"
+    else:  # or a report whose every number is finite or a margin's "none"
+        assert all(np.isfinite(p) for p in report.poles)
