@@ -62,6 +62,7 @@ lint: install $(LINT_STAMP)
 
 typecheck: install
 	$(VENV)/bin/mypy
+	$(PY) scripts/check_dispatch.py
 
 # pytest on both cores (pytest-xdist; each test module on one worker, which keeps the
 # servers of a module together)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import secrets
-from typing import Any
+from typing import Any, assert_never
 
 from elab.api import schemas as s
 from elab.errors import InvalidInput
@@ -18,76 +18,82 @@ from elab.sim import signals as sig
 from elab.sim.spec import RunSpec
 
 
-def law(model: Any, plant: Plant) -> ControlLaw:
+def law(model: s.Controller, plant: Plant) -> ControlLaw:
     """The control law of a controller model (``predefined`` → the plant's)."""
-    if isinstance(model, s.PredefinedController):
-        return plant.predefined
-    if isinstance(model, s.StateFeedbackController):
-        return StateFeedback(
-            tuple(model.K),
-            model.estimate,
-            model.Nr,
-            _rows(model.L),
-            None
-            if model.observer_poles is None
-            else tuple(complex(p.re, p.im) for p in model.observer_poles),
-        )
-    if isinstance(model, s.PIDController):
-        return PID(**model.model_dump(exclude={"kind"}))
-    if isinstance(model, s.LTIControllerModel):
-        return LTIController(
-            num=_tuple(model.num),
-            den=_tuple(model.den),
-            A=_rows(model.A),
-            B=_rows(model.B),
-            C=_rows(model.C),
-            D=_rows(model.D),
-            dt=model.dt,
-            ff_num=_tuple(model.ff_num),
-            ff_den=_tuple(model.ff_den),
-            B_r=_rows(model.B_r),
-            D_r=_rows(model.D_r),
-        )
-    if isinstance(model, s.OpenLoopController):
-        return OpenLoop()
-    raise InvalidInput("controller.kind", type(model).__name__, "a known controller kind")
+    match model:
+        case s.PredefinedController():
+            return plant.predefined
+        case s.StateFeedbackController():
+            return StateFeedback(
+                tuple(model.K),
+                model.estimate,
+                model.Nr,
+                _rows(model.L),
+                None
+                if model.observer_poles is None
+                else tuple(complex(p.re, p.im) for p in model.observer_poles),
+            )
+        case s.PIDController():
+            return PID(**model.model_dump(exclude={"kind"}))
+        case s.LTIControllerModel():
+            return LTIController(
+                num=_tuple(model.num),
+                den=_tuple(model.den),
+                A=_rows(model.A),
+                B=_rows(model.B),
+                C=_rows(model.C),
+                D=_rows(model.D),
+                dt=model.dt,
+                ff_num=_tuple(model.ff_num),
+                ff_den=_tuple(model.ff_den),
+                B_r=_rows(model.B_r),
+                D_r=_rows(model.D_r),
+            )
+        case s.OpenLoopController():
+            return OpenLoop()
+        case _:
+            assert_never(model)
 
 
-def law_model(law_: ControlLaw) -> Any:
+def law_model(law_: ControlLaw) -> s.Controller:
     """The model of a core law (for a plant's predefined controller)."""
-    if isinstance(law_, StateFeedback):
-        return s.StateFeedbackController(
-            kind="state_feedback",
-            K=list(law_.K),
-            estimate=law_.estimate,
-            Nr=law_.Nr,
-            L=None if law_.L is None else [list(r) for r in law_.L],
-            observer_poles=None
-            if law_.observer_poles is None
-            else complex_list(law_.observer_poles),
-        )
-    if isinstance(law_, PID):
-        return s.PIDController(kind="pid", **dataclasses.asdict(law_))
-    if isinstance(law_, OpenLoop):
-        return s.OpenLoopController(kind="open_loop")
-    if isinstance(law_, CodeController):
-        raise InvalidInput("controller", law_.name, "a declarative law (this one is code)")
-    matrices = {
-        k: [list(r) for r in getattr(law_, k)]
-        for k in ("A", "B", "C", "D", "B_r", "D_r")
-        if getattr(law_, k) is not None
-    }
-    return s.LTIControllerModel.model_validate(
-        {
-            "kind": "lti",
-            "num": _list(law_.num),
-            "den": _list(law_.den),
-            "dt": law_.dt,
-            "ff_num": _list(law_.ff_num),
-            "ff_den": _list(law_.ff_den),
-            **matrices,
-        }
-    )
+    match law_:
+        case StateFeedback():
+            return s.StateFeedbackController(
+                kind="state_feedback",
+                K=list(law_.K),
+                estimate=law_.estimate,
+                Nr=law_.Nr,
+                L=None if law_.L is None else [list(r) for r in law_.L],
+                observer_poles=None
+                if law_.observer_poles is None
+                else complex_list(law_.observer_poles),
+            )
+        case PID():
+            return s.PIDController(kind="pid", **dataclasses.asdict(law_))
+        case OpenLoop():
+            return s.OpenLoopController(kind="open_loop")
+        case CodeController():
+            raise InvalidInput("controller", law_.name, "a declarative law (this one is code)")
+        case LTIController():
+            matrices = {
+                k: [list(r) for r in getattr(law_, k)]
+                for k in ("A", "B", "C", "D", "B_r", "D_r")
+                if getattr(law_, k) is not None
+            }
+            return s.LTIControllerModel.model_validate(
+                {
+                    "kind": "lti",
+                    "num": _list(law_.num),
+                    "den": _list(law_.den),
+                    "dt": law_.dt,
+                    "ff_num": _list(law_.ff_num),
+                    "ff_den": _list(law_.ff_den),
+                    **matrices,
+                }
+            )
+        case _:
+            assert_never(law_)
 
 
 def signal(model: Any) -> sig.Signal:

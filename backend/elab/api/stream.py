@@ -14,7 +14,7 @@ import contextlib
 import struct
 from collections import Counter
 from collections.abc import Awaitable, Callable, Mapping
-from typing import Any
+from typing import Any, assert_never
 
 import anyio
 import msgpack
@@ -232,7 +232,7 @@ async def _receive(
             return
 
 
-def _message(message: Mapping[str, Any]) -> Any:
+def _message(message: Mapping[str, Any]) -> s.ClientMessage:
     """A client message: msgpack (binary) or JSON (text), validated. Both parsers bound
     the nesting (msgpack's StackError, pydantic's recursion limit) and the numbers (64-bit
     in msgpack; pydantic refuses out-of-range JSON numbers): a ValueError at worst."""
@@ -243,14 +243,22 @@ def _message(message: Mapping[str, Any]) -> Any:
 
 
 async def _handle(
-    ws: WebSocket, msg: Any, run_id: str, channel: Any, watcher: Watcher, who: Identity
+    ws: WebSocket,
+    msg: s.ClientMessage,
+    run_id: str,
+    channel: Any,
+    watcher: Watcher,
+    who: Identity,
 ) -> None:
-    if isinstance(msg, s.ResumeFrom):
-        channel.resume_from(watcher, msg.seq)
-    elif isinstance(msg, s.SetParams):
-        await apply_params(ws, run_id, msg, who)
-    else:
-        await ws.app.state.manager.control(run_id, msg.type, who)
+    match msg:
+        case s.ResumeFrom():
+            channel.resume_from(watcher, msg.seq)
+        case s.SetParams():
+            await apply_params(ws, run_id, msg, who)
+        case s.Pause() | s.Resume() | s.Stop():
+            await ws.app.state.manager.control(run_id, msg.type, who)
+        case _:
+            assert_never(msg)
 
 
 def _error(exc: Exception) -> s.ErrorMessage:

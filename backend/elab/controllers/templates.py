@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import io
 import json
-from typing import Any
+from typing import Any, assert_never
 
 import numpy as np
 
@@ -54,43 +54,56 @@ def law_file(plant: Plant, law: ControlLaw, fmt: str, name: str | None = None) -
 def law_fields(law: ControlLaw) -> dict[str, Any]:
     """A law as the fields of a controller file (the inverse of reading one; a Python
     controller's fields say only its file name: its source is the file)."""
-    if isinstance(law, CodeController):
-        return {"kind": "python", "file": law.name}
-    if isinstance(law, StateFeedback):
-        sf: dict[str, Any] = {"kind": "state_feedback", "K": list(law.K), "estimate": law.estimate}
-        if law.Nr is not None:
-            sf["Nr"] = law.Nr
-        if law.L is not None:
-            sf["L"] = [list(r) for r in law.L]
-        if law.observer_poles is not None:
-            sf["observer_poles"] = [
-                p.real if p.imag == 0 else [p.real, p.imag]
-                for p in (complex(z) for z in law.observer_poles)
-            ]
-        return sf
-    if isinstance(law, PID):
-        out: dict[str, Any] = {"kind": "pid", "Kp": law.Kp, "Ki": law.Ki, "Kd": law.Kd, "N": law.N}
-        if law.Tt is not None:
-            out["Tt"] = law.Tt
-        for weight in ("b", "c"):
-            if getattr(law, weight) != 1.0:
-                out[weight] = getattr(law, weight)
-        return out
-    if isinstance(law, LTIController):
-        fields: dict[str, Any] = {"kind": "lti"}
-        for name in ("num", "den"):
-            if getattr(law, name) is not None:
-                fields[name] = list(getattr(law, name))
-        for name in ("A", "B", "C", "D", "B_r", "D_r"):
-            if getattr(law, name) is not None:
-                fields[name] = [list(r) for r in getattr(law, name)]
-        if law.dt is not None:
-            fields["dt"] = law.dt
-        if law.ff_num is not None and law.ff_den is not None:
-            fields["ff_num"], fields["ff_den"] = list(law.ff_num), list(law.ff_den)
-        return fields
-    assert isinstance(law, OpenLoop)
-    return {"kind": "open_loop"}
+    match law:
+        case CodeController():
+            return {"kind": "python", "file": law.name}
+        case StateFeedback():
+            sf: dict[str, Any] = {
+                "kind": "state_feedback",
+                "K": list(law.K),
+                "estimate": law.estimate,
+            }
+            if law.Nr is not None:
+                sf["Nr"] = law.Nr
+            if law.L is not None:
+                sf["L"] = [list(r) for r in law.L]
+            if law.observer_poles is not None:
+                sf["observer_poles"] = [
+                    p.real if p.imag == 0 else [p.real, p.imag]
+                    for p in (complex(z) for z in law.observer_poles)
+                ]
+            return sf
+        case PID():
+            out: dict[str, Any] = {
+                "kind": "pid",
+                "Kp": law.Kp,
+                "Ki": law.Ki,
+                "Kd": law.Kd,
+                "N": law.N,
+            }
+            if law.Tt is not None:
+                out["Tt"] = law.Tt
+            for weight in ("b", "c"):
+                if getattr(law, weight) != 1.0:
+                    out[weight] = getattr(law, weight)
+            return out
+        case LTIController():
+            fields: dict[str, Any] = {"kind": "lti"}
+            for name in ("num", "den"):
+                if getattr(law, name) is not None:
+                    fields[name] = list(getattr(law, name))
+            for name in ("A", "B", "C", "D", "B_r", "D_r"):
+                if getattr(law, name) is not None:
+                    fields[name] = [list(r) for r in getattr(law, name)]
+            if law.dt is not None:
+                fields["dt"] = law.dt
+            if law.ff_num is not None and law.ff_den is not None:
+                fields["ff_num"], fields["ff_den"] = list(law.ff_num), list(law.ff_den)
+            return fields
+        case OpenLoop():
+            return {"kind": "open_loop"}
+        case _:
+            assert_never(law)
 
 
 def _toml(plant: Plant, f: dict[str, Any], name: str | None = None) -> str:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import assert_never
 
 import control as ct
 import numpy as np
@@ -137,30 +138,32 @@ def realise(plant: Plant, law: ControlLaw, *, all_pid_states: bool = False) -> R
     """
     if plant.nu != 1:
         raise InvalidInput("plant", plant.id, "a single-input plant")
-    if isinstance(law, StateFeedback):
-        return _state_feedback(plant, law)
-    if isinstance(law, PID):
-        return _pid(plant, law, all_pid_states)
-    if isinstance(law, LTIController):
-        if law.dt is not None:
+    match law:
+        case StateFeedback():
+            return _state_feedback(plant, law)
+        case PID():
+            return _pid(plant, law, all_pid_states)
+        case LTIController():
+            if law.dt is not None:
+                raise InvalidInput(
+                    "controller.dt",
+                    law.dt,
+                    "a continuous controller (dt=None); discrete laws are "
+                    "taken as they are by elab.sim",
+                )
+            real = _with_reference(_error_feedback(plant, lti_ss(law)), reference_input(law))
+            return _with_feedforward(real, feedforward_ss(law))
+        case OpenLoop():
+            return Realisation.static(np.ones((1, 1)), np.zeros((1, plant.ny)), False)
+        case CodeController():
             raise InvalidInput(
-                "controller.dt",
-                law.dt,
-                "a continuous controller (dt=None); discrete laws are "
-                "taken as they are by elab.sim",
+                "controller",
+                law.name,
+                "a linear controller: a Python controller has no model to analyse; its "
+                "report comes from a trial run in the sandbox",
             )
-        real = _with_reference(_error_feedback(plant, lti_ss(law)), reference_input(law))
-        return _with_feedforward(real, feedforward_ss(law))
-    if isinstance(law, OpenLoop):
-        return Realisation.static(np.ones((1, 1)), np.zeros((1, plant.ny)), False)
-    if isinstance(law, CodeController):
-        raise InvalidInput(
-            "controller",
-            law.name,
-            "a linear controller: a Python controller has no model to analyse; its report "
-            "comes from a trial run in the sandbox",
-        )
-    raise InvalidInput("law", law, "StateFeedback, PID, LTIController or OpenLoop")
+        case _:
+            assert_never(law)
 
 
 def _state_feedback(plant: Plant, law: StateFeedback) -> Realisation:
