@@ -1189,14 +1189,14 @@ export interface IdentModelOut {
    */
   continuous: ContinuousOut | null;
   /**
-   * [output][sample] on the validation set, from a zero initial state
+   * [output][sample] on the validation set, from a zero initial state; null where the simulation overflowed (a model that diverges)
    */
-  simulated: number[][];
+  simulated: (number | null)[][];
   /**
    * the same from the estimated state
    */
-  simulated_x0: number[][];
-  one_step: number[][];
+  simulated_x0: (number | null)[][];
+  one_step: (number | null)[][];
   residuals: ResidualsOut | null;
 }
 /**

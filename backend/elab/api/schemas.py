@@ -1014,11 +1014,12 @@ class IdentModelOut(Model):
     continuous: ContinuousOut | None = Field(
         description="by the inverse zero-order hold; null where no real one exists"
     )
-    simulated: list[list[float]] = Field(
-        description="[output][sample] on the validation set, from a zero initial state"
+    simulated: list[list[Num]] = Field(
+        description="[output][sample] on the validation set, from a zero initial state; "
+        "null where the simulation overflowed (a model that diverges)"
     )
-    simulated_x0: list[list[float]] = Field(description="the same from the estimated state")
-    one_step: list[list[float]]
+    simulated_x0: list[list[Num]] = Field(description="the same from the estimated state")
+    one_step: list[list[Num]]
     residuals: ResidualsOut | None = None
 
 
