@@ -491,22 +491,41 @@ def test_set_params_over_the_websocket_answers_every_extreme_and_stays_open(lab:
     """Issue 24: ``set_params`` with K = 1e308 closed the connection with 1006. Each
     extreme value gets an answer (an error, or the change made) on a connection that stays
     open; a change the run does not survive (it diverges and fails) ends that run, and the
-    next value goes to a new one."""
+    next value goes to a new one. Each run starts with the case's own controller and
+    signal, so the test knows what it runs: a value equal to the running one changes
+    nothing and gets no answer (``params`` tells of a change), and is not sent."""
     ENDED = {"finished", "stopped", "failed", "interrupted"}
+    opened: list[Watcher] = []
 
-    async def watch(case: Case) -> Watcher:
-        key = "run" if case.name == "params" else "pid_run"
-        lab.path(case)  # a live run again if the last one ended
-        return await Watcher.open(lab.srv.ws_url, lab.ids[key], as_=lab.srv)
+    async def fresh(case: Case, base: dict[str, Any]) -> Watcher:
+        plant = "flexible_link" if case.name == "params" else "belt_conveyor"
+        body = {"plant": plant, "duration": 3000, **base}
+        with lab.srv.client() as c:
+            r = c.post("/runs", content=_dumps(body), headers={"content-type": "application/json"})
+        assert r.status_code == 201, r.text
+        w = await Watcher.open(lab.srv.ws_url, r.json()["id"], as_=lab.srv)
+        opened.append(w)
+        return w
+
+    async def answer(w: Watcher, what: str) -> dict[str, Any]:
+        """The answer to the last message: an error, the change made, or the run's end."""
+        deadline = asyncio.get_running_loop().time() + 60
+        while asyncio.get_running_loop().time() < deadline:
+            got = await w.next(60)
+            if got["type"] in ("error", "params"):
+                return got
+            if got["type"] == "status" and got["state"] in ENDED:
+                return got
+        raise AssertionError(f"no answer in 60 s to {what}")
 
     async def scenario() -> int:
         answered = 0
         for case in (c for c in CASES if c.name.startswith("params")):
             base = _fill(case, lab.ids)
-            w = await watch(case)
+            w = await fresh(case, base)
             for path in _leaves(base):
-                now = _get(base, path)  # a value equal to the running one changes nothing
-                for x in EXTREMES:  # and gets no answer: `params` tells of a change
+                now = _get(base, path)
+                for x in EXTREMES:
                     if x == now:
                         continue
                     body = copy.deepcopy(base)
@@ -515,24 +534,29 @@ def test_set_params_over_the_websocket_answers_every_extreme_and_stays_open(lab:
                     # msgpack holds integers of 64 bits; JSON text any
                     fits = not isinstance(x, int) or -(2**63) <= x < 2**64
                     await w.conn.send(msgpack.packb(msg) if fits else _dumps(msg))
-                    while True:  # its answer: an error, or the change it made
-                        got = await w.next(60)
-                        if got["type"] in ("error", "params"):
-                            now = x if got["type"] == "params" else now
-                            answered += 1
-                            break
-                        if got["type"] == "status" and got["state"] in ENDED:
-                            await w.conn.close()  # the change ended the run: a new one
-                            w = await watch(case)
-                            now = _get(base, path)
-                            answered += 1
-                            break
+                    got = await answer(w, f"{case.name}: {'.'.join(map(str, path))} = {x!r}")
+                    answered += 1
+                    if got["type"] == "params":
+                        now = x
+                    elif got["type"] == "status":  # the change ended the run: a new one
+                        await w.conn.close()
+                        w = await fresh(case, base)
+                        now = _get(base, path)
             await w.conn.send(msgpack.packb({"type": "resume_from", "seq": 0}))
             await w.next(60)  # still open and answering
-            await w.conn.close()
         return answered
 
-    assert asyncio.run(scenario()) >= 2 * len(EXTREMES)
+    async def closing() -> int:
+        try:
+            return await scenario()
+        finally:
+            for w in opened:
+                await w.conn.close()
+
+    assert asyncio.run(closing()) >= 2 * len(EXTREMES)
+    with lab.srv.client() as c:
+        for run in c.get("/runs", params={"status": "running"}).json()["runs"]:
+            c.post(f"/runs/{run['id']}/stop")
 
 
 def test_a_model_whose_simulation_overflows_is_answered_with_gaps(lab: Lab) -> None:
