@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import asyncio
 import math
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +18,7 @@ from elab.plants import get_plant
 from elab.sim import RunSpec, Square, simulate
 from tests.api.server import Server, Watcher, until
 from tests.api.test_live_runs import NAMES, downloads
-from tests.unit.store.test_versions_and_faults import LOCKER
+from tests.unit.store.test_versions_and_faults import locked
 
 FLEX = get_plant("flexible_link")
 SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
@@ -102,22 +100,13 @@ def test_a_run_that_ends_in_a_long_store_stall_fails_with_what_the_recording_hol
                 await asyncio.to_thread(
                     until, lambda: c.get(f"/runs/{rid}").json()["n_samples"] > 1000
                 )
-                with subprocess.Popen(
-                    [sys.executable, "-c", LOCKER, str(srv.data / "elab.sqlite3")],
-                    text=True,
-                    stdin=subprocess.PIPE,
-                    stdout=subprocess.PIPE,
-                ) as locker:
-                    assert locker.stdout is not None and locker.stdin is not None
-                    assert locker.stdout.readline().strip() == "locked"
+                with locked(srv.data / "elab.sqlite3"):
                     # the run's last sample is stepped; the store holds what came before
                     await asyncio.to_thread(
                         until, lambda: c.get(f"/runs/{rid}").json()["n_samples"] == 4000, 30
                     )
                     during = len(await asyncio.to_thread(lambda: downloads(c, rid)["csv"]))
                     status = await end  # once the retry budget is spent
-                    locker.stdin.write("\n")
-                    locker.stdin.flush()
                 await w.conn.close()
                 return w, status, during
 

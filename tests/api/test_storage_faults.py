@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -18,7 +17,7 @@ from elab.plants import get_plant
 from elab.sim import RunSpec, Square, simulate
 from tests.api.server import Server, until
 from tests.api.test_live_runs import downloads
-from tests.unit.store.test_versions_and_faults import LOCKER, _chattr
+from tests.unit.store.test_versions_and_faults import _chattr, locked
 
 FLEX = get_plant("flexible_link")
 SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
@@ -68,14 +67,7 @@ def test_a_store_locked_by_another_process_is_retried_and_loses_nothing(tmp_path
     srv = Server(tmp_path / "data").start()
     try:
         rid = start_run(srv, 12.0)
-        with subprocess.Popen(
-            [sys.executable, "-c", LOCKER, str(srv.data / "elab.sqlite3")],
-            text=True,
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-        ) as locker:
-            assert locker.stdout is not None and locker.stdin is not None
-            assert locker.stdout.readline().strip() == "locked"
+        with locked(srv.data / "elab.sqlite3") as release:
             # past the 5 s busy timeout: the engine retries and says so
             store = until(lambda: (s := srv.status()["store"])["transient"] and s, 30)
             assert "locked" in store["error"] and store["pending_bytes"] > 0
@@ -83,8 +75,7 @@ def test_a_store_locked_by_another_process_is_retried_and_loses_nothing(tmp_path
                 health = c.get("/health")
                 assert health.status_code == 200 and health.json()["status"] == "degraded"
                 assert c.get(f"/runs/{rid}").json()["status"] == "running"  # going on
-            locker.stdin.write("\n")  # the other process lets go
-            locker.stdin.flush()
+            release()  # the other process lets go
         with srv.client() as c:
             until(lambda: c.get(f"/runs/{rid}").json()["status"] == "finished")
             np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(12.0))  # complete

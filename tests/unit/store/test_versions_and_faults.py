@@ -8,7 +8,8 @@ from __future__ import annotations
 import sqlite3
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -85,6 +86,31 @@ conn.execute("COMMIT")
 """
 
 
+@contextmanager
+def locked(path: Path) -> Iterator[Callable[[], None]]:
+    """Another process holding an exclusive lock on the SQLite file ``path`` until the
+    function this yields is called, or the block ends."""
+    with subprocess.Popen(
+        [sys.executable, "-c", LOCKER, str(path)],
+        text=True,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+    ) as locker:
+        assert locker.stdout is not None and locker.stdin is not None
+        assert locker.stdout.readline().strip() == "locked"
+        stdin = locker.stdin
+
+        def release() -> None:
+            if not stdin.closed:
+                stdin.write("\n")
+                stdin.close()
+
+        try:
+            yield release
+        finally:
+            release()
+
+
 @pytest.fixture
 def store(tmp_path: Path) -> Iterator[SQLiteStore]:
     with SQLiteStore(tmp_path / "s.sqlite3", busy_timeout=0.2) as s:
@@ -94,19 +120,10 @@ def store(tmp_path: Path) -> Iterator[SQLiteStore]:
 
 
 def test_a_lock_held_by_another_process_is_a_transient_fault(store: SQLiteStore) -> None:
-    with subprocess.Popen(
-        [sys.executable, "-c", LOCKER, str(store.path)],
-        text=True,
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-    ) as locker:
-        assert locker.stdout is not None and locker.stdin is not None
-        assert locker.stdout.readline().strip() == "locked"
+    with locked(store.path):
         with pytest.raises(StoreError, match="locked") as err:
             store.append("r-1", 10, np.ones((5, NCH)))
         assert err.value.transient and err.value.retry_after is not None
-        locker.stdin.write("\n")
-        locker.stdin.flush()
     store.append("r-1", 10, np.ones((5, NCH)))  # the same write, once the lock is gone
     assert store.get_run("r-1").n_stored == 15
 
