@@ -65,7 +65,8 @@ def close(m: Model, controller: ct.StateSpace) -> Loop:
         for x in (controller.A, controller.B, controller.C, controller.D)
     )
     A_K, C_K = A_K.reshape(nk, nk), C_K.reshape(1, nk)
-    B_r, B_y = B_K.reshape(nk, -1)[:, [0]], B_K.reshape(nk, -1)[:, 1:]
+    B_K = B_K.reshape(nk, D_K.shape[1])  # [r, y…]; a static controller has no rows
+    B_r, B_y = B_K[:, [0]], B_K[:, 1:]
     D_r, D_y = D_K[:, [0]], D_K[:, 1:]
     well_posed = 1.0 - float((D_y @ m.D)[0, 0])
     if abs(well_posed) < 1e-12:
