@@ -469,7 +469,10 @@ NUMBERS = st.one_of(
 
 
 @settings(
-    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=150,
+    deadline=None,
+    derandomize=True,  # the same 150 in every run: CI tells of a change, not of luck
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
 )
 @given(data=st.data())
 def test_several_extreme_numbers_at_once(lab: Lab, data: st.DataObject) -> None:
