@@ -184,7 +184,7 @@ HOSTILE = {
 }
 REASONS = {
     "reads a file": "forbids",
-    "loops for ever": "did not answer within 0.2 s",
+    "loops for ever": "did not answer within 1 s",
     "allocates without bound": "MemoryError",
     "returns NaN": "finite number",
     "returns text": "ValueError",

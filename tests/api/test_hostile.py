@@ -174,16 +174,28 @@ def test_a_client_that_sends_and_never_reads_is_closed_saying_so(server: Server)
     before = _rss_mib(server.proc.pid)
 
     async def flood() -> tuple[int | None, str | None]:
+        # a small receive window: the server's answers back up after a few kB, not after
+        # the megabytes loopback's buffers hold (200 000 messages took 43 s on a loaded
+        # machine, long enough for the server to give up waiting for the closing
+        # handshake; the client's next send was then reset, and the unread close frame
+        # with it: 1006)
+        sock = socket.create_connection(("127.0.0.1", server.port))
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
         async with connect(
             f"{server.ws_url}/api/v1/runs/{rid}/stream",
+            sock=sock,
             subprotocols=["elab.v1"],  # type: ignore[list-item]
             additional_headers=identity_of(server),
             max_queue=1,  # this client stops reading once one message waits
         ) as ws:
             with contextlib.suppress(ConnectionClosed):
-                for _ in range(200_000):
+                for _ in range(20_000):  # 80 times the answers that may wait
                     await ws.send(b"\xc1")  # never valid msgpack
-            await asyncio.wait_for(ws.wait_closed(), 60)
+            # then it reads again: what waits, and the reason it was closed
+            with contextlib.suppress(ConnectionClosed):
+                async with asyncio.timeout(60):
+                    async for _ in ws:
+                        pass
             return ws.close_code, ws.close_reason
 
     code, reason = asyncio.run(flood())

@@ -34,7 +34,8 @@ class Settings:
     retried, ``ELAB_STORE_PENDING`` bytes that may wait for it, Python controllers:
     ``ELAB_MAX_CODE_RUNS`` live at once (8), ``ELAB_CODE_DEADLINE`` s per step (0.0005),
     ``ELAB_CODE_MISSES`` late steps in a row that fail a run (10), ``ELAB_CODE_BUDGET`` the
-    share of a run's time a controller may compute in all (0.5)), its real-time priority
+    share of a run's time a controller may compute in all (0.5), ``ELAB_CODE_PATIENCE`` s one
+    answer may take (1)), its real-time priority
     (``ELAB_ENGINE_REALTIME``, 10: the stepping thread SCHED_FIFO at 10 and the rest of the
     engine process at 9, where allowed, else ordinary; 0: ordinary), its process's
     ``engine_nice`` when not real-time (``ELAB_ENGINE_NICE``, 0), its queue to the web process
@@ -127,6 +128,7 @@ class Settings:
             code_deadline=_float(env, "ELAB_CODE_DEADLINE", e.code_deadline),
             code_misses=_int(env, "ELAB_CODE_MISSES", e.code_misses),
             code_budget=_float(env, "ELAB_CODE_BUDGET", e.code_budget),
+            code_patience=_float(env, "ELAB_CODE_PATIENCE", e.code_patience),
         )
         return cls(
             data_dir=Path(env.get("ELAB_DATA", "data")),

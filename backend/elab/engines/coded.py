@@ -46,9 +46,10 @@ class CodeSettings:
     deadline: float = 0.5e-3
     max_misses: int = 10
     budget: float = 0.5
-    # s a simulation waits for one answer before the controller fails: a stalled
-    # controller holds its run's stepping thread that long (once: then its run fails)
-    patience: float = 0.2
+    # s a simulation waits for one answer before the controller fails: a controller that
+    # never answers holds its own run's thread that long (once: then its run fails); on a
+    # loaded machine a 20 ms step waited 0.2 s for a CPU (issue 24)
+    patience: float = 1.0
     # s its process may take to load and reset(): less than the engine's 10 s to answer a
     # command (ELAB_ENGINE_TIMEOUT), so a reset() that never returns is this run's 422,
     # not the engine's 503

@@ -51,7 +51,8 @@ class EngineSettings:
     stepping thread's real-time priority (SCHED_FIFO; 0: none). Code controllers:
     ``max_code_runs`` live at once, ``code_deadline`` s per step before the last u is held,
     ``code_misses`` late steps in a row that fail the run, ``code_budget`` the share of the
-    run's time it may compute in all."""
+    run's time it may compute in all, ``code_patience`` s one answer may take before the
+    run fails."""
 
     tick: float = 0.02
     flush_interval: float = 0.25
@@ -62,11 +63,14 @@ class EngineSettings:
     code_deadline: float = 0.5e-3
     code_misses: int = 10
     code_budget: float = 0.5
+    code_patience: float = 1.0
 
     @property
     def code(self) -> CodeSettings:
         """What a Python controller may take (its runs and its upload trial)."""
-        return CodeSettings(self.code_deadline, self.code_misses, self.code_budget)
+        return CodeSettings(
+            self.code_deadline, self.code_misses, self.code_budget, self.code_patience
+        )
 
 
 def channels_of(run: CompiledRun) -> tuple[tuple[str, str], ...]:
