@@ -11,6 +11,14 @@ A worker is ready once it has imported the modules the pool ``preload``s: the ti
 counts the job, not a fresh worker's start-up (seconds of imports at a low priority on a
 busy machine), so the same job passes or fails its limit whenever it comes.
 
+Workers are forked from one fork server (``multiprocessing``'s ``forkserver``: a process
+started once, single-threaded, that imported every pool's ``preload``), not spawned: a
+spawned worker imported numpy, scipy and python-control again, 1.7 s of CPU each, three
+times at every server start and again for every worker replaced after a timeout. A fork
+of the server's own process is not safe (its threads and event loop); a fork of the fork
+server is. Starting a worker waits for the fork server's imports, so it happens on a
+thread, never on the event loop.
+
 Jobs and results cross by pickle between this process and workers it started
 itself (nothing from outside is unpickled).
 """
@@ -22,7 +30,8 @@ import importlib
 import logging
 import multiprocessing
 import os
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
@@ -45,20 +54,42 @@ class Names:
     wait: str = "ELAB_IDENT_WAIT"
 
 
+_FORKSERVER = multiprocessing.get_context("forkserver")
+_PRELOAD: set[str] = set()  # what the fork server imports when it starts
+_PRELOAD_LOCK = threading.Lock()
+
+
+def _preload(modules: Iterable[str]) -> None:
+    """Have the fork server import ``modules`` (those asked for after it started are
+    imported by each worker instead: slower, still correct)."""
+    with _PRELOAD_LOCK:
+        _PRELOAD.update(modules)
+        _FORKSERVER.set_forkserver_preload(sorted(_PRELOAD))
+
+
 class _Worker:
     def __init__(self, nice: int, preload: tuple[str, ...], work: str) -> None:
-        ctx = multiprocessing.get_context("spawn")  # no copy of the server's threads and loop
-        self.conn, child = ctx.Pipe()
-        self.proc: BaseProcess = ctx.Process(
-            target=_serve, args=(child, nice, preload, work), daemon=True, name="elab-job"
+        self.conn, self._child = _FORKSERVER.Pipe()
+        self.proc: BaseProcess = _FORKSERVER.Process(
+            target=_serve, args=(self._child, nice, preload, work), daemon=True, name="elab-job"
         )
-        self.proc.start()
-        child.close()
-        # the worker's first message says it has imported ``preload``; the receiving thread
-        # goes on if nobody waits for it (a request that gave up), so no message is lost
-        self._ready = asyncio.ensure_future(asyncio.to_thread(self.conn.recv))
+        self._lock = threading.Lock()
+        self._killed = False
+        # the worker's first message says it has imported ``preload``; the thread goes on
+        # if nobody waits for it (a request that gave up), so no message is lost
+        self._ready = asyncio.ensure_future(asyncio.to_thread(self._start))
         self._ready.add_done_callback(lambda f: f.cancelled() or f.exception())  # seen here
         self.work = work
+
+    def _start(self) -> Any:
+        """Start the process (this waits for the fork server) and wait for its first
+        message; on a thread."""
+        with self._lock:
+            if self._killed:
+                raise EOFError("killed before it started")
+            self.proc.start()
+        self._child.close()
+        return self.conn.recv()
 
     @property
     def ready(self) -> bool:
@@ -74,8 +105,12 @@ class _Worker:
             ) from None
 
     def kill(self) -> None:
-        """Kill the process (its zombie is reaped by multiprocessing's next start or join)."""
-        self.proc.kill()
+        """Kill the process (its zombie is reaped by multiprocessing's next start or join);
+        one not started yet never starts."""
+        with self._lock:
+            self._killed = True
+            if self.proc.pid is not None:
+                self.proc.kill()
         self.conn.close()
 
 
@@ -98,6 +133,7 @@ class JobPool:
         self.nice = nice
         self.names = names
         self.preload = preload
+        _preload(preload)
         self._idle: asyncio.Queue[_Worker] = asyncio.Queue()  # bound to a loop on first use
         self._all: list[_Worker] = []
         self.busy = 0

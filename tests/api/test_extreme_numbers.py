@@ -17,6 +17,7 @@ import asyncio
 import copy
 import json
 import math
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -468,10 +469,15 @@ NUMBERS = st.one_of(
 )
 
 
+#: ``ELAB_HUNT_EXAMPLES=N``: a longer, random search of N examples (a hunt, run by hand:
+#: ``ELAB_HUNT_EXAMPLES=3000 .venv/bin/pytest tests/api/test_extreme_numbers.py -k several``)
+HUNT = int(os.environ.get("ELAB_HUNT_EXAMPLES", "0"))
+
+
 @settings(
-    max_examples=150,
+    max_examples=HUNT or 150,
     deadline=None,
-    derandomize=True,  # the same 150 in every run: CI tells of a change, not of luck
+    derandomize=not HUNT,  # the same 150 in every run: CI tells of a change, not of luck
     suppress_health_check=[HealthCheck.function_scoped_fixture],
 )
 @given(data=st.data())
