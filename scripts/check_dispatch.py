@@ -2,12 +2,13 @@
 that must learn it (issue 30).
 
 For each union below, a scratch copy of ``backend/elab`` gets one new member (a control
-law, a controller model of the wire, a websocket client message); mypy then has to fail
-exactly at the union's dispatch sites (their ``assert_never``), and nowhere else. A site
-that dispatches with an ``isinstance`` chain and a silent fallback would not be named:
-this check fails then, and also when a site is named that is not listed here.
+law, a controller model of the wire, a websocket client message, an engine command or
+event); mypy then has to fail exactly at the union's dispatch sites (their
+``assert_never``), and nowhere else. A site that dispatches with an ``isinstance`` chain
+and a silent fallback would not be named: this check fails then, and also when a site is
+named that is not listed here.
 
-Run by ``make typecheck`` (about 15 s: mypy on three scratch copies).
+Run by ``make typecheck`` (about 25 s: mypy on five scratch copies).
 """
 
 from __future__ import annotations
@@ -39,7 +40,14 @@ UNIONS = (
         "ControlLaw = StateFeedback | PID | LTIController | OpenLoop | CodeController",
         "@dataclass(frozen=True)\nclass Dummy:\n    gain: float = 1.0\n\n\n"
         "ControlLaw = StateFeedback | PID | LTIController | OpenLoop | CodeController | Dummy",
-        frozenset({"api/convert.py", "design/realise.py", "controllers/templates.py"}),
+        frozenset(
+            {
+                "api/convert.py",
+                "design/realise.py",
+                "controllers/templates.py",
+                "sim/controllers.py",
+            }
+        ),
     ),
     Union(
         "controller models (the wire)",
@@ -56,6 +64,21 @@ UNIONS = (
         'class Dummy(Model):\n    type: Literal["dummy"]\n\n\n'
         "ClientMessage = Annotated[\n    Dummy | SetParams",
         frozenset({"api/stream.py"}),
+    ),
+    Union(
+        "engine commands",
+        "engines/wire.py",
+        "Command = Add | Control | Replace | Close",
+        "@dataclass(frozen=True)\nclass Dummy:\n    id: int\n\n\n"
+        "Command = Add | Control | Replace | Close | Dummy",
+        frozenset({"engines/wire.py", "engines/child.py"}),
+    ),
+    Union(
+        "engine events",
+        "engines/wire.py",
+        "Event = (\n    Ready",
+        "@dataclass(frozen=True)\nclass Dummy:\n    id: int\n\n\nEvent = (\n    Dummy | Ready",
+        frozenset({"engines/wire.py", "engines/process.py"}),
     ),
 )
 

@@ -193,9 +193,10 @@ def _line(line: s.IdentLine) -> bytes:
     return line.model_dump_json().encode() + b"\n"
 
 
-async def _parse(request: Request, text: bytes, fmt: str) -> Table:
+async def _parse(request: Request, text: bytes, fmt: str, max_rows: int, why: str) -> Table:
     """A file's table, parsed by a worker: a huge file stalls no stream."""
-    table = await _unless_gone(request, jobs(request).run(read_table, text, fmt))
+    job = jobs(request).run(read_table, text, fmt, max_rows, why)
+    table = await _unless_gone(request, job)
     if table is None:
         raise ClientGone
     return table

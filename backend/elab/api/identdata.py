@@ -26,7 +26,8 @@ from elab.runs.manager import RunManager
 
 T = TypeVar("T")
 #: a file's text and format → its table (the caller decides where it is parsed)
-Parse = Callable[[bytes, str], Awaitable[Table]]
+#: a file's table from its bytes, format, most samples and why that many
+Parse = Callable[[bytes, str, int, str], Awaitable[Table]]
 
 
 async def records(
@@ -37,7 +38,11 @@ async def records(
     data, sine = await _dataset(request, req.data, "data", parse)
     if req.validation is None:
         return data, None, sine
-    validation, _ = await _dataset(request, req.validation, "validation", parse)
+    room = (
+        MAX_SAMPLES - data.N,
+        f" (with the data's {data.N:,}, at most {MAX_SAMPLES:,} in all)",
+    )
+    validation, _ = await _dataset(request, req.validation, "validation", parse, room)
     return data, _like(data, validation), sine
 
 
@@ -65,13 +70,18 @@ def _like(data: IdData, validation: IdData) -> IdData:
 
 
 async def _dataset(
-    request: Request, src: s.RunData | s.FileData, prefix: str, parse: Parse
+    request: Request,
+    src: s.RunData | s.FileData,
+    prefix: str,
+    parse: Parse,
+    room: tuple[int, str] = (MAX_SAMPLES, ""),
 ) -> tuple[IdData, float | None]:
     """The data set of the request's field ``prefix`` and, for a run excited by a sine,
-    its frequency (Hz)."""
+    its frequency (Hz); a file of more samples than ``room`` allows (with why) is refused
+    before it is parsed."""
     if isinstance(src, s.FileData):
         try:
-            table = await parse(src.text.encode(), src.format)
+            table = await parse(src.text.encode(), src.format, *room)
         except InvalidInput as exc:
             raise _renamed(prefix, exc) from None
         return _prefixed(prefix, lambda: table.dataset(src.input, src.output, src.Ts)), None

@@ -27,7 +27,7 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import Any, assert_never
 
 from elab.engines import wire
 from elab.engines.base import Block, Changed, Ended, Health
@@ -105,39 +105,29 @@ class WireEvents:
         self._out = outbox
 
     def started(self, engine: str, record: RunRecord) -> None:
-        self._out.put(wire.frame({"ev": "started", "record": wire.record_out(record)}))
+        self._out.put(wire.event_out(wire.Started(record)))
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
         size = sum(b.data.nbytes for b in blocks)
-        self._out.put(lambda: wire.blocks_out(blocks), size, droppable=True)
+        self._out.put(lambda: wire.event_out(wire.Blocks(blocks)), size, droppable=True)
 
     def changed(self, engine: str, change: Changed) -> None:
-        self._out.put(wire.frame(wire.changed_out(change)))
+        self._out.put(wire.event_out(wire.StateChanged(change)))
 
     def params(self, engine: str, run_id: str, change: ParamChange) -> None:
-        self._out.put(
-            wire.frame(
-                {
-                    "ev": "params",
-                    "run": run_id,
-                    "k": change.k,
-                    "params": change.params,
-                    "at": change.at,
-                }
-            )
-        )
+        self._out.put(wire.event_out(wire.Params(run_id, change)))
 
     def committed(self, engine: str, counts: dict[str, int]) -> None:
-        self._out.put(wire.frame({"ev": "committed", "counts": counts}))
+        self._out.put(wire.event_out(wire.Committed(counts)))
 
     def ended(self, engine: str, run_id: str, ended: Ended) -> None:
-        self._out.put(wire.frame({"ev": "ended", "run": run_id, **wire.ended_out(ended)}))
+        self._out.put(wire.event_out(wire.RunEnded(run_id, ended)))
 
     def stored(self, engine: str, run_id: str) -> None:
-        self._out.put(wire.frame({"ev": "stored", "run": run_id}))
+        self._out.put(wire.event_out(wire.Stored(run_id)))
 
     def health(self, engine: str, health: Health) -> None:
-        self._out.put(wire.frame(wire.health_out(health)))
+        self._out.put(wire.event_out(wire.Beat(health)))
 
     def lost(self, engine: str, reason: str) -> None:  # the web side's to say
         raise NotImplementedError
@@ -172,11 +162,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # 5-10 s after 300 runs were started: a tick 64-110 ms late)
     gc.collect()
     gc.freeze()
-    outbox.put(
-        wire.frame(
-            {"ev": "ready", "engine": engine.id, "pid": os.getpid(), "interrupted": interrupted}
-        )
-    )
+    outbox.put(wire.event_out(wire.Ready(engine.id, os.getpid(), interrupted)))
     beat = threading.Thread(
         target=_heartbeat, args=(engine, outbox), name="elab-engine-beat", daemon=True
     )
@@ -201,50 +187,42 @@ def _serve(
         message = _receive(sock)
         if message is None:
             return None
-        h = message
-        op, cid = h["op"], h.get("id")
-        if op == "close":
-            return str(h.get("reason") or "server shut down")
-        if op == "add":
-            order = wire.order_in(h["order"])
-            _reply_when(workers.submit(engine.add, order), outbox, cid, wire.record_out)
-        elif op == "control":
-            _reply_when(engine.control(h["run"], h["action"], h["reason"]), outbox, cid, int)
-        elif op == "replace":
-            _reply_when(
-                workers.submit(
+        try:
+            cmd = wire.command_in(message)
+        except (ValueError, KeyError, TypeError) as exc:
+            error = ElabError(f"a command the engine cannot read: {exc}")
+            outbox.put(wire.event_out(wire.Reply(message.get("id", -1), error=error)))
+            continue
+        match cmd:
+            case wire.Close():
+                return cmd.reason
+            case wire.Add():
+                _reply_when(workers.submit(engine.add, cmd.order), outbox, cmd.id, wire.record_out)
+            case wire.Control():
+                _reply_when(engine.control(cmd.run, cmd.action, cmd.reason), outbox, cmd.id, int)
+            case wire.Replace():
+                change = workers.submit(
                     engine.replace,
-                    h["run"],
-                    law=wire.typed(h["law"]),
-                    reference=wire.typed(h["reference"]),
-                    params=h["params"],
-                ),
-                outbox,
-                cid,
-                int,
-            )
-        else:
-            outbox.put(
-                wire.frame(
-                    {
-                        "ev": "reply",
-                        "id": cid,
-                        "error": wire.error_out(ElabError(f"unknown engine command {op!r}")),
-                    }
+                    cmd.run,
+                    law=cmd.law,
+                    reference=cmd.reference,
+                    params=cmd.params,
                 )
-            )
+                _reply_when(change, outbox, cmd.id, int)
+            case _:
+                assert_never(cmd)
 
 
-def _reply_when(fut: Future[Any], outbox: Outbox, cid: Any, out: Callable[[Any], Any]) -> None:
+def _reply_when(fut: Future[Any], outbox: Outbox, cid: int, out: Callable[[Any], Any]) -> None:
     def reply(f: Future[Any]) -> None:
         exc = f.exception()
         if exc is None:
-            outbox.put(wire.frame({"ev": "reply", "id": cid, "ok": out(f.result())}))
+            outbox.put(wire.event_out(wire.Reply(cid, ok=out(f.result()))))
             return
         if not isinstance(exc, ElabError):
             log.error("engine command failed", exc_info=exc)
             exc = ElabError(f"internal error in the engine: {exc!r}")
-        outbox.put(wire.frame({"ev": "reply", "id": cid, "error": wire.error_out(exc)}))
+        outbox.put(wire.event_out(wire.Reply(cid, error=exc)))
 
     fut.add_done_callback(reply)
 
@@ -278,7 +256,7 @@ def _heartbeat(engine: SimulationEngine, outbox: Outbox) -> None:
     while True:
         time.sleep(HEARTBEAT)
         try:
-            outbox.put(wire.frame(wire.health_out(engine.health())))
+            outbox.put(wire.event_out(wire.Beat(engine.health())))
         except Exception:  # reported by the missing heartbeats; the log says why
             log.exception("heartbeat failed")
 

@@ -25,9 +25,10 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import Any, assert_never
 
 from elab.engines import wire
 from elab.engines.base import Action, EngineEvents, EngineStatus, Health, RunOrder
@@ -35,7 +36,7 @@ from elab.engines.simulation import EngineSettings
 from elab.errors import ElabError, Unavailable
 from elab.laws import ControlLaw
 from elab.sim.signals import Signal
-from elab.store.base import ParamChange, RunRecord
+from elab.store.base import RunRecord
 
 log = logging.getLogger(__name__)
 
@@ -93,7 +94,7 @@ class ProcessEngine:
         proc = self._proc
         if self._ready and self._writer is not None:
             try:
-                self._writer.write(wire.frame({"op": "close", "reason": "server shut down"}))
+                self._writer.write(wire.command_out(wire.Close("server shut down")))
                 await self._writer.drain()
             except (ConnectionError, OSError):
                 pass
@@ -133,12 +134,10 @@ class ProcessEngine:
 
     # -- commands ------------------------------------------------------------------
     async def add(self, order: RunOrder) -> RunRecord:
-        return wire.record_in(await self._call({"op": "add", "order": wire.order_out(order)}))
+        return wire.record_in(await self._call(lambda cid: wire.Add(cid, order)))
 
     async def control(self, run_id: str, action: Action, reason: str | None = None) -> int:
-        return int(
-            await self._call({"op": "control", "run": run_id, "action": action, "reason": reason})
-        )
+        return int(await self._call(lambda cid: wire.Control(cid, run_id, action, reason)))
 
     async def replace(
         self,
@@ -148,19 +147,10 @@ class ProcessEngine:
         reference: Signal | None,
         params: dict[str, Any],
     ) -> int:
-        return int(
-            await self._call(
-                {
-                    "op": "replace",
-                    "run": run_id,
-                    "law": wire.plain(law),
-                    "reference": wire.plain(reference),
-                    "params": params,
-                }
-            )
-        )
+        return int(await self._call(lambda cid: wire.Replace(cid, run_id, law, reference, params)))
 
-    async def _call(self, header: dict[str, Any]) -> Any:
+    async def _call(self, command: Callable[[int], wire.Command]) -> Any:
+        """Send the command made for a fresh id; its answer."""
         if not self._ready or self._writer is None:
             raise Unavailable(
                 f"the simulation engine is not running ({self._problem}); it "
@@ -171,7 +161,7 @@ class ProcessEngine:
         fut: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
         self._pending[cid] = fut
         try:
-            self._writer.write(wire.frame({**header, "id": cid}))
+            self._writer.write(wire.command_out(command(cid)))
             return await asyncio.wait_for(self._answer(fut), self.command_timeout)
         except TimeoutError:
             raise Unavailable(
@@ -219,14 +209,15 @@ class ProcessEngine:
                 f"the simulation engine did not start ({_ended(code)}; its "
                 f"messages are in the server's log)"
             ) from exc
-        if header.get("ev") != "ready":
+        ready = wire.event_in(header, b"") if header.get("ev") == "ready" else None
+        if not isinstance(ready, wire.Ready):
             raise ElabError(f"the simulation engine said {header!r} instead of ready")
         self._ready, self._problem, self._beat = True, None, time.monotonic()
-        if header["interrupted"]:
+        if ready.interrupted:
             log.warning(
                 "engine %s: runs interrupted by its earlier end: %s",
                 self.id,
-                ", ".join(header["interrupted"]),
+                ", ".join(ready.interrupted),
             )
         self._reading = self._spawn_task(self._read_loop(reader))
 
@@ -243,34 +234,42 @@ class ProcessEngine:
         await self._lost()
 
     def _dispatch(self, h: dict[str, Any], payload: bytes) -> None:
-        ev, events = h["ev"], self._events
+        events = self._events
         assert events is not None
-        if ev == "blocks":
-            events.blocks(self.id, wire.blocks_in(h, payload))
-        elif ev == "reply":
-            fut = self._pending.get(h["id"])
-            if fut is not None and not fut.done():
-                if "error" in h:
-                    fut.set_exception(wire.error_in(h["error"]))
-                else:
-                    fut.set_result(h["ok"])
-        elif ev == "changed":
-            events.changed(self.id, wire.changed_in(h))
-        elif ev == "started":
-            events.started(self.id, wire.record_in(h["record"]))
-        elif ev == "params":
-            events.params(self.id, h["run"], ParamChange(h["k"], h["params"], h["at"]))
-        elif ev == "committed":
-            events.committed(self.id, h["counts"])
-        elif ev == "stored":
-            events.stored(self.id, h["run"])
-        elif ev == "ended":
-            events.ended(self.id, h["run"], wire.ended_in(h))
-        elif ev == "health":
-            self._health, self._beat = wire.health_in(h), time.monotonic()
-            events.health(self.id, self._health)
-        else:
-            log.error("engine %s sent an unknown message %r", self.id, ev)
+        try:
+            ev = wire.event_in(h, payload)
+        except (ValueError, KeyError, TypeError) as exc:
+            log.error("engine %s sent a message not understood here: %s", self.id, exc)
+            return
+        match ev:
+            case wire.Blocks():
+                events.blocks(self.id, ev.blocks)
+            case wire.Reply():
+                fut = self._pending.get(ev.id)
+                if fut is not None and not fut.done():
+                    if ev.error is not None:
+                        fut.set_exception(ev.error)
+                    else:
+                        fut.set_result(ev.ok)
+            case wire.StateChanged():
+                events.changed(self.id, ev.change)
+            case wire.Started():
+                events.started(self.id, ev.record)
+            case wire.Params():
+                events.params(self.id, ev.run, ev.change)
+            case wire.Committed():
+                events.committed(self.id, ev.counts)
+            case wire.Stored():
+                events.stored(self.id, ev.run)
+            case wire.RunEnded():
+                events.ended(self.id, ev.run, ev.ended)
+            case wire.Beat():
+                self._health, self._beat = ev.health, time.monotonic()
+                events.health(self.id, ev.health)
+            case wire.Ready():
+                log.error("engine %s said it was ready twice", self.id)
+            case _:
+                assert_never(ev)
 
     async def _lost(self) -> None:
         self._ready = False

@@ -5,6 +5,13 @@ raw little-endian float64), framed as ``[u32 header length][u32 payload
 length][header][payload]``. Nothing here executes what it decodes: run specs
 are rebuilt from a fixed list of laws and signals, so the same messages can
 later go through a broker between machines.
+
+Both directions are typed: a :data:`Command` (web process → engine) and an
+:data:`Event` (engine → web process) are frozen dataclasses, encoded by
+:func:`command_out` / :func:`event_out` and decoded by :func:`command_in` /
+:func:`event_in`; the engine process and :class:`~elab.engines.process.ProcessEngine`
+dispatch on them with ``match`` and ``assert_never``, so a new message fails mypy
+wherever it must be handled (``scripts/check_dispatch.py``).
 """
 
 from __future__ import annotations
@@ -12,18 +19,21 @@ from __future__ import annotations
 import dataclasses
 import json
 import struct
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, assert_never
 
 import numpy as np
 
 from elab import laws
-from elab.engines.base import Block, Changed, Ended, Health, RunOrder, StoreHealth
+from elab.engines.base import Action, Block, Changed, Ended, Health, RunOrder, StoreHealth
 from elab.errors import Conflict, ElabError, InvalidInput, NotFound, TooMany, Unavailable
+from elab.laws import ControlLaw
 from elab.lifecycle import RunState
 from elab.plants import get_plant
 from elab.sim import signals
+from elab.sim.signals import Signal
 from elab.sim.spec import RunSpec
-from elab.store.base import RunRecord
+from elab.store.base import ParamChange, RunRecord
 
 _FRAME = struct.Struct("<II")
 HEADER_BYTES = _FRAME.size
@@ -46,6 +56,207 @@ _TYPES: dict[str, type] = {
         signals.Samples,
     )
 }
+
+
+# -- commands: web process → engine ----------------------------------------------------
+@dataclass(frozen=True)
+class Add:
+    """Take a new run (the answer: its record)."""
+
+    id: int
+    order: RunOrder
+
+
+@dataclass(frozen=True)
+class Control:
+    """Pause, resume or stop a run (the answer: the sample it happened at)."""
+
+    id: int
+    run: str
+    action: Action
+    reason: str | None
+
+
+@dataclass(frozen=True)
+class Replace:
+    """Change a live run's law, reference or parameters (the answer: the sample)."""
+
+    id: int
+    run: str
+    law: ControlLaw | None
+    reference: Signal | None
+    params: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Close:
+    """End the engine: its runs end with ``reason``."""
+
+    reason: str
+
+
+Command = Add | Control | Replace | Close
+
+
+def command_out(cmd: Command) -> bytes:
+    """One framed command."""
+    match cmd:
+        case Add():
+            return frame({"op": "add", "id": cmd.id, "order": order_out(cmd.order)})
+        case Control():
+            h = {"op": "control", "id": cmd.id, "run": cmd.run, "action": cmd.action}
+            return frame({**h, "reason": cmd.reason})
+        case Replace():
+            h = {"op": "replace", "id": cmd.id, "run": cmd.run, "params": cmd.params}
+            return frame({**h, "law": plain(cmd.law), "reference": plain(cmd.reference)})
+        case Close():
+            return frame({"op": "close", "reason": cmd.reason})
+        case _:
+            assert_never(cmd)
+
+
+def command_in(h: dict[str, Any]) -> Command:
+    """The command a header holds; ``ValueError`` for one this engine does not know."""
+    match h.get("op"):
+        case "add":
+            return Add(h["id"], order_in(h["order"]))
+        case "control":
+            return Control(h["id"], h["run"], h["action"], h["reason"])
+        case "replace":
+            law, reference = typed(h["law"]), typed(h["reference"])
+            return Replace(h["id"], h["run"], law, reference, h["params"])
+        case "close":
+            return Close(str(h.get("reason") or "server shut down"))
+        case op:
+            raise ValueError(f"unknown engine command {op!r}")
+
+
+# -- events: engine → web process -------------------------------------------------------
+@dataclass(frozen=True)
+class Ready:
+    """The engine is up; ``interrupted``: runs its earlier end interrupted."""
+
+    engine: str
+    pid: int
+    interrupted: list[str]
+
+
+@dataclass(frozen=True)
+class Reply:
+    """The answer to command ``id``: ``ok``, or ``error``."""
+
+    id: int
+    ok: Any = None
+    error: ElabError | None = None
+
+
+@dataclass(frozen=True)
+class Blocks:
+    blocks: list[Block]
+
+
+@dataclass(frozen=True)
+class StateChanged:
+    change: Changed
+
+
+@dataclass(frozen=True)
+class Started:
+    record: RunRecord
+
+
+@dataclass(frozen=True)
+class Params:
+    run: str
+    change: ParamChange
+
+
+@dataclass(frozen=True)
+class Committed:
+    counts: dict[str, int]
+
+
+@dataclass(frozen=True)
+class Stored:
+    run: str
+
+
+@dataclass(frozen=True)
+class RunEnded:
+    run: str
+    ended: Ended
+
+
+@dataclass(frozen=True)
+class Beat:
+    """The heartbeat, with the engine's health."""
+
+    health: Health
+
+
+Event = (
+    Ready | Reply | Blocks | StateChanged | Started | Params | Committed | Stored | RunEnded | Beat
+)
+
+
+def event_out(ev: Event) -> bytes:
+    """One framed event."""
+    match ev:
+        case Ready():
+            return frame({"ev": "ready", **dataclasses.asdict(ev)})
+        case Reply(error=None):
+            return frame({"ev": "reply", "id": ev.id, "ok": ev.ok})
+        case Reply():
+            assert ev.error is not None
+            return frame({"ev": "reply", "id": ev.id, "error": error_out(ev.error)})
+        case Blocks():
+            return blocks_out(ev.blocks)
+        case StateChanged():
+            return frame(changed_out(ev.change))
+        case Started():
+            return frame({"ev": "started", "record": record_out(ev.record)})
+        case Params():
+            c = ev.change
+            return frame({"ev": "params", "run": ev.run, "k": c.k, "params": c.params, "at": c.at})
+        case Committed():
+            return frame({"ev": "committed", "counts": ev.counts})
+        case Stored():
+            return frame({"ev": "stored", "run": ev.run})
+        case RunEnded():
+            return frame({"ev": "ended", "run": ev.run, **ended_out(ev.ended)})
+        case Beat():
+            return frame(health_out(ev.health))
+        case _:
+            assert_never(ev)
+
+
+def event_in(h: dict[str, Any], payload: bytes) -> Event:
+    """The event a header (and payload) holds; ``ValueError`` for one not known here."""
+    match h.get("ev"):
+        case "ready":
+            return Ready(h["engine"], h["pid"], h["interrupted"])
+        case "reply" if "error" in h:
+            return Reply(h["id"], error=error_in(h["error"]))
+        case "reply":
+            return Reply(h["id"], ok=h["ok"])
+        case "blocks":
+            return Blocks(blocks_in(h, payload))
+        case "changed":
+            return StateChanged(changed_in(h))
+        case "started":
+            return Started(record_in(h["record"]))
+        case "params":
+            return Params(h["run"], ParamChange(h["k"], h["params"], h["at"]))
+        case "committed":
+            return Committed(h["counts"])
+        case "stored":
+            return Stored(h["run"])
+        case "ended":
+            return RunEnded(h["run"], ended_in(h))
+        case "health":
+            return Beat(health_in(h))
+        case ev:
+            raise ValueError(f"unknown engine event {ev!r}")
 
 
 def frame(header: dict[str, Any], payload: bytes = b"") -> bytes:

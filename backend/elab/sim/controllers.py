@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, assert_never
 
 import control as ct
 import numpy as np
@@ -31,7 +31,14 @@ from elab.design.realise import (
     reference_input,
 )
 from elab.errors import InvalidInput
-from elab.laws import PID, CodeController, ControlLaw, LTIController, StateFeedback
+from elab.laws import (
+    PID,
+    CodeController,
+    ControlLaw,
+    LTIController,
+    OpenLoop,
+    StateFeedback,
+)
 from elab.plants.base import Plant
 from elab.validate import finite_float
 
@@ -55,23 +62,41 @@ class DiscreteController:
 
 
 def controller_poles(law: ControlLaw, plant: Plant) -> NDArray[np.complex128]:
-    """Poles of the continuous law (none for static gains and discrete laws)."""
-    if isinstance(law, CodeController) or (isinstance(law, LTIController) and law.dt is not None):
-        return np.zeros(0, dtype=np.complex128)
-    A = realise(plant, law, all_pid_states=True).A
-    return np.asarray(np.linalg.eigvals(A) if A.size else np.zeros(0), dtype=np.complex128)
+    """Poles of the continuous law (none for static gains, code and discrete laws)."""
+    match law:
+        case CodeController():
+            return np.zeros(0, dtype=np.complex128)
+        case LTIController() if law.dt is not None:
+            return np.zeros(0, dtype=np.complex128)
+        case StateFeedback() | PID() | LTIController() | OpenLoop():
+            A = realise(plant, law, all_pid_states=True).A
+            return np.asarray(np.linalg.eigvals(A) if A.size else np.zeros(0), np.complex128)
+        case _:
+            assert_never(law)
 
 
 def discretise(law: ControlLaw, plant: Plant, Ts: float) -> DiscreteController:
     """Realise ``law`` for ``plant`` at sample time ``Ts`` (s). A code controller is
     stepped outside the loop (:mod:`elab.engines.coded`): its stand-in here gives u = 0."""
-    if isinstance(law, CodeController):
-        zeros = np.zeros(1 + plant.ny)
-        return DiscreteController(
-            np.zeros((0, 0)), np.zeros((0, zeros.size)), np.zeros(0), zeros, np.zeros(0), "output"
-        )
-    if isinstance(law, LTIController) and law.dt is not None:
-        return _discrete_lti(law, plant, Ts)
+    match law:
+        case CodeController():
+            zeros = np.zeros(1 + plant.ny)
+            none = np.zeros(0)
+            return DiscreteController(
+                np.zeros((0, 0)), np.zeros((0, zeros.size)), none, zeros, none, "output"
+            )
+        case LTIController() if law.dt is not None:
+            return _discrete_lti(law, plant, Ts)
+        case StateFeedback() | PID() | LTIController() | OpenLoop():
+            return _tustin(law, plant, Ts)
+        case _:
+            assert_never(law)
+
+
+def _tustin(
+    law: StateFeedback | PID | LTIController | OpenLoop, plant: Plant, Ts: float
+) -> DiscreteController:
+    """A continuous law by Tustin, with its anti-windup gain."""
     real = realise(plant, law, all_pid_states=True)
     feedback: Literal["state", "output"] = "state" if real.measures_state else "output"
     sys = real.ss()
@@ -82,11 +107,14 @@ def discretise(law: ControlLaw, plant: Plant, Ts: float) -> DiscreteController:
         )
     d = ct.c2d(sys, Ts, method="tustin")
     Lw = np.zeros(sys.nstates)
-    if isinstance(law, PID) and real.integrator is not None and law.Ki != 0:
-        Lw[real.integrator] = Ts / (law.Ki * pid_tracking_time(law))
-    if isinstance(law, StateFeedback) and law.estimate == "observer":
-        # the observer learns the applied u, not the commanded one (to first order in Ts)
-        Lw = Ts * (plant.B - real.B_m @ plant.D)[:, 0]
+    match law:
+        case PID() if real.integrator is not None and law.Ki != 0:
+            Lw[real.integrator] = Ts / (law.Ki * pid_tracking_time(law))
+        case StateFeedback(estimate="observer"):
+            # the observer learns the applied u, not the commanded one (to first order in Ts)
+            Lw = Ts * (plant.B - real.B_m @ plant.D)[:, 0]
+        case _:
+            pass  # no integrator to unwind
     return DiscreteController(*_arrays(d), Lw, feedback)
 
 

@@ -10,7 +10,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from elab.errors import InvalidInput
-from elab.ident.files import read_table
+from elab.ident.files import read_csv, read_table
 
 DRYER = Path(__file__).resolve().parents[2] / "reference" / "ident" / "dryer.dat"
 ELAB_CSV = """# run: r-1
@@ -117,3 +117,15 @@ def test_semicolon_and_decimal_comma_files_are_read() -> None:
     assert read_csv("u;y\n1.5;2\n1.75;3\n").data.tolist() == [[1.5, 2.0], [1.75, 3.0]]
     with pytest.raises(InvalidInput, match="decimal commas, as 1,5, its columns must be separated"):
         read_csv("u,y\n1,5,2,25\n1,6,2,5\n")
+
+
+def test_a_csv_over_its_row_limit_is_refused_before_it_is_parsed() -> None:
+    # the limit counts samples: a header row is not one
+    assert read_csv("a b\n" + "1 2\n" * 10, max_rows=10).data.shape == (10, 2)
+    with pytest.raises(InvalidInput) as exc:
+        read_csv("1 2\n" * 11, max_rows=10, why=" (with the data's 5)")
+    assert exc.value.field == "data" and exc.value.value == "11 samples"
+    assert exc.value.allowed == "at most 10 samples (with the data's 5)"
+    # refused by its count: a bad row after the limit is never read
+    with pytest.raises(InvalidInput, match="at most 10 samples"):
+        read_csv("1 2\n" * 11 + "x y z\n", max_rows=10)
