@@ -6,7 +6,7 @@ set -u
 cd "$(dirname "$0")/.."
 checks=$(mktemp)
 ( make --no-print-directory lint typecheck frontend-test >"$checks" 2>&1; echo $? >"$checks.rc" ) &
-.venv/bin/python -m pytest -n "${ELAB_TEST_WORKERS:-2}" --dist loadscope "$@"
+.venv/bin/python -m pytest -n "${ELAB_TEST_WORKERS:-2}" --dist loadscope --no-loadscope-reorder "$@"
 tests=$?
 wait
 echo "== lint, typecheck, frontend tests =="
