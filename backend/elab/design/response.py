@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Any
+from warnings import catch_warnings, simplefilter
 
 import control as ct
 import numpy as np
@@ -242,6 +243,7 @@ def margins(L: ct.TransferFunction | ct.StateSpace) -> Margins:
               g_m = -20 \\log_{10} |L(j\\omega_{pc})|\\ \\text{dB}
 
     (python-control's ``stability_margins``; the smallest margins when there are several).
+    ArithmeticError when the loop's numbers overflow on the way.
 
     References
     ----------
@@ -253,7 +255,14 @@ def margins(L: ct.TransferFunction | ct.StateSpace) -> Margins:
             f"a {L.noutputs}×{L.ninputs} system",
             "a SISO loop transfer (one input, one output)",
         )
-    gm, pm, _, wpc, wgc, _ = ct.stability_margins(L)
+    try:
+        with catch_warnings():  # python-control evaluates under its own errstate
+            simplefilter("ignore", RuntimeWarning)  # overflow: seen below as IndexError
+            gm, pm, _, wpc, wgc, _ = ct.stability_margins(L)
+    except IndexError:  # python-control 0.10 indexes an empty crossover list
+        raise ArithmeticError(  # when L's polynomials overflow (a gain of 1e111 and more)
+            "the loop's frequency response is not finite: its margins cannot be computed"
+        ) from None
     with np.errstate(divide="ignore"):  # gm = 0 is -inf dB
         gm_db = float(20.0 * np.log10(gm)) if np.isfinite(gm) else float(gm)
     return Margins(gm_db, float(pm), float(wgc), float(wpc))

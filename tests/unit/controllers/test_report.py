@@ -124,6 +124,8 @@ def test_elab_check_prints_the_report_of_a_template(tmp_path: Path) -> None:
         LTIController(num=(1e308,), den=(1.0, 0.5), dt=0.001),
         LTIController(num=(1.0,), den=(5e-324, 1.0), dt=0.001),
         StateFeedback((1e308, -93.5614, 3.3621, 0.9623)),
+        # found by a longer random search: python-control's margins raised IndexError
+        StateFeedback((1.0, -93.5614, 1.6462925590565576e111, 0.9623)),
         PID(Kp=1e308, Ki=1e308),
     ],
 )
