@@ -142,6 +142,8 @@ def _weight(field: str, value: Any, n: int, *, definite: bool) -> Matrix:
         raise InvalidInput(
             field, value, f"{allowed}; its smallest eigenvalue is {eigenvalues[0]:.4g}"
         )
+    if not np.array_equal(W, W.T):  # symmetric within the tolerance, relative to its size:
+        W = W / 2 + W.T / 2  # python-control's test is absolute (Q[0][1] = 9e18 beside 1e308)
     return W
 
 

@@ -159,6 +159,19 @@ def test_lqr_rejects_bad_weights_naming_them(
     assert str(caught.value).startswith(f"{field}: ")
 
 
+def test_a_weight_symmetric_within_its_tolerance_is_taken_as_symmetric() -> None:
+    """Found by a random search (issue 24): Q[0][1] = 9e18 beside Q[0][0] = 1e308 is
+    symmetric relative to Q's size, and python-control's absolute test refused it: a 500."""
+    Q = np.eye(4)
+    Q[0, 0], Q[0, 1] = 1e308, 2.0**63
+    with pytest.raises(InvalidInput) as caught:  # no ControlArgument
+        design_lqr(FLEX, Q, 1)
+    assert caught.value.field in ("Q", "Q, R")
+    near = np.diag(np.array(Q4, dtype=float))
+    near[0, 1] = 1e-9  # symmetric within 1e-12 of its largest entry, 1e4
+    assert_allclose(design_lqr(FLEX, near, 1).K, design_lqr(FLEX, Q4, 1).K, rtol=1e-9)
+
+
 def test_lqr_rejects_an_unstabilisable_pair_naming_the_mode() -> None:
     with pytest.raises(InvalidInput, match=r"^A, B: .*λ = 1'"):
         lqr(np.diag([1.0, -2.0]), [0.0, 1.0], [1, 1], 1)
