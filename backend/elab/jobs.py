@@ -111,6 +111,8 @@ class _Worker:
             self._killed = True
             if self.proc.pid is not None:
                 self.proc.kill()
+            else:  # never started: its end of the pipe is closed here, not by _start
+                self._child.close()
         self.conn.close()
 
 

@@ -209,7 +209,10 @@ class ProcessEngine:
                 f"the simulation engine did not start ({_ended(code)}; its "
                 f"messages are in the server's log)"
             ) from exc
-        ready = wire.event_in(header, b"") if header.get("ev") == "ready" else None
+        try:
+            ready: wire.Event | None = wire.event_in(header, b"")
+        except (ValueError, KeyError, TypeError):
+            ready = None
         if not isinstance(ready, wire.Ready):
             raise ElabError(f"the simulation engine said {header!r} instead of ready")
         self._ready, self._problem, self._beat = True, None, time.monotonic()
