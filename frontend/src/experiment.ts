@@ -123,7 +123,7 @@ export class SignalForm {
     if (kind === "sine") add({ field: `${p}.frequency`, label: "Frequency", unit: "Hz", value: init?.kind === "sine" ? init.frequency : 0.5, min: 0, minExclusive: true, max: shortest ? Number((1 / shortest).toPrecision(12)) : 500 });
     if (p === "signal" && kind !== "prbs") add({ field: `${p}.offset`, label: "Offset", unit: this.unit, value: init && "offset" in init ? Number((init.offset * this.scale).toPrecision(6)) : 0, min: -lim, max: lim });
     if (kind === "prbs") {
-      add({ field: `${p}.band`, label: "Band (fraction of Nyquist)", value: init?.kind === "prbs" ? init.band : 0.05, min: 0, minExclusive: true, max: 1 });
+      add({ field: `${p}.band`, label: "Band (fraction of Nyquist)", value: init?.kind === "prbs" ? init.band : 0.05, min: 1e-6, max: 1 });
       add({ field: `${p}.order`, label: "Register length", value: init?.kind === "prbs" ? init.order : 10, min: 3, max: 20, integer: true, hint: "allowed: a whole number 3 … 20 (period 2ⁿ − 1 bits)" });
     }
     this.onChange?.();

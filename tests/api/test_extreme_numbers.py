@@ -369,6 +369,7 @@ def _fill(case: Case, ids: dict[str, str], values: tuple[str, ...] = BASE_TEXT) 
 class Lab:
     srv: Server
     ids: dict[str, str]
+    log_seen: int = 0  # how much of the server's log a hunt has read
 
     def path(self, case: Case) -> str:
         for key, body in LIVE.items():  # an extreme law may have ended the live run
@@ -500,6 +501,9 @@ def test_several_extreme_numbers_at_once(lab: Lab, data: st.DataObject) -> None:
     if HUNT:  # in a hunt: the example after which the engine stopped stepping fails
         engine = lab.srv.status()["engine"]
         assert engine["problem"] is None, f"{case.name}: {_dumps(body)[:300]}: {engine}"
+        log = lab.srv.log  # and the one after which the server logged a traceback
+        new, lab.log_seen = log[lab.log_seen :], len(log)
+        assert "Traceback" not in new, f"{case.name}: {_dumps(body)[:300]}:\n{new[-3000:]}"
 
 
 def test_set_params_over_the_websocket_answers_every_extreme_and_stays_open(lab: Lab) -> None:

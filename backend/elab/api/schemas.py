@@ -14,6 +14,8 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, RootModel, field_validator
 from pydantic.json_schema import SkipJsonSchema
 
+from elab.sim.signals import PRBS_MIN_BAND
+
 PROTOCOL = "elab.v1"
 Finite = float  # with allow_inf_nan=False below, NaN and ±inf are refused everywhere
 
@@ -153,7 +155,7 @@ class PRBSSignal(Model):
     kind: Literal["prbs"]
     amplitude: Finite
     order: int = Field(10, ge=3, le=20)
-    band: Finite = Field(1.0, gt=0, le=1)
+    band: Finite = Field(1.0, ge=PRBS_MIN_BAND, le=1)
     offset: Finite = 0.0
 
 

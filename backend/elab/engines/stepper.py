@@ -45,7 +45,7 @@ from elab.engines.coded import CodedRun
 from elab.engines.timetable import Timetable
 from elab.errors import Conflict
 from elab.lifecycle import RunState, transition
-from elab.sim.batch import Batch
+from elab.sim.batch import Batch, SignalFault
 from elab.sim.engine import DIVERGENCE_LIMIT, first_divergence
 from elab.sim.spec import CompiledRun
 
@@ -69,6 +69,7 @@ class _Live:
 
 
 Command = Callable[[], None]
+SLOW_TICK = 0.25  # a tick that took longer is logged with where its time went
 Final = Literal[RunState.FINISHED, RunState.STOPPED, RunState.FAILED, RunState.INTERRUPTED]
 
 
@@ -293,6 +294,7 @@ class Stepper:
             _ordinary()
         deadline = self.align(self._clock())
         while not self._stop.is_set():
+            began = self._clock()
             self._commands_now()
             if self._lone and self.ticks and not self._runs:
                 with self._accepting:  # its run has ended: answer what came, then stop
@@ -313,11 +315,29 @@ class Stepper:
                         for live in list(self._runs.values())
                     ],
                 )
-            self._late.append((deadline, max(0.0, now - deadline), self._table.clock_lag(now)))
+            on_time = now >= deadline  # a tick; else an early pass (the first, fast runs)
+            if on_time:  # only ticks count in the timing: early passes are never late
+                self._late.append((deadline, now - deadline, self._table.clock_lag(now)))
+            stepped = self._clock()
             if blocks or ended:
                 self._on_tick(blocks, ended)
+            done = self._clock()
+            if done - began > SLOW_TICK:
+                log.warning(
+                    "a tick took %.2f s (commands %.2f s, stepping %.2f s for %d runs, "
+                    "recording %.2f s for %d samples)",
+                    done - began,
+                    now - began,
+                    stepped - now,
+                    len(self._runs),
+                    done - stepped,
+                    sum(b.data.shape[0] * b.data.shape[1] for b in blocks),
+                )
             fast = self._table.fast_due()
-            deadline = self.align(max(deadline + self.tick, self._clock()))  # stay on the grid
+            if on_time:  # the next tick, on the grid (an early pass leaves it where it is:
+                # each once moved it on by a tick, and after a long fast run the thread
+                # slept seconds while the real-time runs stood still)
+                deadline = self.align(max(deadline + self.tick, self._clock()))
             time.sleep(0.0005 if fast else max(0.0, deadline - self._clock()))
 
     def timing(self) -> dict[str, float | int]:
@@ -376,8 +396,9 @@ class Stepper:
             due[coded] = 0
         stepped = np.flatnonzero(due)
         for n in np.unique(due[stepped]).tolist():
-            slots = stepped[due[stepped] == n]
-            block = self._batch.advance(n, slots.tolist())
+            slots, block = self._advance(n, stepped[due[stepped] == n], ended)
+            if not slots.size:
+                continue
             # runs with the same columns (the same plant) are cut out of the block with
             # one copy and checked for divergence at once
             for layout in np.unique(table.layout[slots]).tolist():
@@ -400,6 +421,22 @@ class Stepper:
         for slot in table.finished().tolist():
             ended.append(self._end(self._runs[table.ids[slot]], RunState.FINISHED))
         return blocks, ended
+
+    def _advance(
+        self, n: int, slots: NDArray[np.intp], ended: list[Changed]
+    ) -> tuple[NDArray[np.intp], Array]:
+        """Step ``slots`` by ``n`` samples; a run whose signals cannot be computed fails
+        alone (once, a PRBS held 10³⁰⁰ samples failed every live run of the engine)."""
+        while True:
+            try:
+                return slots, self._batch.advance(n, slots.tolist())
+            except SignalFault as fault:
+                log.warning("a run's signals failed", exc_info=fault.__cause__)
+                live = self._runs[self._table.ids[fault.slot]]
+                ended.append(self._end(live, RunState.FAILED, f"{fault}: {fault.__cause__!r}"))
+                slots = slots[slots != fault.slot]
+                if not slots.size:
+                    return slots, np.empty((0, n, 0))
 
     def _record(self, live: _Live, data: Array, ended: list[Changed]) -> Block:
         """The samples of a run whose block failed the divergence check: those before it

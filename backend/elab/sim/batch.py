@@ -40,6 +40,16 @@ _MATRICES: dict[str, Callable[..., tuple[int, ...]]] = {
 }
 
 
+class SignalFault(Exception):
+    """The signals of the run in ``slot`` could not be computed (``__cause__`` says why);
+    nothing was advanced, so the others may be stepped again without it."""
+
+    def __init__(self, slot: int, k: int) -> None:
+        super().__init__(f"the run's signals could not be computed from sample {k} on")
+        self.slot = slot
+        self.k = k
+
+
 class Batch:
     """Stacked runs advanced together; ``add`` returns the run's slot."""
 
@@ -98,7 +108,8 @@ class Batch:
     def advance(self, n: int, slots: list[int] | None = None) -> Array:
         """Step the runs in ``slots`` (default: all) by ``n`` samples each.
 
-        Returns the stacked output block ``(slots, n, 2 + NY + NX)`` (a view, valid
+        Raises :class:`SignalFault` (before advancing any run) if a run's signals cannot
+        be computed. Returns the stacked output block ``(slots, n, 2 + NY + NX)`` (a view, valid
         until the next call); :meth:`columns` says where a run's channels are and
         :meth:`samples` copies one run's chunk out as :class:`Samples`.
         """
@@ -106,7 +117,10 @@ class Batch:
             raise ValueError(f"n: got {n}; allowed: at most block = {self.block} samples")
         active = np.asarray(sorted(self._runs) if slots is None else slots, dtype=np.int64)
         for s in active[self._exo_off[active] + n > self.block]:
-            exo = self._runs[int(s)].exogenous(int(self._k[s]), self.block)
+            try:
+                exo = self._runs[int(s)].exogenous(int(self._k[s]), self.block)
+            except Exception as exc:  # one run's signals must not stop the others
+                raise SignalFault(int(s), int(self._k[s])) from exc
             self._a["exo"][s, :, : exo.shape[1]] = exo
             self._exo_off[s] = 0
         R, X, Y = self._dims[:3]

@@ -21,6 +21,7 @@ from elab.validate import finite_array, finite_float
 Array = NDArray[np.float64]
 
 PRBS_ORDERS = range(3, 21)  # LFSR register lengths with known maximal taps (scipy)
+PRBS_MIN_BAND = 1e-6  # a level held at most 10⁶ samples (17 min at 1 kHz)
 
 
 def _times(k0: int, n: int, Ts: float) -> Array:
@@ -124,7 +125,7 @@ class PRBS:
     def __post_init__(self) -> None:
         if self.order not in PRBS_ORDERS:
             raise InvalidInput("signal.order", self.order, "an integer register length 3..20")
-        finite_float("signal.band", self.band, 0.0, 1.0, lo_open=True)
+        finite_float("signal.band", self.band, PRBS_MIN_BAND, 1.0)
 
     @property
     def hold(self) -> int:

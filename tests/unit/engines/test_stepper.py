@@ -125,6 +125,48 @@ def test_a_real_time_run_gets_whole_frames_at_ticks_never_before_they_are_due() 
     assert np.all(t >= due_last - 1e-6)  # never early
 
 
+def test_a_long_fast_run_does_not_push_the_tick_grid_ahead_of_the_clock(
+    sink_stepper: tuple[Sink, Stepper],
+) -> None:
+    """A fast run is stepped in passes 0.5 ms apart; each once moved the next tick's time
+    on by a whole tick (20 ms), so after 600 s of fast run the thread slept about 12 s
+    before its next tick, and every real-time run stood still meanwhile (an extreme-number
+    hunt found it: "the engine's stepping thread is not ticking")."""
+    sink, stepper = sink_stepper
+    stepper.add("fast", compile_run(spec("flexible_link", 600.0)), "fast")
+    sink.wait_ended("fast", timeout=120)
+    run = compile_run(spec("flexible_link", 10.0))
+    stepper.add("rt", run, "realtime")
+    assert _until(lambda: sum(len(r) for r in sink.data.get("rt", [])) >= 100, 5.0)
+    assert time.monotonic() - stepper.last_tick < 1.0
+
+
+class _Broken:
+    """A reference whose samples cannot be computed after the first block (as a PRBS
+    held 10³⁰⁰ samples once could not)."""
+
+    def sample(self, k0: int, n: int, Ts: float) -> np.ndarray:
+        if k0 > 0:
+            raise OverflowError("Python int too large to convert to C long")
+        return np.full(n, 0.1)
+
+
+def test_a_run_whose_signals_fail_ends_alone_and_the_others_go_on(
+    sink_stepper: tuple[Sink, Stepper], caplog: pytest.LogCaptureFixture
+) -> None:
+    sink, stepper = sink_stepper
+    p = get_plant("flexible_link")
+    stepper.add("good", compile_run(spec("flexible_link", 5.0)), "fast")
+    stepper.add("bad", compile_run(RunSpec(p, p.predefined, _Broken(), duration=5.0)), "fast")
+    sink.wait_ended("good", "bad")
+    assert sink.ended["bad"].state == "failed"
+    assert "OverflowError" in (sink.ended["bad"].error or ""), sink.ended["bad"]
+    assert sink.ended["good"].state == "finished"
+    data = np.concatenate(sink.data["good"])
+    np.testing.assert_array_equal(data[:, 2:3], simulate(spec("flexible_link", 5.0)).y[:, :1])
+    assert "signals failed" in caplog.text
+
+
 def test_timing_reports_how_late_ticks_began_and_the_trend_as_clock_drift() -> None:
     stepper = Stepper(lambda blocks, ended: None)  # not started: its record filled by hand
     assert stepper.timing()["drift_ms_per_min"] == 0.0  # nothing yet

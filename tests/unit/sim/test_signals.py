@@ -30,6 +30,18 @@ def test_prbs_band_holds_each_level() -> None:
     assert np.all(v.reshape(-1, 4) == v.reshape(-1, 4)[:, :1])  # held 1/band = 4 samples
 
 
+@pytest.mark.parametrize("band", [0.0, 9.99e-7, 1e-300, 5e-324, 1.0000001])
+def test_prbs_band_outside_its_range_is_refused_by_name(band: float) -> None:
+    """A band of 1e-300 held each level 10³⁰⁰ samples, past what an index can count."""
+    with pytest.raises(InvalidInput, match=r"signal\.band.*1e-06"):
+        PRBS(1.0, band=band)
+
+
+def test_prbs_at_its_narrowest_band_holds_a_level_a_million_samples() -> None:
+    v = PRBS(1.0, order=3, band=1e-6).sample(3_600_000 - 5, 10, 1e-3)
+    assert_array_equal(v, np.full(10, v[0]))  # sample 3.6 M is still in the 4th level
+
+
 def test_square_has_its_period_and_levels() -> None:
     v = Square(0.5, period=0.1, offset=0.2).sample(0, 1000, 1e-3)
     assert_allclose(v[:50], 0.7)
