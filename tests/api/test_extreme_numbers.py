@@ -470,8 +470,10 @@ NUMBERS = st.one_of(
 )
 
 
-#: ``ELAB_HUNT_EXAMPLES=N``: a longer, random search of N examples (a hunt, run by hand:
-#: ``ELAB_HUNT_EXAMPLES=3000 .venv/bin/pytest tests/api/test_extreme_numbers.py -k several``)
+#: ``ELAB_HUNT_EXAMPLES=N``: a longer, random search of N examples (a hunt, run by hand;
+#: about 15 examples a second; in a hunt, the example after which the engine stopped
+#: stepping or the server logged a traceback fails too):
+#: ``ELAB_HUNT_EXAMPLES=3000 pytest --timeout=0 tests/api/test_extreme_numbers.py -k several``
 HUNT = int(os.environ.get("ELAB_HUNT_EXAMPLES", "0"))
 
 
