@@ -46,6 +46,7 @@ UNIONS = (
                 "design/realise.py",
                 "controllers/templates.py",
                 "sim/controllers.py",
+                "laws.py",  # its questions: is_code, has_feedback, own_sample_time
             }
         ),
     ),

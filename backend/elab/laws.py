@@ -15,7 +15,7 @@ Sign convention (as python-control's ``lqr``): state feedback is
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, assert_never
 
 
 @dataclass(frozen=True)
@@ -112,3 +112,37 @@ class CodeController:
 
 
 ControlLaw = StateFeedback | PID | LTIController | OpenLoop | CodeController
+
+
+def is_code(law: ControlLaw) -> bool:
+    """Whether the law is a student's Python code (stepped in a sandbox, sample by sample)."""
+    match law:
+        case CodeController():
+            return True
+        case StateFeedback() | PID() | LTIController() | OpenLoop():
+            return False
+        case _:
+            assert_never(law)
+
+
+def has_feedback(law: ControlLaw) -> bool:
+    """Whether the loop is closed (every law but :class:`OpenLoop`)."""
+    match law:
+        case OpenLoop():
+            return False
+        case StateFeedback() | PID() | LTIController() | CodeController():
+            return True
+        case _:
+            assert_never(law)
+
+
+def own_sample_time(law: ControlLaw) -> float | None:
+    """The sample time a discrete law was designed at (``None``: a continuous law, or one
+    that runs at any sample time)."""
+    match law:
+        case LTIController(dt=dt):
+            return dt
+        case StateFeedback() | PID() | OpenLoop() | CodeController():
+            return None
+        case _:
+            assert_never(law)

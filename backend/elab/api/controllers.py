@@ -30,7 +30,7 @@ from elab.api.http import Param, endpoint, ok, query, read_body, read_model, wit
 from elab.engines import coded
 from elab.engines.coded import CodeSettings
 from elab.errors import InvalidInput, NotFound
-from elab.laws import CodeController, ControlLaw
+from elab.laws import CodeController, ControlLaw, is_code
 from elab.plants import PLANTS, get_plant
 from elab.store.base import ControllerStore, StoredController
 
@@ -306,9 +306,17 @@ def stored_law(c: StoredController) -> ControlLaw:
     return ctl.law_from_fields(c.law, get_plant(c.plant))
 
 
+def _source(law: ControlLaw) -> str | None:
+    """A Python controller's source (``None``: an empty one, or a declarative law)."""
+    match law:
+        case CodeController(source=source):
+            return source or None
+        case _:
+            return None
+
+
 def controller_out(c: StoredController, who: Identity) -> s.UploadedController:
     law = stored_law(c)
-    code = isinstance(law, CodeController)
     return s.UploadedController(
         id=c.id,
         plant=c.plant,
@@ -317,9 +325,9 @@ def controller_out(c: StoredController, who: Identity) -> s.UploadedController:
         owner=display_name(c.owner),
         mine=bool(who.id) and c.owner == who.id,
         created_at=c.created_at,
-        controller=None if code else convert.law_model(law),
+        controller=None if is_code(law) else convert.law_model(law),
         # the list leaves sources out: GET /controllers/{id} has it
-        code=law.source or None if isinstance(law, CodeController) else None,
+        code=_source(law),
         report=s.ControllerReportOut.model_validate(c.report),
         url=f"/api/v1/controllers/{c.id}",
     )

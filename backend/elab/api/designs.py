@@ -33,7 +33,7 @@ from elab.design.locus import RootLocus, root_locus
 from elab.design.model import Model, in_domain
 from elab.design.response import Margins, default_horizon, step_response
 from elab.errors import InvalidInput
-from elab.laws import PID, ControlLaw, LTIController, OpenLoop
+from elab.laws import PID, ControlLaw, LTIController, has_feedback
 from elab.plants import PLANTS, Plant, get_plant
 from elab.store.base import StoredModel
 
@@ -208,13 +208,14 @@ async def plant_loop(request: Request) -> Response:
 
 
 def _plant_loop(plant: Plant, law: ControlLaw, amplitude: float) -> s.LoopOut:
-    if isinstance(law, OpenLoop):
+    if not has_feedback(law):
         raise InvalidInput("controller", "open_loop", "a feedback law: an open loop has no loop")
-    if isinstance(law, LTIController) and law.dt is not None:
-        ref = [plant.reference_output]
-        P = ct.c2d(ct.ss(plant.A, plant.B, plant.C[ref], plant.D[ref]), law.dt, "zoh")
-        a = loop.analyse(Model(P.A, P.B, P.C, P.D, law.dt), observed.two_dof(law), amplitude)
-        return s.LoopOut(**_loop_out(plant, a.loop, a.locus, a.margins, a.peak_u, amplitude))
+    match law:
+        case LTIController(dt=dt) if dt is not None:  # on the plant sampled at its dt
+            ref = [plant.reference_output]
+            P = ct.c2d(ct.ss(plant.A, plant.B, plant.C[ref], plant.D[ref]), dt, "zoh")
+            a = loop.analyse(Model(P.A, P.B, P.C, P.D, dt), observed.two_dof(law), amplitude)
+            return s.LoopOut(**_loop_out(plant, a.loop, a.locus, a.margins, a.peak_u, amplitude))
     closed = closed_loop(plant, law)
     L = ct.ss(loop_transfer(plant, law))
     poles, said, reason = loop.verdict(closed.A, None)

@@ -15,7 +15,7 @@ from elab.api import convert
 from elab.api import schemas as s
 from elab.api.http import Param, computed, endpoint, ok, query, read_model
 from elab.errors import InvalidInput, NotFound
-from elab.laws import OpenLoop
+from elab.laws import ControlLaw, OpenLoop, has_feedback
 from elab.plants import PLANTS, Channel, Plant, get_plant
 
 PLANT_ID = Param(
@@ -189,9 +189,9 @@ async def step(request: Request) -> Response:
     return ok(await asyncio.to_thread(computed, _step, p, law, req))
 
 
-def _step(p: Plant, law: object, req: s.StepRequest) -> s.StepOut:
-    loop: Literal["open", "closed"] = "open" if isinstance(law, OpenLoop) else "closed"
-    sys = design.closed_loop(p, law)  # type: ignore[arg-type]
+def _step(p: Plant, law: ControlLaw, req: s.StepRequest) -> s.StepOut:
+    loop: Literal["open", "closed"] = "closed" if has_feedback(law) else "open"
+    sys = design.closed_loop(p, law)
     stab = design.stability(sys.A)
     T = req.T or design.default_horizon(stab.eigenvalues)
     r = design.step_response(sys, T=T, n=req.n, amplitude=req.amplitude, u_output=-1)

@@ -20,7 +20,7 @@ from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_float, query_int, read_model
 from elab.engines.base import Action, EngineStatus, StoreHealth
 from elab.errors import Conflict, InvalidInput
-from elab.laws import CodeController
+from elab.laws import is_code
 from elab.lifecycle import RunState
 from elab.plants import PLANTS, get_plant
 from elab.runs import export
@@ -125,7 +125,7 @@ async def create_run(request: Request) -> Response:
         | convert.sensors(req)
         | (
             {"controller": convert.law_model(uploaded)}
-            if uploaded is not None and not isinstance(uploaded, CodeController)
+            if uploaded is not None and not is_code(uploaded)
             else {}
         )
     )
@@ -385,7 +385,7 @@ async def apply_params(
     params: dict[str, Any] = {}
     if cid is not None:
         law = await controllers.law_of(conn, cid, plant.id)
-        if isinstance(law, CodeController):
+        if is_code(law):
             raise InvalidInput(
                 "controller_id",
                 cid,

@@ -27,7 +27,7 @@ from elab.design.loop import close, credible, frd_margins, step
 from elab.design.model import Model
 from elab.design.observed import two_dof
 from elab.design.response import margins, step_response
-from elab.laws import ControlLaw, LTIController, OpenLoop
+from elab.laws import ControlLaw, LTIController, has_feedback
 from elab.plants import Plant
 from elab.validate import computable, finite_result
 
@@ -101,17 +101,14 @@ def check(plant: Plant, law: ControlLaw) -> Report:
 def _check(plant: Plant, law: ControlLaw) -> Report:
     problems: list[str] = []
     warnings: list[str] = []
-    if (
-        isinstance(law, LTIController)
-        and law.dt is not None
-        and not math.isclose(law.dt, plant.Ts, rel_tol=1e-9)
-    ):
-        problems.append(
-            f"a discrete controller at dt = {law.dt:g} s; runs of {plant.id} step at "
-            f"Ts = {plant.Ts:g} s, so they must be started with Ts = {law.dt:g} s"
-        )
-    if isinstance(law, LTIController) and law.dt is not None:
-        return _discrete(plant, law, problems, warnings)
+    match law:
+        case LTIController(dt=dt) if dt is not None:  # stepped as it is, at its own dt
+            if not math.isclose(dt, plant.Ts, rel_tol=1e-9):
+                problems.append(
+                    f"a discrete controller at dt = {dt:g} s; runs of {plant.id} step at "
+                    f"Ts = {plant.Ts:g} s, so they must be started with Ts = {dt:g} s"
+                )
+            return _discrete(plant, law, problems, warnings)
     loop = closed_loop(plant, law)
     poles = tuple(complex(p) for p in np.linalg.eigvals(loop.A))
     stable = all(p.real < -1e-9 for p in poles)
@@ -128,7 +125,7 @@ def _check(plant: Plant, law: ControlLaw) -> Report:
             "sampled loop will not behave as the continuous one"
         )
     gm = pm = None
-    if not isinstance(law, OpenLoop):
+    if has_feedback(law):
         L = loop_transfer(plant, law)
         m = credible(margins(L), ct.ss(L))
         gm, pm = m.gain_margin_db, m.phase_margin_deg

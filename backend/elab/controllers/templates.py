@@ -225,10 +225,11 @@ def python_source(plant: Plant, law: ControlLaw) -> str:
         outputs=", ".join(f"{i}: {o.name} ({o.unit})" for i, o in enumerate(plant.outputs)),
         plant=plant.id,
     )
-    if isinstance(law, StateFeedback) and plant.velocity_filters:
-        return head + _py_state_feedback(plant, law)
-    if isinstance(law, PID):
-        return head + _py_pid(plant, law)
+    match law:
+        case StateFeedback() if plant.velocity_filters:
+            return head + _py_state_feedback(plant, law)
+        case PID():
+            return head + _py_pid(plant, law)
     raise InvalidInput(
         "law",
         type(law).__name__,
@@ -240,7 +241,11 @@ def _describe(plant: Plant, law: ControlLaw) -> str:
     if law == plant.predefined:
         on = "" if getattr(law, "estimate", "") != "true_state" else ", on velocity filters"
         return f"the predefined controller ({plant.predefined_design}{on})"
-    return "state feedback" if isinstance(law, StateFeedback) else "a PID"
+    match law:
+        case StateFeedback():
+            return "state feedback"
+        case _:
+            return "a PID"
 
 
 def _py_state_feedback(plant: Plant, law: StateFeedback) -> str:

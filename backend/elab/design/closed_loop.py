@@ -20,7 +20,7 @@ from elab.design import _polynomials
 from elab.design._checks import Matrix
 from elab.design.realise import Realisation, realise
 from elab.errors import InvalidInput
-from elab.laws import ControlLaw, OpenLoop
+from elab.laws import ControlLaw, has_feedback
 from elab.plants import Plant
 
 
@@ -82,7 +82,7 @@ def loop_transfer(plant: Plant, law: ControlLaw) -> ct.TransferFunction:
     ----------
     K. J. Åström and R. M. Murray, *Feedback Systems*, 2nd ed., 2021, §10.3.
     """
-    if isinstance(law, OpenLoop):
+    if not has_feedback(law):
         raise InvalidInput(
             "law",
             law,

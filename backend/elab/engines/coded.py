@@ -75,9 +75,11 @@ class CodedRun:
     starts the controller's process (about 0.1 s); :meth:`close` ends it."""
 
     def __init__(self, run: CompiledRun, settings: CodeSettings | None = None) -> None:
-        law = run.spec.law
-        if not isinstance(law, CodeController):
-            raise InvalidInput("controller", type(law).__name__, "a CodeController")
+        match run.spec.law:
+            case CodeController() as law:
+                pass
+            case other:
+                raise InvalidInput("controller", type(other).__name__, "a CodeController")
         settings = settings or CodeSettings()
         p = run.spec.plant
         self.run = run
@@ -275,9 +277,11 @@ def trial(plant: Plant, law: CodeController, settings: CodeSettings | None = Non
 def report(plant: Plant, law: ControlLaw, settings: CodeSettings | None = None) -> Report:
     """The validation report of any controller: on the linear model, or for code a trial
     in its sandbox (what upload and ``elab check`` give)."""
-    if isinstance(law, CodeController):
-        return trial(plant, law, settings)
-    return check(plant, law)
+    match law:
+        case CodeController():
+            return trial(plant, law, settings)
+        case _:
+            return check(plant, law)
 
 
 def _worse(a: dict[str, float | int], b: dict[str, float | int]) -> dict[str, float | int]:

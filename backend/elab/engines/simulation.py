@@ -27,7 +27,7 @@ from elab.engines.coded import CodedRun, CodeSettings
 from elab.engines.recorder import Recorder
 from elab.engines.stepper import Stepper
 from elab.errors import Conflict, InvalidInput, TooMany, Unavailable
-from elab.laws import CodeController, ControlLaw
+from elab.laws import CodeController, ControlLaw, is_code
 from elab.lifecycle import RunState
 from elab.plants import get_plant
 from elab.sim.batch import Batch
@@ -155,7 +155,11 @@ class SimulationEngine:
                 f"new runs are refused while the run store fails: {h.error}", retry_after=5.0
             )
         run = compile_run(order.spec)
-        coded = self._start_coded(run) if isinstance(run.spec.law, CodeController) else None
+        match run.spec.law:
+            case CodeController() as law:
+                coded: CodedRun | None = self._start_coded(run, law)
+            case _:
+                coded = None
         try:
             return self._add(order, run, coded)
         except BaseException:
@@ -204,7 +208,7 @@ class SimulationEngine:
         stepper.add(record.id, run, order.pace, t_origin=origin, coded=coded)
         return record
 
-    def _start_coded(self, run: CompiledRun) -> CodedRun:
+    def _start_coded(self, run: CompiledRun, law: CodeController) -> CodedRun:
         """Start a code controller's process (at most ``max_code_runs`` at once)."""
         limit = self.settings.max_code_runs
         with self._counting:
@@ -222,8 +226,6 @@ class SimulationEngine:
             )
         except ControllerFailed as exc:
             self._ended_coded()
-            law = run.spec.law
-            assert isinstance(law, CodeController)
             raise InvalidInput("controller", law.name, f"a controller that starts: {exc}") from None
         except BaseException:
             self._ended_coded()
@@ -321,7 +323,7 @@ class SimulationEngine:
             if not c.state.live:
                 run = self._runs.pop(c.run_id, None)
                 self._coders.pop(c.run_id, None)  # its thread ends by itself
-                if run is not None and isinstance(run.spec.law, CodeController):
+                if run is not None and is_code(run.spec.law):
                     self._ended_coded()
             self._events.changed(self.id, c)
 
