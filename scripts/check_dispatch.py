@@ -52,7 +52,7 @@ UNIONS = (
     ),
     Union(
         "controller models (the wire)",
-        "api/schemas.py",
+        "api/schemas/laws.py",
         "Controller = Annotated[\n    PredefinedController",
         'class DummyController(Model):\n    kind: Literal["dummy"]\n\n\n'
         "Controller = Annotated[\n    DummyController\n    | PredefinedController",
@@ -60,7 +60,7 @@ UNIONS = (
     ),
     Union(
         "websocket client messages",
-        "api/schemas.py",
+        "api/schemas/stream.py",
         "ClientMessage = Annotated[\n    SetParams",
         'class Dummy(Model):\n    type: Literal["dummy"]\n\n\n'
         "ClientMessage = Annotated[\n    Dummy | SetParams",

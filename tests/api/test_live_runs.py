@@ -15,7 +15,7 @@ import numpy as np
 import scipy.io
 from websockets.sync.client import connect
 
-from elab.api.schemas import RecordingOut
+from elab.api.schemas.runs import RecordingOut
 from elab.laws import StateFeedback
 from elab.plants import get_plant
 from elab.sim import RunSpec, Samples, Simulation, Square

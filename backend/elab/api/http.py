@@ -28,7 +28,7 @@ from starlette.requests import HTTPConnection, Request
 from starlette.responses import JSONResponse, Response
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from elab.api.schemas import ErrorBody, ErrorDetail, FieldError
+from elab.api.schemas.errors import ErrorBody, ErrorDetail, FieldError
 from elab.errors import (
     Conflict,
     ElabError,

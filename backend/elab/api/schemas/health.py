@@ -1,0 +1,99 @@
+"""The server's status and health: stepping timing, the engine, the store, the workers."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from elab.api.schemas.base import Model
+
+
+class StepperTiming(Model):
+    """The stepping thread over the last minute of ticks, and the runs with Python
+    controllers, each stepped by a thread of its own."""
+
+    ticks: int = Field(default=0, description="ticks since the server started")
+    tick_s: float = Field(default=0.0, description="tick period (s)")
+    window_s: float = Field(default=0.0, description="time spanned by the ticks below (s)")
+    late_p50_ms: float = Field(default=0.0, description="how late a tick began: median (ms)")
+    late_p99_ms: float = 0.0
+    late_max_ms: float = 0.0
+    drift_ms_per_min: float = Field(
+        default=0.0,
+        description="trend of that lateness (ms per minute): the drift of real-time runs' clocks",
+    )
+    tick_rate: float = Field(
+        default=0.0, description="ticks per second over the window (the plan: 1 / tick_s)"
+    )
+    clock_lag_max_ms: float = Field(
+        default=0.0,
+        description="how far the most belated real-time run's clock fell behind the wall clock "
+        "after a tick (ms): a tick that overran shows here even if the next is on time",
+    )
+    code_runs: int = Field(default=0, description="live runs with Python controllers")
+    code_clock_lag_max_ms: float = Field(
+        default=0.0,
+        description="the same for the runs with Python controllers: a slow controller delays "
+        "its own run's clock, nobody else's",
+    )
+
+
+class EngineInfo(Model):
+    """The engine that steps runs, as the web process sees it."""
+
+    id: str
+    up: bool = Field(description="started and answering")
+    problem: str | None = Field(description="why it is not up, or what is wrong while up")
+    restarts: int = Field(description="restarts after its process was lost")
+    pid: int | None
+    heartbeat_age_s: float | None = Field(description="since it last reported (s)")
+
+
+class StoreInfo(Model):
+    """The engine's writes to the run store."""
+
+    ok: bool
+    error: str | None
+    since: float | None = Field(description="failing since (unix s)")
+    transient: bool = Field(
+        description="being retried (a lock held elsewhere); else failed "
+        "until someone acts: new runs get 503"
+    )
+    pending_bytes: int = Field(description="samples waiting in memory to be committed")
+
+
+class JobsInfo(Model):
+    """The identification workers."""
+
+    workers: int
+    busy: int = Field(description="workers running a job")
+    starting: int = Field(
+        description="workers still starting (a fresh one replaces one whose job was stopped)"
+    )
+
+
+class UploadsInfo(Model):
+    """Large bodies (uploads, identification data) being received."""
+
+    receiving: int
+    limit: int = Field(description="ELAB_MAX_UPLOADS: more at once get 429")
+
+
+class ServerStatus(Model):
+    live_runs: int
+    watchers: int = Field(description="websocket watchers connected, all runs")
+    stepper: StepperTiming
+    engine: EngineInfo
+    store: StoreInfo
+    ident: JobsInfo
+    uploads: UploadsInfo
+
+
+class HealthInfo(Model):
+    """For a load balancer: ``ok`` (200); ``degraded`` (200: runs work, something is being
+    retried, e.g. a store locked by another writer); ``unavailable`` (503: new runs would
+    fail: the engine is down or stalled, or the store has failed). ``problems`` says what."""
+
+    status: Literal["ok", "degraded", "unavailable"]
+    problems: list[str]
