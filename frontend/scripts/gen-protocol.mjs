@@ -50,7 +50,7 @@ const root = {
   $defs: schema.$defs,
 };
 const banner = `/* Generated from shared/elab.v1.schema.json by scripts/gen-protocol.mjs (make protocol).
- * Do not edit: change the pydantic models in backend/elab/api/schemas.py instead. */`;
+ * Do not edit: change the pydantic models in backend/elab/api/schemas/ instead. */`;
 const ts = await compile(root, "ElabProtocol", {
   bannerComment: banner,
   additionalProperties: false,

@@ -1,5 +1,5 @@
 /* Generated from shared/elab.v1.schema.json by scripts/gen-protocol.mjs (make protocol).
- * Do not edit: change the pydantic models in backend/elab/api/schemas.py instead. */
+ * Do not edit: change the pydantic models in backend/elab/api/schemas/ instead. */
 import type { ServerMessage, IdentLine } from "./protocol.gen";
 
 export interface Validate<T> {
