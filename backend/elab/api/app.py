@@ -24,6 +24,7 @@ from elab.api import (  # noqa: F401  (registers their endpoints)
     access,
     controllers,
     designs,
+    downloads,
     ident,
     models,
     plants,

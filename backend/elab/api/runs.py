@@ -5,35 +5,26 @@ Every run belongs to whoever started it (:mod:`elab.api.auth`); the rules of
 
 from __future__ import annotations
 
-import json
-from collections.abc import AsyncIterator, Callable, Iterator
 from typing import Any
 
-from starlette.concurrency import iterate_in_threadpool
 from starlette.requests import HTTPConnection, Request
-from starlette.responses import Response, StreamingResponse
+from starlette.responses import Response
 
 from elab.access import Identity, display_name, may_control, may_view, require_control
 from elab.api import changes, controllers, convert
 from elab.api import schemas as s
 from elab.api.auth import identity
-from elab.api.http import Param, endpoint, ok, query, query_float, query_int, read_model
+from elab.api.http import Param, endpoint, ok, query, query_int, read_model
 from elab.engines.base import Action, EngineStatus, StoreHealth
 from elab.errors import Conflict, InvalidInput
 from elab.laws import is_code
 from elab.lifecycle import RunState
 from elab.plants import PLANTS, get_plant
-from elab.runs import export
 from elab.runs.fanout import frame_samples
 from elab.runs.manager import RunManager
 from elab.store.base import RunRecord, RunSummary
 
 RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
-FORMATS = {
-    "csv": "text/csv; charset=utf-8",
-    "json": "application/json",
-    "mat": "application/x-matlab-data",
-}
 
 
 def manager(request: HTTPConnection) -> RunManager:
@@ -430,106 +421,3 @@ async def apply_params(
         who=who,
     )
     return s.ParamsApplied(k=k, t=k * record.Ts, changed=[d for ds in changed.values() for d in ds])
-
-
-@endpoint(
-    "GET",
-    "/runs/{run_id}/data",
-    "The complete recording as CSV, JSON or MATLAB .mat",
-    response="file",
-    params=(
-        RUN_ID,
-        Param(
-            "format",
-            "query",
-            "csv (default), json or mat",
-            {"type": "string", "enum": list(FORMATS)},
-        ),
-        Param("channels", "query", "comma-separated channel names (default: all)"),
-        Param("t_from", "query", "first sample time (s)", {"type": "number"}),
-        Param("t_to", "query", "last sample time (s)", {"type": "number"}),
-    ),
-)
-async def get_data(request: Request) -> Response:
-    """CSV starts with ``# key: value`` lines (plant, controller, signal, sample time, units,
-    parameter changes); numbers are the shortest decimals that read back exactly. The file
-    is streamed as it is written, part by part (a download of any length holds one part of
-    the recording in memory), and stops when the client goes away. A live run downloads
-    as stored so far (samples reach the store within a quarter of a second): a download
-    never holds a sample that the recording could still lose."""
-    fmt = query(request, "format")
-    fmt = "csv" if fmt is None else fmt
-    if fmt not in FORMATS:
-        raise InvalidInput("format", fmt, ", ".join(FORMATS))
-    m = manager(request)
-    record = await m.get(request.path_params["run_id"], identity(request))
-    stored, read = m.durable(record.id)  # at once after: the same moment of a live run
-    n = record.n_stored if stored is None else min(stored, record.n_stored)
-    changes = await m.param_changes(record.id)
-    rec = export.Recording(
-        _header(record),
-        record.Ts,
-        0,
-        n,
-        record.channels,
-        read,
-        tuple(c for c in changes if c.k < n),
-    )
-    names = query(request, "channels")
-    rec = export.select(
-        rec,
-        names.split(",") if names else None,
-        query_float(request, "t_from"),
-        query_float(request, "t_to"),
-    )
-    writers: dict[str, Callable[[export.Recording], Iterator[str] | Iterator[bytes]]] = {
-        "csv": export.iter_csv,
-        "json": export.iter_json,
-        "mat": export.iter_mat,
-    }
-    filename = f"{record.id}-{record.plant}.{fmt}"
-    return StreamingResponse(
-        _while_downloading(m, record.id, writers[fmt](rec)),
-        media_type=FORMATS[fmt],
-        headers={"content-disposition": f'attachment; filename="{filename}"'},
-    )
-
-
-async def _while_downloading(
-    m: RunManager, run_id: str, parts: Iterator[str | bytes]
-) -> AsyncIterator[str | bytes]:
-    """The parts, written in a worker thread, with the run kept in the store until the
-    last one (a run deleted meanwhile goes after)."""
-    with m.downloading(run_id):
-        async for part in iterate_in_threadpool(parts):
-            yield part
-
-
-def _header(record: RunRecord) -> dict[str, str]:
-    spec = record.spec
-    header = {
-        "run": record.id,
-        "plant": record.plant,
-        "mode": record.mode,
-        "experiment": record.experiment,
-        "status": record.status,
-        "owner": display_name(record.owner),
-        "reason": record.error or "",
-        "controller": _compact(spec.get("controller")),
-        "signal": _compact(spec.get("signal")),
-        **export.sensors_header(
-            get_plant(record.plant),
-            spec.get("seed") if spec.get("noise", spec.get("seed") is not None) else None,
-            bool(spec.get("quantize")),
-        ),
-        "generator": "elab serve",
-    }
-    if record.error:  # who stopped it and why, why it failed or was interrupted
-        header["reason"] = record.error
-    return header
-
-
-def _compact(obj: Any) -> str:
-    if obj is None:
-        return "plant default"
-    return json.dumps(obj, separators=(",", ":"))
