@@ -82,7 +82,7 @@ def _load(n: int, seconds: float) -> dict[str, float]:
         stepper.end(None, RunState.INTERRUPTED, "benchmark over").result(timeout=30)
         stepper.close()
     recent = int(ticks)
-    late = np.array(stepper._late)[-recent:, 1] * 1e3 if recent else np.zeros(1)
+    late = stepper.tick_log.entries()[-recent:, 1] * 1e3 if recent else np.zeros(1)
     misses = sum(r.sandbox.times.misses for r in runs)
     steps = sum(r.sandbox.times.steps + r.sandbox.times._n for r in runs)
     return {

@@ -26,22 +26,20 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import queue
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
 from typing import Literal, TypeVar
 
 import numpy as np
-import scipy.stats
 from numpy.typing import NDArray
 
 from elab.engines.base import Block, Changed, Pace
 from elab.engines.coded import CodedRun
+from elab.engines.ticks import TickLog, ordinary_thread, realtime_thread
 from elab.engines.timetable import Timetable
 from elab.errors import Conflict
 from elab.lifecycle import RunState, transition
@@ -115,9 +113,7 @@ class Stepper:
         self._thread = threading.Thread(target=self._loop, name="elab-stepper", daemon=True)
         self.ticks = 0
         self.last_tick = clock()  # when the thread last began a tick (its watchdog reads it)
-        # (scheduled time, how late the tick began, how far the runs' clocks lag after it)
-        # of the last minute's ticks
-        self._late: deque[tuple[float, float, float]] = deque(maxlen=round(60.0 / tick))
+        self.tick_log = TickLog(tick)  # the last minute's ticks: how late each began
 
     def start(self) -> None:
         self._thread.start()
@@ -289,9 +285,9 @@ class Stepper:
 
     def _loop(self) -> None:
         if self.realtime:
-            self.realtime = _realtime(self.realtime)
+            self.realtime = realtime_thread(self.realtime)
         if self._ordinary:
-            _ordinary()
+            ordinary_thread()
         deadline = self.align(self._clock())
         while not self._stop.is_set():
             began = self._clock()
@@ -317,7 +313,7 @@ class Stepper:
                 )
             on_time = now >= deadline  # a tick; else an early pass (the first, fast runs)
             if on_time:  # only ticks count in the timing: early passes are never late
-                self._late.append((deadline, now - deadline, self._table.clock_lag(now)))
+                self.tick_log.add(deadline, now - deadline, self._table.clock_lag(now))
             stepped = self._clock()
             if blocks or ended:
                 self._on_tick(blocks, ended)
@@ -341,37 +337,9 @@ class Stepper:
             time.sleep(0.0005 if fast else max(0.0, deadline - self._clock()))
 
     def timing(self) -> dict[str, float | int]:
-        """How closely the ticks of the last minute kept to their schedule: how late they
-        began (ms; p50, p99, max) and the trend of that lateness (ms per minute): the
-        Theil–Sen slope of its medians over 12 equal parts of the minute, which one long
-        stall does not tilt. A real-time sample is computed at the first tick at or after
-        its due time, so this trend is the drift of the runs' clocks against the monotonic
-        clock."""
-        late = np.array(self._late.copy())  # deque.copy is atomic; the thread appends
-        out: dict[str, float | int] = {
-            "ticks": self.ticks,
-            "tick_s": self.tick,
-            "window_s": 0.0,
-            "late_p50_ms": 0.0,
-            "late_p99_ms": 0.0,
-            "late_max_ms": 0.0,
-            "drift_ms_per_min": 0.0,
-            "tick_rate": 0.0,
-            "clock_lag_max_ms": 0.0,
-        }
-        if late.shape[0] >= 2:
-            t, lag = late[:, 0], late[:, 1] * 1e3
-            window = float(t[-1] - t[0])
-            out.update(
-                window_s=window,
-                late_p50_ms=float(np.percentile(lag, 50)),
-                late_p99_ms=float(np.percentile(lag, 99)),
-                late_max_ms=float(lag.max()),
-                drift_ms_per_min=_trend(t - t[0], lag) * 60.0,
-                tick_rate=(late.shape[0] - 1) / window if window > 0 else 0.0,
-                clock_lag_max_ms=float(late[:, 2].max() * 1e3),
-            )
-        return out
+        """How closely the ticks of the last minute kept to their schedule
+        (:meth:`TickLog.timing`)."""
+        return self.tick_log.timing(self.ticks)
 
     def align(self, t: float) -> float:
         """The first tick at or after ``t``."""
@@ -476,39 +444,3 @@ class Stepper:
             compute = live.coded.times()
             live.coded.close()
         return Changed(live.id, state, k, error, compute)
-
-
-def _realtime(priority: int) -> int:
-    """Put the calling thread under SCHED_FIFO at ``priority``: it then runs whenever it is
-    ready, ahead of every ordinary thread of any process (the web process, the
-    identification workers, this process's writer). It sleeps between ticks and needs a few
-    percent of a core. Needs CAP_SYS_NICE; returns the priority it got (0: refused)."""
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))  # 0: this thread
-    except (OSError, AttributeError) as exc:
-        log.warning("real-time scheduling of the stepping thread refused: %s", exc)
-        return 0
-    return priority
-
-
-def _ordinary() -> None:
-    """Put the calling thread under the ordinary scheduler (the engine process may be
-    real-time, and its threads inherit that): a thread that waits for a student's code
-    must never keep an ordinary process from running."""
-    try:
-        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-    except (OSError, AttributeError) as exc:
-        log.warning("could not make a code run's thread ordinary: %s", exc)
-
-
-def _trend(t: Array, y: Array, parts: int = 12) -> float:
-    """Slope of ``y`` over ``t`` (per unit of ``t``): Theil–Sen through the medians of
-    ``parts`` equal spans of ``t``."""
-    edges = np.linspace(t[0], t[-1], parts + 1)
-    part = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, parts - 1)
-    filled = [part == i for i in range(parts) if np.any(part == i)]
-    if len(filled) < 2:
-        return 0.0
-    tm = np.array([np.median(t[m]) for m in filled])
-    ym = np.array([np.median(y[m]) for m in filled])
-    return float(scipy.stats.theilslopes(ym, tm)[0])

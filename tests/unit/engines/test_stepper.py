@@ -176,7 +176,7 @@ def test_timing_reports_how_late_ticks_began_and_the_trend_as_clock_drift() -> N
     late = 0.2e-3 + 0.5e-3 * t / 60 + 1e-4 * (np.arange(3000) % 3 == 0)
     late[100:110] = 0.2
     for ti, lag in zip(t, late, strict=True):
-        stepper._late.append((ti, lag, lag))  # (a run's clock lags as late as its tick)
+        stepper.tick_log.add(ti, lag, lag)  # (a run's clock lags as late as its tick)
     timing = stepper.timing()
     assert timing["drift_ms_per_min"] == pytest.approx(0.5, rel=0.05)  # the stall: no tilt
     assert timing["window_s"] == pytest.approx(59.98)
