@@ -9,8 +9,9 @@ and what is allowed (HTTP 422), an identity over a count or storage limit gets
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
-from elab.errors import InvalidInput
+from elab.errors import InvalidInput, TooMany
 from elab.sim.spec import RunSpec
 
 
@@ -77,3 +78,68 @@ class Limits:
                 f"(ELAB_MAX_RECORDING; {channels} channels of 8-byte samples): "
                 f"with Ts = {Ts:g} s a duration ≤ {longest:g} s",
             )
+
+    def check_live(self, live: int, mine: int | None) -> None:
+        """Room for one more live run: ``live`` runs live or starting on the server,
+        ``mine`` of them the asking identity's (``None``: a caller of no identity)."""
+        if live >= self.max_live:
+            raise TooMany(
+                f"{live} runs are live, the limit of this server "
+                f"(ELAB_MAX_LIVE_RUNS = {self.max_live}); retry when one has ended",
+                retry_after=10.0,
+            )
+        if mine is not None and mine >= self.max_live_per_identity:
+            raise TooMany(
+                f"you have {mine} live runs, the limit per identity "
+                f"(ELAB_MAX_LIVE_PER_IDENTITY = {self.max_live_per_identity}); "
+                "stop one or retry when one has ended",
+                retry_after=10.0,
+            )
+
+    def check_kept(self, runs: int, held: int, size: int) -> None:
+        """Room to keep one more run of ``size`` bytes for an identity that keeps ``runs``
+        runs holding ``held`` bytes (live ones at their planned size)."""
+        retry, hint = self._retry_hint()
+        if runs + 1 > self.max_runs_per_identity:
+            raise TooMany(
+                f"you keep {runs} runs, the limit per identity "
+                f"(ELAB_MAX_RUNS_PER_IDENTITY = {self.max_runs_per_identity}); delete some "
+                f"under My runs{hint}",
+                retry_after=retry,
+            )
+        if held + size > self.max_storage_per_identity:
+            raise TooMany(
+                f"your runs hold {_mib(held)} and this one needs "
+                f"{_mib(size)}, over the storage per identity (ELAB_MAX_STORAGE_PER_IDENTITY"
+                f" = {_mib(self.max_storage_per_identity)}); delete runs under My runs or "
+                f"start a shorter run{hint}",
+                retry_after=retry,
+            )
+
+    def _retry_hint(self) -> tuple[float, str]:
+        """When an identity over its storage budget gains room by itself: its oldest
+        ended run is deleted at most ``retention`` s from now."""
+        r = self.retention
+        if r <= 0:
+            return 3600.0, ""
+        return r, f", or retry when old runs expire (ELAB_RETENTION = {r:g} s after they end)"
+
+    def unwatched(self, gone: float, running: bool) -> tuple[Literal["pause", "stop"], str] | None:
+        """What becomes of a real-time run whose owner has had no connection to it for
+        ``gone`` s (``running``: running, and not paused for that already), and why."""
+        if gone >= self.owner_gone:
+            return "stop", (
+                f"stopped: its owner had no connection to it for {self.owner_gone:g} s "
+                f"(paused after {self.owner_grace:g} s; ELAB_OWNER_GRACE, ELAB_OWNER_GONE)"
+            )
+        if gone >= self.owner_grace and running:
+            return "pause", (
+                f"paused: its owner has had no connection to it for {self.owner_grace:g} s "
+                f"(ELAB_OWNER_GRACE); it stops {self.owner_gone - self.owner_grace:g} s later "
+                "unless its owner resumes it"
+            )
+        return None
+
+
+def _mib(n: int) -> str:
+    return f"{n / (1 << 20):.1f} MiB"

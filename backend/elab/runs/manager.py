@@ -16,12 +16,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import math
 import secrets
 import time
 from collections import Counter
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field, replace
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -29,11 +27,13 @@ from numpy.typing import NDArray
 
 from elab.access import Identity, may_view, require_control
 from elab.engines.base import Action, Block, Changed, Ended, Engine, Health, Pace, RunOrder
-from elab.errors import Conflict, ElabError, NotFound, TooMany
+from elab.errors import Conflict, ElabError, NotFound
 from elab.laws import ControlLaw
 from elab.lifecycle import RunState
 from elab.runs.fanout import Codec, RunChannel, Sender, publish_block
 from elab.runs.limits import Limits
+from elab.runs.live import LiveRun, Reader, stored_reader
+from elab.runs.patrol import Patrol
 from elab.sim.signals import Signal
 from elab.sim.spec import RunSpec
 from elab.store.base import ParamChange, RunRecord, RunStore, RunSummary
@@ -41,41 +41,7 @@ from elab.store.base import ParamChange, RunRecord, RunStore, RunSummary
 log = logging.getLogger(__name__)
 
 Array = NDArray[np.float64]
-Reader = Callable[..., Array]  # (k0, k1=None) -> samples [k0, k1)
 END_WAIT = 10.0  # s: how long a stop waits for the run's end to be stored before answering
-
-
-@dataclass(eq=False)
-class _Run:
-    """A run this process has heard of from its engine and not yet seen stored."""
-
-    record: RunRecord  # as started; status and progress below
-    engine: str
-    channel: RunChannel
-    state: RunState = RunState.RUNNING
-    ending: bool = False  # its engine ended it; how is decided once its samples are stored
-    final_k: int = 0  # an ended run's samples in the store
-    seen: float = field(default_factory=time.monotonic)  # its owner was last connected
-    idle_paused: bool = False  # paused because nobody watched it
-    error: str | None = None
-    next_k: int = 0  # the next sample expected from the engine
-    committed: int = 0  # samples [0, committed) are in the store
-    recent: list[tuple[int, Array]] = field(default_factory=list)  # received, not committed
-    changes: list[ParamChange] = field(default_factory=list)
-    filling: list[tuple[int, Array]] | None = None  # blocks held while a gap is read back
-    end_status: bytes | None = None  # the final status, held back while filling
-    settled: asyncio.Event = field(default_factory=asyncio.Event)  # its end is decided
-    stored: bool = False  # its final record is in the store
-    moved: asyncio.Event = field(default_factory=asyncio.Event)  # committed grew / it ended
-    forgotten: asyncio.Event = field(default_factory=asyncio.Event)  # stored; the store answers
-
-    def current(self) -> RunRecord:
-        return replace(
-            self.record,
-            status=self.state.value,
-            n_stored=self.next_k if self.state.live else self.final_k,
-            error=self.error or self.record.error,
-        )
 
 
 def new_run_id() -> str:
@@ -92,7 +58,7 @@ class RunManager:
         self.engine = engine
         self.codec = codec
         self.limits = limits or Limits()
-        self._runs: dict[str, _Run] = {}
+        self._runs: dict[str, LiveRun] = {}
         self._channels: dict[str, RunChannel] = {}
         self._sender = Sender()  # one pass over all watchers per tick
         self._starting: Counter[str | None] = Counter()  # runs being started, by owner
@@ -103,7 +69,8 @@ class RunManager:
 
     async def start(self) -> None:
         await self.engine.start(self)
-        self._patrol_task = asyncio.get_running_loop().create_task(self._patrol())
+        patrol = Patrol(self._runs, self.limits, self.store, self._command, self._remove)
+        self._patrol_task = asyncio.get_running_loop().create_task(patrol.run())
 
     async def close(self) -> None:
         if self._patrol_task is not None:
@@ -184,35 +151,16 @@ class RunManager:
         """What a download gives: the samples in the store now — ``n``, or ``None`` for a run
         this process no longer follows (all of it) — and a reader of them. A sample streamed
         but not yet stored could still be lost (its engine killed, its store failed)."""
-        store, run = self.store, self._runs.get(run_id)
+        run = self._runs.get(run_id)
         if run is None:
-            return None, lambda k0, k1=None: store.read(run_id, k0, k1)
-        n = run.committed
-        return n, lambda k0, k1=None: store.read(run_id, k0, n if k1 is None else min(k1, n))
+            return None, stored_reader(self.store, run_id)
+        return run.committed, run.durable_reader(self.store)
 
     def snapshot(self, run_id: str) -> Reader:
-        """A reader of the recording as it is now, callable from any thread: ``read(k0, k1)``
-        gives samples ``[k0, min(k1, n))``, ``n`` the samples recorded when it was taken
-        (the store's committed part, then this process's copy of the rest)."""
-        store, run = self.store, self._runs.get(run_id)
-        if run is None:
-            return lambda k0, k1=None: store.read(run_id, k0, k1)
-        committed, recent, end = run.committed, list(run.recent), run.next_k
-        nch = len(run.record.channels)
-
-        def read(k0: int, k1: int | None = None) -> Array:
-            stop = end if k1 is None else min(k1, end)
-            parts = [store.read(run_id, k0, min(stop, committed))] if k0 < committed else []
-            at = k0 + sum(p.shape[0] for p in parts)
-            for c0, rows in recent:
-                if c0 <= at < c0 + rows.shape[0] and at < stop:
-                    parts.append(rows[at - c0 : min(stop, c0 + rows.shape[0]) - c0])
-                    at += parts[-1].shape[0]
-            if not parts:
-                return np.zeros((0, nch))
-            return np.concatenate(parts) if len(parts) > 1 else parts[0]
-
-        return read
+        """A reader of the recording as it is now, callable from any thread (see
+        :meth:`LiveRun.reader`)."""
+        run = self._runs.get(run_id)
+        return stored_reader(self.store, run_id) if run is None else run.reader(self.store)
 
     # -- lifecycle ---------------------------------------------------------------
     async def create(
@@ -252,51 +200,14 @@ class RunManager:
         planned -= sum(r.next_k * len(r.record.channels) * 8 for r in mine)  # stored already
         Ts = spec.plant.Ts if spec.Ts is None else spec.Ts
         size = round(spec.duration / Ts) * nch * 8
-        retry = self._retry_hint()
-        if used.runs + 1 > lim.max_runs_per_identity:
-            raise TooMany(
-                f"you keep {used.runs} runs, the limit per identity "
-                f"(ELAB_MAX_RUNS_PER_IDENTITY = {lim.max_runs_per_identity}); delete some "
-                f"under My runs{retry[1]}",
-                retry_after=retry[0],
-            )
-        if used.bytes + planned + size > lim.max_storage_per_identity:
-            raise TooMany(
-                f"your runs hold {_mib(used.bytes + planned)} and this one needs "
-                f"{_mib(size)}, over the storage per identity (ELAB_MAX_STORAGE_PER_IDENTITY"
-                f" = {_mib(lim.max_storage_per_identity)}); delete runs under My runs or "
-                f"start a shorter run{retry[1]}",
-                retry_after=retry[0],
-            )
-
-    def _retry_hint(self) -> tuple[float, str]:
-        """When an identity over its storage budget gains room by itself: its oldest
-        ended run is deleted at most ``retention`` s from now."""
-        r = self.limits.retention
-        if r <= 0:
-            return 3600.0, ""
-        return r, f", or retry when old runs expire (ELAB_RETENTION = {r:g} s after they end)"
+        lim.check_kept(used.runs, used.bytes + planned, size)
 
     def _check_room(self, client: str | None) -> None:
         live = [r for r in self._runs.values() if r.state.live]
-        total = len(live) + self._starting.total()
-        if total >= self.limits.max_live:
-            raise TooMany(
-                f"{total} runs are live, the limit of this server "
-                f"(ELAB_MAX_LIVE_RUNS = {self.limits.max_live}); retry when one "
-                "has ended",
-                retry_after=10.0,
-            )
-        if client is None:
-            return
-        mine = sum(r.record.owner == client for r in live) + self._starting[client]
-        if mine >= self.limits.max_live_per_identity:
-            raise TooMany(
-                f"you have {mine} live runs, the limit per identity "
-                f"(ELAB_MAX_LIVE_PER_IDENTITY = {self.limits.max_live_per_identity}); "
-                "stop one or retry when one has ended",
-                retry_after=10.0,
-            )
+        mine = None
+        if client is not None:
+            mine = sum(r.record.owner == client for r in live) + self._starting[client]
+        self.limits.check_live(len(live) + self._starting.total(), mine)
 
     async def control(self, run_id: str, action: Action, who: Identity) -> RunRecord:
         """Pause, resume or stop as ``who``: :class:`Forbidden` unless the owner or an
@@ -314,7 +225,7 @@ class RunManager:
                 await self._settle(run)  # answer with its end as stored
         return await self.get(run_id)
 
-    async def _settle(self, run: _Run) -> None:
+    async def _settle(self, run: LiveRun) -> None:
         """Until the end of a run its engine ended is decided (its samples stored), for at
         most ``END_WAIT`` s (a store that stalls longer: the answer says it is live yet)."""
         with contextlib.suppress(TimeoutError):
@@ -432,7 +343,7 @@ class RunManager:
         names = tuple(n for n, _ in record.channels)
         ch = RunChannel(names, record.Ts, self._reader(record.id), self.codec, sender=self._sender)
         self._channels[record.id] = ch
-        self._runs[record.id] = _Run(record, engine, ch)
+        self._runs[record.id] = LiveRun(record, engine, ch)
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
         runs = self._runs
@@ -514,7 +425,7 @@ class RunManager:
             run.ending = True
         self._spawn(self._store_lost(engine, reason, lost))
 
-    async def _store_lost(self, engine: str, reason: str, runs: list[_Run]) -> None:
+    async def _store_lost(self, engine: str, reason: str, runs: list[LiveRun]) -> None:
         try:
             await asyncio.to_thread(self.store.mark_interrupted, engine, reason)
             records = [await asyncio.to_thread(self.store.get_run, r.record.id) for r in runs]
@@ -529,78 +440,18 @@ class RunManager:
             self.ended(engine, run.record.id, ended)
             self.stored(engine, run.record.id)
 
-    # -- runs nobody watches, runs past their retention -----------------------------
-    async def _patrol(self) -> None:
-        """Every second: pause and then stop real-time runs whose owner is gone; every
-        ten minutes (a quarter of the retention if shorter), delete runs past the
-        retention."""
-        sweep_at = 0.0
-        while True:
-            await asyncio.sleep(min(1.0, self.limits.owner_grace / 4))
-            now = time.monotonic()
-            for run in list(self._runs.values()):
-                self._look_after(run, now)
-            if self.limits.retention > 0 and now >= sweep_at:
-                sweep_at = now + min(600.0, max(1.0, self.limits.retention / 4))
-                self._spawn(self._sweep())
-
-    def _look_after(self, run: _Run, now: float) -> None:
-        owner = run.record.owner
-        if not run.state.live or run.ending or run.record.spec.get("pace") == "fast":
-            return
-        if owner and any(w.who == owner for w in run.channel.watchers):
-            run.seen = now
-            return
-        gone = now - run.seen
-        lim = self.limits
-        if gone >= lim.owner_gone:
-            reason = (
-                f"stopped: its owner had no connection to it for {lim.owner_gone:g} s "
-                f"(paused after {lim.owner_grace:g} s; ELAB_OWNER_GRACE, ELAB_OWNER_GONE)"
-            )
-            run.seen = math.inf  # once
-            self._spawn(self._quietly(run.record.id, "stop", reason))
-        elif gone >= lim.owner_grace and run.state is RunState.RUNNING and not run.idle_paused:
-            reason = (
-                f"paused: its owner has had no connection to it for {lim.owner_grace:g} s "
-                f"(ELAB_OWNER_GRACE); it stops {lim.owner_gone - lim.owner_grace:g} s later "
-                "unless its owner resumes it"
-            )
-            run.idle_paused = True
-            self._spawn(self._quietly(run.record.id, "pause", reason))
-
-    async def _quietly(self, run_id: str, action: Action, reason: str) -> None:
-        try:
-            await self._command(run_id, action, reason)
-        except ElabError as exc:  # it ended meanwhile, or the engine is down: next round
-            log.info("run %s: %s not done: %s", run_id, action, exc)
-            run = self._runs.get(run_id)
-            if run is not None and run.seen == math.inf:
-                run.seen = time.monotonic() - self.limits.owner_gone + 5.0
-
-    async def _sweep(self) -> None:
-        cutoff = time.time() - self.limits.retention
-        try:
-            while ids := await asyncio.to_thread(self.store.ended_before, cutoff):
-                done = [run_id for run_id in ids if await self._remove(run_id)]
-                log.info("deleted %d runs past the retention", len(done))
-                if not done:  # all being downloaded: they go when their downloads end
-                    break
-        except ElabError:
-            log.exception("deleting runs past the retention failed; tried again later")
-
     # -- internals -----------------------------------------------------------------
-    def _end(self, run: _Run, status: bytes) -> None:
+    def _end(self, run: LiveRun, status: bytes) -> None:
         run.channel.end(status)
         if run.stored:
             self._forget(run)
 
-    def _forget(self, run: _Run) -> None:
+    def _forget(self, run: LiveRun) -> None:
         self._runs.pop(run.record.id, None)
         run.forgotten.set()
         self.release(run.record.id, run.channel)
 
-    def _out_of_line(self, run: _Run, k0: int, rows: Array) -> None:
+    def _out_of_line(self, run: LiveRun, k0: int, rows: Array) -> None:
         """Samples that do not follow the last ones: held while the gap before them (the
         engine dropped blocks while this process did not read) is read from the store."""
         if run.filling is not None:
@@ -616,7 +467,7 @@ class RunManager:
             self._spawn(self._fill(run, k0))
         # k0 < next_k: samples already published (cannot happen in order); ignored
 
-    async def _fill(self, run: _Run, gap_end: int) -> None:
+    async def _fill(self, run: LiveRun, gap_end: int) -> None:
         while run.committed < gap_end and run.state.live:
             run.moved.clear()
             await run.moved.wait()
@@ -640,7 +491,3 @@ class RunManager:
         task = asyncio.get_running_loop().create_task(coro)
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
-
-
-def _mib(n: int) -> str:
-    return f"{n / (1 << 20):.1f} MiB"

@@ -1,0 +1,98 @@
+"""Runs nobody watches and runs past their retention: a real-time run whose owner has no
+connection to it pauses, then stops (:meth:`Limits.unwatched` says when and why); ended
+runs older than the retention are deleted."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+import time
+from collections.abc import Awaitable, Callable, Coroutine
+from typing import Any
+
+from elab.engines.base import Action
+from elab.errors import ElabError
+from elab.lifecycle import RunState
+from elab.runs.limits import Limits
+from elab.runs.live import LiveRun
+from elab.store.base import RunStore
+
+log = logging.getLogger(__name__)
+
+
+class Patrol:
+    """Looks after the runs a manager follows (``runs``, shared with it): ``command``
+    pauses or stops one, ``remove`` deletes an ended one (false while it is downloaded)."""
+
+    def __init__(
+        self,
+        runs: dict[str, LiveRun],
+        limits: Limits,
+        store: RunStore,
+        command: Callable[[str, Action, str], Awaitable[None]],
+        remove: Callable[[str], Awaitable[bool]],
+    ) -> None:
+        self._runs = runs
+        self.limits = limits
+        self.store = store
+        self._command = command
+        self._remove = remove
+        self._tasks: set[asyncio.Task[None]] = set()
+
+    async def run(self) -> None:
+        """Every second: pause and then stop real-time runs whose owner is gone; every
+        ten minutes (a quarter of the retention if shorter), delete runs past the
+        retention."""
+        sweep_at = 0.0
+        while True:
+            await asyncio.sleep(min(1.0, self.limits.owner_grace / 4))
+            now = time.monotonic()
+            for run in list(self._runs.values()):
+                self._look_after(run, now)
+            if self.limits.retention > 0 and now >= sweep_at:
+                sweep_at = now + min(600.0, max(1.0, self.limits.retention / 4))
+                self._spawn(self._sweep())
+
+    def _look_after(self, run: LiveRun, now: float) -> None:
+        owner = run.record.owner
+        if not run.state.live or run.ending or run.record.spec.get("pace") == "fast":
+            return
+        if owner and any(w.who == owner for w in run.channel.watchers):
+            run.seen = now
+            return
+        running = run.state is RunState.RUNNING and not run.idle_paused
+        match self.limits.unwatched(now - run.seen, running):
+            case ("stop", reason):
+                run.seen = math.inf  # once
+                self._spawn(self._quietly(run.record.id, "stop", reason))
+            case ("pause", reason):
+                run.idle_paused = True
+                self._spawn(self._quietly(run.record.id, "pause", reason))
+            case None:
+                pass
+
+    async def _quietly(self, run_id: str, action: Action, reason: str) -> None:
+        try:
+            await self._command(run_id, action, reason)
+        except ElabError as exc:  # it ended meanwhile, or the engine is down: next round
+            log.info("run %s: %s not done: %s", run_id, action, exc)
+            run = self._runs.get(run_id)
+            if run is not None and run.seen == math.inf:
+                run.seen = time.monotonic() - self.limits.owner_gone + 5.0
+
+    async def _sweep(self) -> None:
+        cutoff = time.time() - self.limits.retention
+        try:
+            while ids := await asyncio.to_thread(self.store.ended_before, cutoff):
+                done = [run_id for run_id in ids if await self._remove(run_id)]
+                log.info("deleted %d runs past the retention", len(done))
+                if not done:  # all being downloaded: they go when their downloads end
+                    break
+        except ElabError:
+            log.exception("deleting runs past the retention failed; tried again later")
+
+    def _spawn(self, coro: Coroutine[Any, Any, None]) -> None:
+        task = asyncio.get_running_loop().create_task(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
