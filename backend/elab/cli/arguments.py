@@ -58,7 +58,7 @@ def read_file(path: Path, plant: Plant) -> Any:
     fmt = controllers.format_of(path.name)
     try:
         with path.open("rb") as f:
-            data = f.read(controllers.files.MAX_BYTES + 1)
+            data = f.read(controllers.file_format.MAX_BYTES + 1)
     except OSError as exc:
         raise InvalidInput("file", str(path), f"a readable file ({exc.strerror})") from None
     ctrl = controllers.read_controller(data, fmt, plant)
