@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from elab import design
-from elab.cli import main, parse_quantity
+from elab.cli import main
+from elab.cli.arguments import parse_quantity
 from elab.plants import get_plant
 
 

@@ -193,7 +193,7 @@ async def _form(request: Request) -> tuple[s.ControllerUpload, bytes]:
             if v is not None and not isinstance(v, str):
                 raise InvalidInput(k, "a file", "a text field")
         fmt = fields["format"] or ctl.format_of(upload.filename or "")
-        data = await upload.read(ctl.files.MAX_BYTES + 1)
+        data = await upload.read(ctl.file_format.MAX_BYTES + 1)
     finally:
         await form.close()
     if not data:

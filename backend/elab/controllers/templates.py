@@ -9,7 +9,7 @@ from typing import Any, assert_never
 
 import numpy as np
 
-from elab.controllers.files import FORMATS, VERSION
+from elab.controllers.file_format import FORMATS, VERSION
 from elab.design.realise import pid_filter_time, pid_tracking_time
 from elab.errors import InvalidInput
 from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, StateFeedback

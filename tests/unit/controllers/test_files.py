@@ -13,7 +13,7 @@ import pytest
 import scipy.io
 
 from elab.controllers import FORMATS, read_controller, template
-from elab.controllers.files import MAX_BYTES
+from elab.controllers.file_format import MAX_BYTES
 from elab.errors import InvalidInput
 from elab.laws import PID, LTIController, StateFeedback
 from elab.plants import PLANTS, get_plant

@@ -1,0 +1,123 @@
+"""Uploaded controllers and identified models in SQLite (the
+:class:`~elab.store.base.ControllerStore` and :class:`~elab.store.base.ModelStore` parts
+of :class:`~elab.store.sqlite.SQLiteStore`)."""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from typing import Any
+
+from elab.errors import Conflict, NotFound
+from elab.store.base import StoredController, StoredModel
+from elab.store.sqlite.connections import NEWEST_FIRST, SQLiteConnections, json_column
+
+_CONTROLLER = "id, owner, plant, name, format, law, report, created_at"
+_MODEL = "id, owner, plant, name, model, created_at"
+
+
+class SQLiteLibrary(SQLiteConnections):
+    """Uploaded controllers and identified models."""
+
+    # -- uploaded controllers (ControllerStore) ------------------------------------
+    def add_controller(self, controller: StoredController) -> None:
+        c = controller
+        with self._transaction() as conn:
+            conn.execute(
+                "INSERT INTO controllers (id, owner, plant, name, format, law, report, "
+                "source, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (
+                    c.id,
+                    c.owner,
+                    c.plant,
+                    c.name,
+                    c.format,
+                    json_column("law", c.law),
+                    json_column("report", c.report),
+                    c.source,
+                    c.created_at,
+                ),
+            )
+
+    def get_controller(self, controller_id: str) -> StoredController:
+        with self._snapshot() as conn:
+            row = conn.execute(
+                f"SELECT {_CONTROLLER}, source FROM controllers WHERE id = ?", (controller_id,)
+            ).fetchone()
+        if row is None:
+            raise NotFound("controller", controller_id)
+        return _controller(row[:-1], bytes(row[-1]))
+
+    def list_controllers(
+        self, owner: str | None, plant: str | None = None
+    ) -> list[StoredController]:
+        terms = [t for t, v in (("owner = ?", owner), ("plant = ?", plant)) if v is not None]
+        args = [v for v in (owner, plant) if v is not None]
+        where = "WHERE " + " AND ".join(terms) if terms else ""
+        with self._snapshot() as conn:
+            rows = conn.execute(
+                f"SELECT {_CONTROLLER} FROM controllers {where} "
+                "ORDER BY created_at DESC, rowid DESC LIMIT 1000",
+                args,
+            ).fetchall()
+        return [_controller(r) for r in rows]
+
+    def count_controllers(self, owner: str) -> int:
+        with self._snapshot() as conn:
+            n = conn.execute("SELECT count(*) FROM controllers WHERE owner = ?", (owner,))
+            return int(n.fetchone()[0])
+
+    def delete_controller(self, controller_id: str) -> None:
+        with self._transaction() as conn:
+            cur = conn.execute("DELETE FROM controllers WHERE id = ?", (controller_id,))
+            if cur.rowcount == 0:
+                raise NotFound("controller", controller_id)
+
+    # -- identified models (ModelStore) -------------------------------------------
+    def add_model(self, model: StoredModel) -> None:
+        m = model
+        row = (m.id, m.owner, m.plant, m.name, json_column("model", m.model), m.created_at)
+        with self._transaction() as conn:
+            try:
+                conn.execute(f"INSERT INTO models ({_MODEL}) VALUES (?, ?, ?, ?, ?, ?)", row)
+            except sqlite3.IntegrityError:
+                raise Conflict(f"model {m.id!r} already exists; choose another id") from None
+
+    def get_model(self, model_id: str) -> StoredModel:
+        with self._snapshot() as conn:
+            row = conn.execute(f"SELECT {_MODEL} FROM models WHERE id = ?", (model_id,)).fetchone()
+        if row is None:
+            raise NotFound("model", model_id)
+        return _model(row)
+
+    def list_models(self, owner: str | None, plant: str | None = None) -> list[StoredModel]:
+        terms = [t for t, v in (("owner = ?", owner), ("plant = ?", plant)) if v is not None]
+        args = [v for v in (owner, plant) if v is not None]
+        where = "WHERE " + " AND ".join(terms) if terms else ""
+        with self._snapshot() as conn:
+            rows = conn.execute(
+                f"SELECT {_MODEL} FROM models {where} {NEWEST_FIRST} LIMIT 1000", args
+            ).fetchall()
+        return [_model(r) for r in rows]
+
+    def count_models(self, owner: str) -> int:
+        with self._snapshot() as conn:
+            n = conn.execute("SELECT count(*) FROM models WHERE owner = ?", (owner,))
+            return int(n.fetchone()[0])
+
+    def delete_model(self, model_id: str) -> None:
+        with self._transaction() as conn:
+            if conn.execute("DELETE FROM models WHERE id = ?", (model_id,)).rowcount == 0:
+                raise NotFound("model", model_id)
+
+
+def _controller(row: tuple[Any, ...], source: bytes = b"") -> StoredController:
+    id_, owner, plant, name, fmt, law, report, created_at = row
+    return StoredController(
+        id_, owner, plant, name, fmt, json.loads(law), json.loads(report), created_at, source
+    )
+
+
+def _model(row: tuple[Any, ...]) -> StoredModel:
+    id_, owner, plant, name, model, created_at = row
+    return StoredModel(id_, owner, plant, name, json.loads(model), created_at)
