@@ -62,9 +62,11 @@ def read_file(path: Path, plant: Plant) -> Any:
     except OSError as exc:
         raise InvalidInput("file", str(path), f"a readable file ({exc.strerror})") from None
     ctrl = controllers.read_controller(data, fmt, plant)
-    if isinstance(ctrl.law, CodeController):
-        ctrl = replace(ctrl, law=CodeController(ctrl.law.source, path.name))
-    return ctrl
+    match ctrl.law:
+        case CodeController(source=source):  # named after its file
+            return replace(ctrl, law=CodeController(source, path.name))
+        case _:
+            return ctrl
 
 
 def parse_law(text: str, plant: Plant, estimate: str) -> ControlLaw:

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from elab.cli.arguments import parse_law, parse_quantity
-from elab.laws import CodeController
+from elab.laws import is_code
 from elab.plants import Plant, get_plant
 
 # elab.sim brings python-control, scipy.signal and numba: imported when a run is made
@@ -41,7 +41,7 @@ def cmd_simulate(args: argparse.Namespace) -> str:
         noise_seed=args.noise_seed,
         quantize=args.quantize,
     )
-    res = simulate(spec) if not isinstance(law, CodeController) else _simulate_code(spec, args)
+    res = _simulate_code(spec, args) if is_code(law) else simulate(spec)
     header = {
         "plant": f"{plant.id} ({plant.name})",
         "controller": describe(law),
