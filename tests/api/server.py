@@ -22,6 +22,10 @@ from websockets.asyncio.client import ClientConnection, connect
 
 ELAB = str(Path(sys.executable).parent / "elab")
 T = TypeVar("T")
+#: clients drop a connection idle for 2 s, before the server's keep-alive (uvicorn: 5 s)
+#: closes it: a request sent just as the server closes its connection is lost ("Server
+#: disconnected without sending a response"; seen on a loaded machine)
+KEEP_ALIVE = httpx.Limits(keepalive_expiry=2.0)
 
 
 def free_port() -> int:
@@ -116,11 +120,13 @@ class Server:
     def client(self) -> httpx.Client:
         """A client with this test's identity (the same browser for every call; a bare
         ``httpx.get`` is a new anonymous visitor each time)."""
-        return httpx.Client(base_url=self.url + "/api/v1", timeout=30, cookies=self.cookies)
+        return httpx.Client(
+            base_url=self.url + "/api/v1", timeout=30, cookies=self.cookies, limits=KEEP_ALIVE
+        )
 
     def stranger(self) -> httpx.Client:
         """A client with an identity of its own (another browser)."""
-        return httpx.Client(base_url=self.url + "/api/v1", timeout=30)
+        return httpx.Client(base_url=self.url + "/api/v1", timeout=30, limits=KEEP_ALIVE)
 
     def status(self) -> dict[str, Any]:
         """``GET /api/v1/server``."""

@@ -16,7 +16,7 @@ import numpy as np
 
 from elab.plants import get_plant
 from elab.sim import RunSpec, Square, simulate
-from tests.api.server import Server, Watcher, until
+from tests.api.server import KEEP_ALIVE, Server, Watcher, until
 from tests.api.test_live_runs import NAMES, downloads
 from tests.unit.store.test_versions_and_faults import locked
 
@@ -31,7 +31,12 @@ def offline(duration: float) -> np.ndarray:
 
 async def _burst(srv: Server, bodies: list[dict[str, Any]]) -> list[tuple[httpx.AsyncClient, str]]:
     """Each body from a new identity, all at once; the clients and their runs."""
-    clients = [httpx.AsyncClient(base_url=srv.url + "/api/v1", timeout=120) for _ in bodies]
+    # (the 300 downloads one after another left the last clients idle for longer than
+    # the server's keep-alive, and one request was lost: see KEEP_ALIVE)
+    clients = [
+        httpx.AsyncClient(base_url=srv.url + "/api/v1", timeout=120, limits=KEEP_ALIVE)
+        for _ in bodies
+    ]
     await asyncio.gather(*(c.get("/me") for c in clients))  # each gets its identity
     answers = await asyncio.gather(
         *(c.post("/runs", json=b) for c, b in zip(clients, bodies, strict=True))

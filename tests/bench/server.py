@@ -27,6 +27,7 @@ and rate with ``broadcast()``, measured the same way in the same benchmark run.
 from __future__ import annotations
 
 import io
+import math
 import os
 import subprocess
 import sys
@@ -216,6 +217,8 @@ def drift(frames: dict[str, np.ndarray], window: Window) -> np.ndarray:
     for i in np.unique(w):
         sec = np.floor(k[w == i] * Ts[w == i] / DRIFT_BIN).astype(int)
         bins = np.unique(sec)
+        if bins.size < 2:  # a window shorter than two bins of its run time: no slope
+            continue
         low = np.array([lat[w == i][sec == b].min() for b in bins])
         # Theil–Sen (the median of pairwise slopes): a second of client-side stall
         # moves a least-squares line, not the median
@@ -241,8 +244,8 @@ def summarise(window: Window, frames: dict[str, np.ndarray]) -> dict[str, float]
         "p50": np.percentile(lat, 50) * 1e3,
         "p99": np.percentile(lat, 99) * 1e3,
         "max": lat.max() * 1e3,
-        "drift_median": float(np.median(d)),
-        "drift_max": float(d.max()),
+        "drift_median": float(np.median(d)) if d.size else math.nan,
+        "drift_max": float(d.max()) if d.size else math.nan,
         "watchers": frames["missing"].size,
         "watch_missing": int(frames["missing"].sum()),
         "overlap": int(frames["overlap"].sum()),
