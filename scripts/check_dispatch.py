@@ -3,12 +3,12 @@ that must learn it (issue 30).
 
 For each union below, a scratch copy of ``backend/elab`` gets one new member (a control
 law, a controller model of the wire, a websocket client message, an engine command or
-event); mypy then has to fail exactly at the union's dispatch sites (their
-``assert_never``), and nowhere else. A site that dispatches with an ``isinstance`` chain
-and a silent fallback would not be named: this check fails then, and also when a site is
-named that is not listed here.
+event, an identified model's parameters); mypy then has to fail exactly at the union's
+dispatch sites (their ``assert_never``), and nowhere else. A site that dispatches with
+an ``isinstance`` chain and a silent fallback would not be named: this check fails then,
+and also when a site is named that is not listed here.
 
-Run by ``make typecheck`` (about 25 s: mypy on five scratch copies).
+Run by ``make typecheck`` (about 30 s: mypy on six scratch copies).
 """
 
 from __future__ import annotations
@@ -82,6 +82,14 @@ UNIONS = (
         "Event = (\n    Ready",
         "@dataclass(frozen=True)\nclass Dummy:\n    id: int\n\n\nEvent = (\n    Dummy | Ready",
         frozenset({"engines/wire.py", "engines/process.py"}),
+    ),
+    Union(
+        "identified model kinds (their parameters)",
+        "ident/parameters.py",
+        "ModelParameters = (\n    ArxParameters",
+        "@dataclass(frozen=True)\nclass Dummy:\n    n: int\n\n\n"
+        "ModelParameters = (\n    Dummy | ArxParameters",
+        frozenset({"ident/models.py", "ident/assess.py", "api/identjson.py", "cli/identify.py"}),
     ),
 )
 

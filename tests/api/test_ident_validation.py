@@ -62,15 +62,24 @@ def test_two_records_give_the_library_s_fits(server: Server) -> None:
         )
     )
     direct = wf.run(dataset(ESTIMATION), plan, validation=dataset(VALIDATION))
-    assert [m["name"] for m in out["models"]] == [m["name"] for m in direct.models]
+    assert [m["name"] for m in out["models"]] == [m.name for m in direct.models]
     for got, want in zip(out["models"], direct.models, strict=True):
-        for key, fit in want["fit"].items():
-            if not isinstance(fit, list):  # words about the fits (which one heads)
-                assert got["fit"][key] == fit
-                continue
+        f = want.fits
+        # words about the fits (which one heads)
+        assert (got["fit"]["headline_x0"], got["fit"]["headline_why"]) == (
+            f.headline.x0,
+            f.headline.why,
+        )
+        for key, fit in (
+            ("validation_simulation", f.validation_simulation),
+            ("validation_simulation_x0", f.validation_simulation_x0),
+            ("validation_one_step", f.validation_one_step),
+            ("estimation_simulation", f.estimation_simulation),
+            ("headline", f.headline_fit),
+        ):
             # the same code on the same numbers (JSON carries floats exactly); 1e-9 allows
             # only a different summation order in the worker's BLAS
-            assert_allclose(got["fit"][key], fit, rtol=1e-9, err_msg=f"{got['name']} {key}")
+            assert_allclose(got["fit"][key], fit.fit, rtol=1e-9, err_msg=f"{got['name']} {key}")
     # the estimation record's means come off both (docs/identification.md): the
     # validation samples shown are the record's minus the estimation means
     est, val = dataset(ESTIMATION), dataset(VALIDATION)

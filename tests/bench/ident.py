@@ -89,7 +89,7 @@ def bench_ident() -> str:
         for na, nb, nk in S:
             m = arx(ze, int(na), int(nb), int(nk))
             models[(int(na), int(nb), int(nk))] = np.r_[
-                m.parameters["A"][1:], m.parameters["B"][int(nk) :]
+                m.parameters.A[1:], m.parameters.B[int(nk) :]
             ]
 
     arx_s = _best(every_arx, 1)

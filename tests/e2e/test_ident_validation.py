@@ -53,10 +53,13 @@ def test_a_validation_file_is_validated_on(page: Page, tmp_path: Path, shots: Pa
         return read_table(path.read_bytes(), "csv").dataset(["c1"], ["c2"], 0.08)
 
     plan = wf.Plan(models=(wf.ModelRequest("arx", {"na": 2, "nb": 2, "nk": 3}),))
-    direct = wf.run(dataset(estimation), plan, validation=dataset(validation)).models[0]["fit"]
+    direct = wf.run(dataset(estimation), plan, validation=dataset(validation)).models[0].fits
     shown = [float(td.split()[0]) for td in rows_.nth(0).locator("td").all_inner_texts()[:3]]
-    want = [direct[k][0] for k in ("validation_simulation", "validation_simulation_x0")]
-    want.append(direct["validation_one_step"][0])
+    want = [
+        direct.validation_simulation.fit[0],
+        direct.validation_simulation_x0.fit[0],
+        direct.validation_one_step.fit[0],
+    ]
     assert shown == pytest.approx(want, abs=0.01)  # the page shows 4 significant digits
     panel.screenshot(path=shots / "identification-validation-file.png")
 

@@ -10,8 +10,6 @@ from typing import Any, assert_never
 
 from elab.api import schemas as s
 from elab.errors import InvalidInput
-from elab.ident import IdData
-from elab.ident import workflow as wf
 from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, StateFeedback
 from elab.plants.base import Plant
 from elab.sim import signals as sig
@@ -150,24 +148,6 @@ def run_spec(req: s.RunCreate, plant: Plant, law_: ControlLaw | None = None) -> 
         quantize=bool(req.quantize),
         x0=tuple(req.x0) if req.x0 is not None else None,
     )
-
-
-def ident_json(result: wf.Result) -> str:
-    """An identification's results as the wire's :class:`~elab.api.schemas.IdentOut` JSON
-    (what the API answers and ``elab identify --json`` prints): validated against the model,
-    non-finite numbers as ``null``."""
-    return s.IdentOut.model_validate(result.as_dict()).model_dump_json()
-
-
-def identify(
-    data: IdData,
-    plan: wf.Plan,
-    validation: IdData | None = None,
-    progress: wf.Progress | None = None,
-) -> str:
-    """:func:`elab.ident.workflow.run` and :func:`ident_json` (one job of the server's
-    identification workers: the JSON is written there, not in the web process)."""
-    return ident_json(wf.run(data, plan, progress, validation=validation))
 
 
 def complex_list(values: Any) -> list[s.Complex]:

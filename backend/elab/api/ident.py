@@ -1,6 +1,7 @@
 """Identification over HTTP: ``POST /api/v1/ident`` runs :func:`elab.ident.workflow.run`
 on a run's recording or on an uploaded table (validated on its rest or on a separate
-record: :mod:`elab.api.identdata`) and answers with every result as JSON.
+record: :mod:`elab.api.identdata`) and answers with every result as JSON
+(:mod:`elab.api.identjson`).
 
 With ``Accept: application/x-ndjson`` the answer is a stream of lines, ``{"progress":
 {"stage", "done"}}`` while it works, then ``{"result": …}`` or ``{"error": …}``. The data
@@ -25,7 +26,7 @@ from starlette.background import BackgroundTask
 from starlette.requests import Request
 from starlette.responses import Response, StreamingResponse
 
-from elab.api import convert
+from elab.api import identjson
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import endpoint, error_detail, read_model
@@ -39,7 +40,7 @@ from elab.jobs import JobPool
 # what the identification workers import before they take a job (elab.jobs): the jobs'
 # functions and the estimators they call lazily
 JOB_MODULES = (
-    "elab.api.convert",
+    "elab.api.identjson",
     "elab.ident.files",
     "elab.ident.nonparametric",
     "elab.ident.pem",
@@ -78,7 +79,7 @@ async def identify(request: Request) -> Response:
             return StreamingResponse(
                 lines, media_type="application/x-ndjson", background=BackgroundTask(slot)
             )
-        job = jobs(request).run(convert.identify, data, plan, validation)
+        job = jobs(request).run(identjson.identify, data, plan, validation)
         result = await _unless_gone(request, job)
         if result is None:
             raise ClientGone
@@ -159,13 +160,13 @@ async def _progress_lines(
     work: tuple[IdData, wf.Plan, IdData | None],
     release: Callable[[], None],
 ) -> AsyncIterator[bytes]:
-    """Progress, then the result of :func:`convert.identify` on ``work`` (data, plan,
+    """Progress, then the result of :func:`identjson.identify` on ``work`` (data, plan,
     validation): the job's reports as they come. When the client goes away, the response
     is cancelled here, which stops the job."""
     queue: asyncio.Queue[tuple[str, float]] = asyncio.Queue()
     job = asyncio.ensure_future(
         pool.run(
-            convert.identify,
+            identjson.identify,
             *work,
             progress=lambda stage, done: queue.put_nowait((stage, done)),
         )

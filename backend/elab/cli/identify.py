@@ -6,11 +6,15 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, assert_never
 
 import numpy as np
 
 from elab.errors import InvalidInput
+
+if TYPE_CHECKING:
+    from elab.ident.parameters import Array, ModelParameters
+    from elab.ident.results import Result
 
 ANALYSES = ("correlation", "spectral")  # elab identify --analyses
 
@@ -71,7 +75,7 @@ def cmd_identify(args: argparse.Namespace) -> str:
     )
     result = wf.run(data, plan, validation=validation)
     if args.json:  # the API's answer, validated against the same wire model
-        from elab.api.convert import ident_json
+        from elab.api.identjson import ident_json
 
         return ident_json(result)
     return _identify_text(data, result)
@@ -92,16 +96,17 @@ def _span(text: str, field: str) -> range:
     return range(a, b + 1)
 
 
-def _identify_text(data: Any, result: Any) -> str:
+def _identify_text(data: Any, result: Result) -> str:
     d = result.data
+    z = d.z
     lines = [
-        f"data: {d['N']} samples at Ts = {d['Ts']:g} s, inputs {', '.join(d['input_names'])}"
-        f", outputs {', '.join(d['output_names'])}; estimation {d['estimation']} samples, "
-        f"validation {d['N'] - d['estimation']}; detrend {d['trend']}"
+        f"data: {z.N} samples at Ts = {z.Ts:g} s, inputs {', '.join(z.input_names)}"
+        f", outputs {', '.join(z.output_names)}; estimation {d.estimation} samples, "
+        f"validation {z.N - d.estimation}; detrend {z.trend}"
     ]
     a = result.analyses
-    if "correlation" in a:
-        delay = a["correlation"]["delay"]
+    if a.correlation is not None:
+        delay = a.correlation.delay
         lines.append(
             "correlation analysis: "
             + (
@@ -110,65 +115,77 @@ def _identify_text(data: Any, result: Any) -> str:
                 else "no delay found (no impulse-response coefficient is significant)"
             )
         )
-    if "spectral" in a:
-        sp = a["spectral"]
-        peak = int(np.argmax(sp["magnitude"]))
+    if a.spectral is not None:
+        sp = a.spectral
+        magnitude, omega = sp.magnitude.tolist(), sp.omega.tolist()
+        peak = int(np.argmax(magnitude))
         lines.append(
-            f"spectral analysis (lag window {sp['window']}): |G| = {sp['magnitude'][0]:.4g} at "
-            f"{sp['omega'][0]:.4g} rad/s, largest {sp['magnitude'][peak]:.4g} at "
-            f"{sp['omega'][peak]:.4g} rad/s (--json: all {len(sp['omega'])} frequencies)"
+            f"spectral analysis (lag window {sp.window}): |G| = {magnitude[0]:.4g} at "
+            f"{omega[0]:.4g} rad/s, largest {magnitude[peak]:.4g} at "
+            f"{omega[peak]:.4g} rad/s (--json: all {len(omega)} frequencies)"
         )
-    for s in ([a["arx_search"]] if "arx_search" in a else []) + a.get("arx_search_outputs", []):
-        best = min(s["rows"], key=lambda r: r[3])
+    for s in a.arx_search:
+        best = min(s.losses.tolist(), key=lambda r: r[3])
         lines.append(
-            f"ARX search{' for ' + s['output'] if 'output' in s else ''} over "
-            f"{len(s['rows'])} structures: best [na nb nk] = {s['best']} (validation loss "
-            f"{best[3]:.6g}); AIC {s['aic']}, MDL {s['mdl']}"
+            f"ARX search for {s.output} over {len(s.losses)} structures: best [na nb nk] = "
+            f"{list(s.best)} (validation loss {best[3]:.6g}); AIC {list(s.aic)}, "
+            f"MDL {list(s.mdl)}"
         )
-    if "n4sid_orders" in a:
-        o = a["n4sid_orders"]
-        sv = ", ".join(f"{v:.4g}" for v in o["singular_values"][:8])
+    if a.n4sid_orders is not None:
+        o = a.n4sid_orders
+        sv = ", ".join(f"{v:.4g}" for v in o.singular_values[:8].tolist())
         lines.append(
-            f"subspace (horizon {o['horizon']}): singular values {sv}, …; order {o['best']}: "
-            f"{o['reason']}"
+            f"subspace (horizon {o.horizon}): singular values {sv}, …; order {o.best}: {o.reason}"
         )
-    if "sine" in a:
-        sn = a["sine"]
+    if a.sine is not None:
+        sn = a.sine
         lines.append(
-            f"sine analysis at {sn['frequency_hz']:g} Hz: |G| = {sn['magnitude']:.4g},"
-            f" phase {sn['phase_deg']:.1f} deg"
+            f"sine analysis at {sn.frequency_hz:g} Hz: |G| = {sn.magnitude:.4g},"
+            f" phase {sn.phase_deg:.1f} deg"
         )
-    m_nu = len(result.data["input_names"])
     for m in result.models:
-        fit = m["fit"]
+        fit = m.fits
+        estimated = fit.headline.x0 == "estimated"
         lines.append(
-            f"{m['name']}: validation fit {_pct(fit['headline'])} (simulation, "
-            f"{'estimated' if fit['headline_x0'] == 'estimated' else 'zero'} initial state), "
-            f"{_pct(fit['validation_one_step'])} (one step)"
+            f"{m.name}: validation fit {_pct(fit.headline_fit.fit.tolist())} (simulation, "
+            f"{'estimated' if estimated else 'zero'} initial state), "
+            f"{_pct(fit.validation_one_step.fit.tolist())} (one step)"
         )
-        other = (
-            "validation_simulation"
-            if fit["headline_x0"] == "estimated"
-            else "validation_simulation_x0"
-        )
+        other = fit.validation_simulation if estimated else fit.validation_simulation_x0
         lines.append(
-            f"  from the {'zero' if fit['headline_x0'] == 'estimated' else 'estimated'} "
-            f"initial state: {_pct(fit[other])}"
-            + (f" ({fit['headline_why']})" if fit["headline_x0"] == "estimated" else "")
+            f"  from the {'zero' if estimated else 'estimated'} "
+            f"initial state: {_pct(other.fit.tolist())}"
+            + (f" ({fit.headline.why})" if estimated else "")
         )
-        p = m["parameters"]
-        for key in ("A", "B", "C", "F"):
-            rows = p.get(key)
-            if not rows:
-                continue
-            if not isinstance(rows[0], list):  # one output, one input
-                lines.append(f"  {key}(q) = " + " ".join(f"{c:+.4f}" for c in rows))
-                continue
-            for i, row in enumerate(rows):  # MIMO ARX: A per output, B per output and input
-                where = f"y{i + 1}" if key == "A" else f"y{i // m_nu + 1}, u{i % m_nu + 1}"
-                lines.append(f"  {key}(q) [{where}] = " + " ".join(f"{c:+.4f}" for c in row))
+        lines += _polynomials(m.model.parameters)
     lines += [f"note: {n}" for n in result.notes]
     return "\n".join(lines)
+
+
+def _polynomials(p: ModelParameters | None) -> list[str]:
+    """A model's polynomials, one line each (per output, and input, for several)."""
+    from elab.ident import parameters as kinds
+
+    def line(name: str, coefficients: Array, where: str = "") -> str:
+        return f"  {name}(q){where} = " + " ".join(f"{c:+.4f}" for c in coefficients.tolist())
+
+    match p:
+        case kinds.ArxParameters():
+            return [line("A", p.A), line("B", p.B)]
+        case kinds.ArmaxParameters():
+            return [line("A", p.A), line("B", p.B), line("C", p.C)]
+        case kinds.OeParameters():
+            return [line("B", p.B), line("F", p.F)]
+        case kinds.MimoArxParameters():
+            return [line("A", a, f" [y{i + 1}]") for i, a in enumerate(p.A)] + [
+                line("B", b, f" [y{i + 1}, u{j + 1}]")
+                for i, row in enumerate(p.B)
+                for j, b in enumerate(row)
+            ]
+        case kinds.N4sidParameters() | None:
+            return []
+        case _:
+            assert_never(p)
 
 
 def _pct(values: list[float | None]) -> str:

@@ -11,14 +11,23 @@ design tools (python-control) are written once.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal, assert_never
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
 from elab.ident.data import IdData
+from elab.ident.parameters import (
+    ArmaxParameters,
+    ArxParameters,
+    MimoArxParameters,
+    ModelParameters,
+    N4sidParameters,
+    OeParameters,
+)
 
 if TYPE_CHECKING:  # imported where used: python-control costs about a second of imports
     import control as ct
@@ -82,12 +91,8 @@ class LinearModel:
     Ts: float
     #: covariance Λ of the innovations e (ny × ny)
     noise_variance: Array
-    #: "arx", "armax", "oe", "n4sid", ...
-    kind: str = "linear"
-    #: the structure, e.g. {"na": 2, "nb": 2, "nk": 3} or {"n": 4}
-    orders: dict[str, Any] = field(default_factory=dict)
-    #: the model's own parameters for display (polynomials, ...), JSON-friendly
-    parameters: dict[str, Any] = field(default_factory=dict)
+    #: what its estimator found besides the state space (None: a model given as one)
+    parameters: ModelParameters | None = None
 
     def __post_init__(self) -> None:
         A = np.asarray(self.A, dtype=float)
@@ -121,8 +126,30 @@ class LinearModel:
         return int(self.B.shape[1])
 
     @property
+    def kind(self) -> Literal["arx", "armax", "oe", "n4sid", "linear"]:
+        """The model structure its parameters are of (``"linear"``: none, a state space)."""
+        match self.parameters:
+            case ArxParameters() | MimoArxParameters():
+                return "arx"
+            case ArmaxParameters():
+                return "armax"
+            case OeParameters():
+                return "oe"
+            case N4sidParameters():
+                return "n4sid"
+            case None:
+                return "linear"
+            case _:
+                assert_never(self.parameters)
+
+    @property
     def poles(self) -> NDArray[np.complex128]:
         return np.asarray(np.linalg.eigvals(self.A), dtype=np.complex128)
+
+    @property
+    def stable(self) -> bool:
+        """Every pole strictly inside the unit circle (a static model is stable)."""
+        return bool(np.all(np.abs(self.poles) < 1)) if self.n else True
 
     def simulate(self, u: Array, x0: Array | None = None) -> Array:
         """Outputs for inputs ``u`` ``(N, nu)`` from state ``x0`` (default 0), no noise."""
@@ -215,3 +242,47 @@ def _trim(p: NDArray[np.floating[Any]]) -> Array:
     """``p`` without its leading zero coefficients (``[0.0]`` if all are zero)."""
     nonzero = np.flatnonzero(p)
     return np.asarray(p[nonzero[0] :] if nonzero.size else np.zeros(1), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class ContinuousModel:
+    """ẋ = A x + B u, y = C x + D u: a discrete model's deterministic part in continuous
+    time (s)."""
+
+    A: Array
+    B: Array
+    C: Array
+    D: Array
+
+
+def d2c(m: LinearModel) -> ContinuousModel | None:
+    """``m`` in continuous time by the inverse of the zero-order hold, MATLAB's ``d2c``:
+    [[A, B], [0, I]] = expm(Ts [[Ac, Bc], [0, 0]]), C and D carry over. None where no real
+    one exists: a pole on the negative real axis or at zero (the matrix logarithm has no
+    real value there), or a static model."""
+    if (
+        m.n == 0
+        or np.any(np.abs(m.poles) < 1e-9)
+        or np.any((np.abs(m.poles.imag) < 1e-12) & (m.poles.real < 0))
+    ):
+        return None
+    try:
+        Ac, Bc = _log_zoh(m)  # python-control 0.10 has c2d but no d2c
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    A = np.real_if_close(Ac)
+    if np.iscomplexobj(A):
+        return None
+    return ContinuousModel(A, Bc, m.C, m.D)
+
+
+def _log_zoh(m: LinearModel) -> tuple[Array, Array]:
+    """Ac, Bc of the inverse of the zero-order hold (see :func:`d2c`)."""
+    n, nu = m.n, m.nu
+    M = np.zeros((n + nu, n + nu))
+    M[:n, :n], M[:n, n:], M[n:, n:] = m.A, m.B, np.eye(nu)
+    L = scipy.linalg.logm(M) / m.Ts
+    if np.max(np.abs(np.imag(L))) > 1e-8:
+        raise ValueError("no real logarithm")
+    L = np.real(L)
+    return L[:n, :n], L[:n, n:]

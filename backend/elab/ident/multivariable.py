@@ -27,26 +27,11 @@ from numpy.typing import NDArray
 from elab.errors import InvalidInput
 from elab.ident.data import IdData, require_exciting
 from elab.ident.models import LinearModel
+from elab.ident.parameters import ArxOrders, Ints, MimoArxParameters
 
 Array = NDArray[np.float64]
-Ints = NDArray[np.int64]
 #: an order: one integer for every channel, or one per output (na) or per output and input
 Orders = int | Sequence[int] | Sequence[Sequence[int]] | NDArray[np.integer[Any]]
-
-
-@dataclass(frozen=True)
-class ArxOrders:
-    """``na`` (ny,), ``nb`` and ``nk`` (ny, nu), checked."""
-
-    na: Ints
-    nb: Ints
-    nk: Ints
-
-    @property
-    def n(self) -> Ints:
-        """Each output's degree: its first regression sample and its number of states."""
-        lag = np.where(self.nb > 0, self.nb + self.nk - 1, 0).max(axis=1)
-        return np.asarray(np.maximum(self.na, lag), dtype=np.int64)
 
 
 def arx_orders(na: Orders, nb: Orders, nk: Orders, ny: int, nu: int) -> ArxOrders:
@@ -113,9 +98,9 @@ def arx_per_output(data: IdData, na: Orders, nb: Orders, nk: Orders) -> LinearMo
     """The least-squares ARX model of several inputs and outputs (module docstring), as one
     innovations state space (:func:`from_polynomial_rows`).
 
-    ``parameters``: ``A`` one row per output; ``B`` one row per output and input, output
-    i, input j at row i·nu + j, each with its nk_ij leading zeros; ``dA``, ``dB`` their
-    standard deviations; ``loss``, ``fpe``, ``aic``, ``samples`` one per output. The noise
+    ``parameters`` (:class:`~elab.ident.parameters.MimoArxParameters`): ``A`` per output;
+    ``B`` per output and input, each with its nk_ij leading zeros; ``dA``, ``dB`` their
+    standard deviations; ``loss``, ``fpe``, ``aic``, ``samples`` per output. The noise
     covariance Λ has each output's residual variance Σ ε_i² / (samples − parameters) on
     its diagonal and the residuals' correlations over their common samples off it.
     """
@@ -127,15 +112,17 @@ def arx_per_output(data: IdData, na: Orders, nb: Orders, nk: Orders) -> LinearMo
     stats = [_stats(f) for f in fits]
     return replace(
         m,
-        kind="arx",
-        orders={"na": _given(na, o.na), "nb": _given(nb, o.nb), "nk": _given(nk, o.nk)},
-        parameters={
-            "A": [f.a.tolist() for f in fits],
-            "B": [b.tolist() for f in fits for b in f.b],
-            "dA": [f.da.tolist() for f in fits],
-            "dB": [db.tolist() for f in fits for db in f.db],
-        }
-        | {key: [s[key] for s in stats] for key in ("loss", "fpe", "aic", "samples")},
+        parameters=MimoArxParameters(
+            orders=o,
+            A=tuple(f.a for f in fits),
+            B=tuple(tuple(f.b) for f in fits),
+            dA=tuple(f.da for f in fits),
+            dB=tuple(tuple(f.db) for f in fits),
+            loss=tuple(s.loss for s in stats),
+            fpe=tuple(s.fpe for s in stats),
+            aic=tuple(s.aic for s in stats),
+            samples=tuple(s.samples for s in stats),
+        ),
     )
 
 
@@ -170,15 +157,23 @@ def _fit_output(data: IdData, o: ArxOrders, i: int) -> _OutputFit:
     )
 
 
-def _stats(f: _OutputFit) -> dict[str, float]:
+@dataclass(frozen=True)
+class _Stats:
+    loss: float
+    fpe: float
+    aic: float
+    samples: int
+
+
+def _stats(f: _OutputFit) -> _Stats:
     n = f.eps.shape[0]
     loss = float(f.eps @ f.eps / n)
-    return {
-        "loss": loss,
-        "fpe": loss * (1 + f.d / n) / (1 - f.d / n),
-        "aic": math.log(loss) + 2 * f.d / n if loss > 0 else -math.inf,
-        "samples": n,
-    }
+    return _Stats(
+        loss=loss,
+        fpe=loss * (1 + f.d / n) / (1 - f.d / n),
+        aic=math.log(loss) + 2 * f.d / n if loss > 0 else -math.inf,
+        samples=n,
+    )
 
 
 def _noise(fits: list[_OutputFit]) -> Array:
@@ -190,11 +185,6 @@ def _noise(fits: list[_OutputFit]) -> Array:
     np.fill_diagonal(R, 1.0)
     s = np.sqrt([f.lam for f in fits])
     return np.asarray(R * np.outer(s, s), dtype=np.float64)
-
-
-def _given(value: Orders, full: Ints) -> int | list[Any]:
-    """An order as the caller gave it: one integer, or the list of every channel's."""
-    return int(np.asarray(value)) if np.ndim(value) == 0 else full.tolist()
 
 
 def from_polynomial_rows(

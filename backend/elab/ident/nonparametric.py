@@ -21,7 +21,6 @@ import cmath
 import math
 import numbers
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,14 +39,10 @@ class Correlation:
     k_sigma: float
     delay: int | None
 
-    def as_dict(self) -> dict[str, Any]:
-        band = self.k_sigma * self.sigma
-        return {
-            "lags": self.lags.tolist(),
-            "impulse": self.impulse.tolist(),
-            "band": [band] * len(self.lags),
-            "delay": self.delay,
-        }
+    @property
+    def band(self) -> float:
+        """k·σ: an impulse-response estimate within ±band is noise."""
+        return self.k_sigma * self.sigma
 
 
 def cra(
@@ -111,14 +106,14 @@ class Spectrum:
     noise: Array
     window: int
 
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "omega": self.omega.tolist(),
-            "magnitude": np.abs(self.G).tolist(),
-            "phase_deg": np.degrees(np.unwrap(np.angle(self.G))).tolist(),
-            "noise_spectrum": self.noise.tolist(),
-            "window": self.window,
-        }
+    @property
+    def magnitude(self) -> Array:
+        return np.asarray(np.abs(self.G), dtype=np.float64)
+
+    @property
+    def phase_deg(self) -> Array:
+        """∠Ĝ in degrees, unwrapped along ``omega``."""
+        return np.asarray(np.degrees(np.unwrap(np.angle(self.G))), dtype=np.float64)
 
 
 def spa(data: IdData, window: int | None = None, omega: Array | None = None) -> Spectrum:
@@ -172,16 +167,6 @@ class SineResponse:
     phase_deg: float  # in (−180, 180]
     periods_used: int
     samples_used: int
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "frequency_hz": self.frequency_hz,
-            "omega": self.omega,
-            "magnitude": self.magnitude,
-            "phase_deg": self.phase_deg,
-            "periods_used": self.periods_used,
-            "samples_used": self.samples_used,
-        }
 
 
 def sine_response(

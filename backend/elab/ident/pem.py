@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +31,7 @@ from numpy.typing import NDArray
 from elab.errors import InvalidInput
 from elab.ident.data import IdData, require_exciting
 from elab.ident.models import LinearModel
+from elab.ident.parameters import ArmaxParameters, OeParameters
 from elab.ident.polynomial import from_polynomials, regressors
 
 Array = NDArray[np.float64]
@@ -126,29 +128,25 @@ def armax(
     a, c = np.r_[1.0, theta[:na]], np.r_[1.0, theta[na + nb :]]
     b = np.r_[np.zeros(nk), theta[na : na + nb]]
     m = from_polynomials(a, b, c, data.Ts, loss)
-    return LinearModel(
-        m.A,
-        m.B,
-        m.C,
-        m.D,
-        m.K,
-        data.Ts,
-        np.array([[loss]]),
-        kind="armax",
-        orders={"na": na, "nb": nb, "nc": nc, "nk": nk},
-        parameters={
-            "A": a.tolist(),
-            "B": b.tolist(),
-            "C": c.tolist(),
-            "loss": loss,
-            "iterations": iterations,
-            "start": chosen,
-            "start_losses": losses,
+    return replace(
+        m,
+        parameters=ArmaxParameters(
+            na=na,
+            nb=nb,
+            nc=nc,
+            nk=nk,
+            A=a,
+            B=b,
+            C=c,
+            loss=loss,
+            iterations=iterations,
+            start=chosen,
+            start_losses=losses,
             # C's roots held at the margin: the noise model wants one on the unit circle
-            "c_at_margin": bool(nc and np.max(np.abs(np.roots(c))) >= C_RADIUS - 1e-9),
-            "fpe": _fpe(loss, d, n),
-            "samples": n,
-        },
+            c_at_margin=bool(nc and np.max(np.abs(np.roots(c))) >= C_RADIUS - 1e-9),
+            fpe=_fpe(loss, d, n),
+            samples=n,
+        ),
     )
 
 
@@ -235,26 +233,21 @@ def oe(
     loss = float(eps @ eps / N)
     f, b = np.r_[1.0, theta[:nf]], np.r_[np.zeros(nk), theta[nf:]]
     m = from_polynomials(f, b, f, data.Ts, loss)
-    return LinearModel(
-        m.A,
-        m.B,
-        m.C,
-        m.D,
-        m.K,
-        data.Ts,
-        np.array([[loss]]),
-        kind="oe",
-        orders={"nb": nb, "nf": nf, "nk": nk},
-        parameters={
-            "B": b.tolist(),
-            "F": f.tolist(),
-            "loss": loss,
-            "iterations": iterations,
-            "start": chosen,
-            "start_losses": losses,
-            "fpe": _fpe(loss, d, N),
-            "samples": N,
-        },
+    return replace(
+        m,
+        parameters=OeParameters(
+            nb=nb,
+            nf=nf,
+            nk=nk,
+            B=b,
+            F=f,
+            loss=loss,
+            iterations=iterations,
+            start=chosen,
+            start_losses=losses,
+            fpe=_fpe(loss, d, N),
+            samples=N,
+        ),
     )
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Iterable
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -27,6 +28,7 @@ from elab.errors import InvalidInput
 from elab.ident.data import IdData, require_exciting
 from elab.ident.models import LinearModel
 from elab.ident.multivariable import Orders, arx_per_output, miso_regressors
+from elab.ident.parameters import ArxParameters
 
 Array = NDArray[np.float64]
 
@@ -97,26 +99,21 @@ def _arx_siso(data: IdData, na: int, nb: int, nk: int) -> LinearModel:
     a = np.r_[1.0, theta[:na]]
     b = np.r_[np.zeros(nk), theta[na:]]
     model = from_polynomials(a, b, np.array([1.0]), data.Ts, lam)
-    return LinearModel(
-        model.A,
-        model.B,
-        model.C,
-        model.D,
-        model.K,
-        data.Ts,
-        np.array([[lam]]),
-        kind="arx",
-        orders={"na": na, "nb": nb, "nk": nk},
-        parameters={
-            "A": a.tolist(),
-            "B": b.tolist(),
-            "dA": np.r_[0.0, sd[:na]].tolist(),
-            "dB": np.r_[np.zeros(nk), sd[na:]].tolist(),
-            "loss": loss,
-            "fpe": loss * (1 + d / n) / (1 - d / n),
-            "aic": math.log(loss) + 2 * d / n,
-            "samples": n,
-        },
+    return replace(
+        model,
+        parameters=ArxParameters(
+            na=na,
+            nb=nb,
+            nk=nk,
+            A=a,
+            B=b,
+            dA=np.r_[0.0, sd[:na]],
+            dB=np.r_[np.zeros(nk), sd[na:]],
+            loss=loss,
+            fpe=loss * (1 + d / n) / (1 - d / n),
+            aic=math.log(loss) + 2 * d / n,
+            samples=n,
+        ),
     )
 
 

@@ -17,7 +17,7 @@ A is kept as estimated, stable or not (a lightly damped plant's estimate may hav
 just outside the unit circle; the zero-padded estimate of Chui & Maciejowski 1996, once
 the default, pulled every pole inward and fitted 13 % where the estimate fitted 96.7 %).
 ``stable=True`` reflects only the poles outside the unit circle into it (λ → 1/λ̄), which
-keeps the others; ``parameters["stabilised"]`` lists what moved. B, D and x₀ are the
+keeps the others; ``parameters.reflected`` lists what moved. B, D and x₀ are the
 least-squares fit of the simulated output y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) +
 D u(t) — linear in them, with the Markov parameters convolved with the inputs by FFT.
 The states X̂ = Γ_s⁺ L₃₂ L₂₂⁺ W_p give the residual covariances of the state equations,
@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 import scipy.linalg
@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from elab.errors import InvalidInput
 from elab.ident.data import IdData, require_exciting
 from elab.ident.models import LinearModel, initial_state, observability
+from elab.ident.parameters import N4sidParameters, UnstableChoice
 
 Array = NDArray[np.float64]
 MAX_HORIZON = 100
@@ -147,7 +148,8 @@ def n4sid(
     bd: BD = "subspace",
 ) -> LinearModel:
     """The state-space model of ``order`` (or the best of ``orders`` by :func:`choose_order`;
-    default range 1 … 10) in innovations form, with its singular values in ``parameters``.
+    default range 1 … 10) in innovations form, with its singular values in ``parameters``
+    (:class:`~elab.ident.parameters.N4sidParameters`).
 
     ``bd``: B and D from the R factor (N4SID, as SLICOT) or by the simulation least
     squares (jointly with x₀). ``stable``: what to do with poles of the estimate outside
@@ -160,7 +162,7 @@ def n4sid(
         raise InvalidInput("stable", stable, "false, true or 'auto'")
     sub = decompose(data, horizon) if sub is None else sub
     if order is None:
-        order = choose_order(sub, orders or range(1, 11), bd)[0]
+        order = choose_order(sub, orders or range(1, 11), bd).best
     if not isinstance(order, int) or isinstance(order, bool) or not 1 <= order <= sub.max_order:
         raise InvalidInput(
             "order",
@@ -170,35 +172,43 @@ def n4sid(
     f = _fitted(sub, order, stable, bd)
     A, B, C, D = f.A, f.B, f.C, f.D
     K, lam, riccati = _kalman_gain(sub, A, B, C, D)
-    return LinearModel(
-        A,
-        B,
-        C,
-        D,
-        K,
-        data.Ts,
-        lam,
-        kind="n4sid",
-        orders={"n": order, "horizon": sub.horizon},
-        parameters={
-            "singular_values": sub.singular_values.tolist(),
-            "x0": f.x0.tolist(),
-            "bd": bd,
-            "stabilised": bool(f.moved),
-            # poles reflected into the unit circle: [|z| before, |z| after] each
-            "reflected": f.moved,
-            # with an unstable estimate: the estimation fits (%) as estimated and reflected
-            **f.choice,
-            # the Kalman gain: "riccati", or "none" when the Riccati equation had no
-            # stabilising solution (an output-error model: the predictor simulates)
-            "kalman": riccati,
-        },
+    parameters = N4sidParameters(
+        order=order,
+        horizon=sub.horizon,
+        singular_values=sub.singular_values,
+        x0=f.x0,
+        bd=bd,
+        reflected=f.moved,
+        choice=f.choice,
+        kalman=riccati,
     )
+    return LinearModel(A, B, C, D, K, data.Ts, lam, parameters)
 
 
-def choose_order(
-    sub: Subspace, orders: range, bd: BD = "subspace"
-) -> tuple[int, list[dict[str, Any]], str]:
+@dataclass(frozen=True)
+class OrderRow:
+    """One order's figures: the mean squared simulation error on the estimation data
+    (x₀ estimated) and the criteria log V + penalty (see :func:`choose_order`)."""
+
+    order: int
+    loss: float
+    mdl: float
+    aic: float
+
+
+@dataclass(frozen=True)
+class OrderChoice:
+    """The order :func:`choose_order` chose at ``horizon``, why, every order's figures and
+    the singular values."""
+
+    best: int
+    reason: str
+    rows: tuple[OrderRow, ...]
+    horizon: int
+    singular_values: Array
+
+
+def choose_order(sub: Subspace, orders: range, bd: BD = "subspace") -> OrderChoice:
     """The order over ``orders``, every order's figures, and why it was chosen.
 
     A gap in the singular values decides when there is one: the order after which they
@@ -226,23 +236,24 @@ def choose_order(
         d = n * (2 * data.ny + data.nu) + data.ny * data.nu
         logV = math.log(max(V, 1e-300)) if math.isfinite(V) else math.inf
         rows.append(
-            {
-                "order": n,
-                "loss": V,
-                "mdl": logV + d * math.log(data.N) / data.N,
-                "aic": logV + 2 * d / data.N,
-            }
+            OrderRow(
+                order=n,
+                loss=V,
+                mdl=logV + d * math.log(data.N) / data.N,
+                aic=logV + 2 * d / data.N,
+            )
         )
-    best = int(min(rows, key=lambda r: r["mdl"])["order"])
-    aic = int(min(rows, key=lambda r: r["aic"])["order"])
+    best = min(rows, key=lambda r: r.mdl).order
+    aic = min(rows, key=lambda r: r.aic).order
     others = f"MDL {best}, AIC {aic}"
     sv = sub.singular_values
     falls = {n: sv[n - 1] / sv[n] for n in valid if n < sv.size and sv[n] > 0}
     if falls and max(falls.values()) >= GAP:
         gap = max(falls, key=lambda n: falls[n])
-        return gap, rows, f"the singular values fall {falls[gap]:.3g}× after order {gap} ({others})"
+        why = f"the singular values fall {falls[gap]:.3g}× after order {gap} ({others})"
+        return OrderChoice(gap, why, tuple(rows), sub.horizon, sv)
     why = f"least MDL (no fall of the singular values of {GAP:g}× or more; AIC: {aic})"
-    return best, rows, why
+    return OrderChoice(best, why, tuple(rows), sub.horizon, sv)
 
 
 @dataclass(frozen=True)
@@ -253,8 +264,8 @@ class _Fitted:
     D: Array
     x0: Array
     loss: float  # mean squared simulation error on the estimation data, x₀ estimated
-    moved: list[list[float]]
-    choice: dict[str, float]
+    moved: tuple[tuple[float, float], ...]
+    choice: UnstableChoice | None
 
 
 def _fitted(sub: Subspace, n: int, stable: Stable, bd: BD) -> _Fitted:
@@ -265,19 +276,18 @@ def _fitted(sub: Subspace, n: int, stable: Stable, bd: BD) -> _Fitted:
     reflected = _model(sub, *_shift(sub, n, True), bd)
     if stable is True:
         return reflected
-    fits = {
-        "estimation_fit_as_estimated": _fit_of(sub, kept.loss),
-        "estimation_fit_reflected": _fit_of(sub, reflected.loss),
-    }
+    fits = UnstableChoice(_fit_of(sub, kept.loss), _fit_of(sub, reflected.loss))
     better = reflected if reflected.loss < kept.loss or not np.isfinite(kept.loss) else kept
     return replace(better, choice=fits)
 
 
-def _model(sub: Subspace, A: Array, C: Array, moved: list[list[float]], bd: BD) -> _Fitted:
+def _model(
+    sub: Subspace, A: Array, C: Array, moved: tuple[tuple[float, float], ...], bd: BD
+) -> _Fitted:
     B, D, x0 = _bdx0(sub, A, C, bd)
     err = sub.data.y - _simulate_fast(A, B, C, D, x0, sub.data.u)
     loss = float(np.mean(err**2)) if np.all(np.isfinite(err)) else math.inf
-    return _Fitted(A, B, C, D, x0, loss, moved, {})
+    return _Fitted(A, B, C, D, x0, loss, moved, None)
 
 
 def _fit_of(sub: Subspace, loss: float) -> float:
@@ -286,19 +296,21 @@ def _fit_of(sub: Subspace, loss: float) -> float:
     return 100 * (1 - math.sqrt(loss / spread)) if math.isfinite(loss) and spread > 0 else -math.inf
 
 
-def _shift(sub: Subspace, n: int, stable: bool) -> tuple[Array, Array, list[list[float]]]:
+def _shift(
+    sub: Subspace, n: int, stable: bool
+) -> tuple[Array, Array, tuple[tuple[float, float], ...]]:
     """A and C from the shift structure; with ``stable``, A's poles outside the unit
     circle reflected into it (the moved ones' |z| before and after are returned)."""
     ny = sub.data.ny
     G = sub.U1[:, :n] * np.sqrt(sub.singular_values[:n])
     C = G[:ny]
     A = np.linalg.lstsq(G[:-ny], G[ny:], rcond=None)[0]
-    moved: list[list[float]] = []
+    moved: tuple[tuple[float, float], ...] = ()
     if stable:
         lam, V = np.linalg.eig(A)
         out = np.abs(lam) > 1.0
         if out.any():
-            moved = [[float(abs(z)), float(1 / abs(z))] for z in lam[out]]
+            moved = tuple((float(abs(z)), float(1 / abs(z))) for z in lam[out])
             lam = np.where(out, 1.0 / np.conj(lam), lam)
             A = np.real(V @ np.diag(lam) @ np.linalg.inv(V))  # conjugate pairs stay pairs
     return np.asarray(A, dtype=np.float64), C, moved
@@ -437,7 +449,9 @@ def _convolved(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> A
     return np.asarray(y, dtype=np.float64)
 
 
-def _kalman_gain(sub: Subspace, A: Array, B: Array, C: Array, D: Array) -> tuple[Array, Array, str]:
+def _kalman_gain(
+    sub: Subspace, A: Array, B: Array, C: Array, D: Array
+) -> tuple[Array, Array, Literal["riccati", "none"]]:
     """K of the steady-state Kalman filter for the covariances of the residuals of the
     state equations on X̂ = Γ_s⁺ (Γ_s X̂), the innovation covariance, and how K was had:
     "riccati", or "none" (no stabilising solution: K = 0, an output-error model)."""

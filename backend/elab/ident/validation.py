@@ -95,17 +95,6 @@ class Residuals:
     def independent(self) -> bool:
         return bool(np.all(np.abs(self.cross_correlation) <= self.bound))
 
-    def as_dict(self) -> dict[str, object]:
-        return {
-            "lags": self.lags.tolist(),
-            "autocorrelation": self.autocorrelation.tolist(),
-            "cross_lags": self.cross_lags.tolist(),
-            "cross_correlation": self.cross_correlation.tolist(),
-            "bound": self.bound,
-            "white": self.white,
-            "independent": self.independent,
-        }
-
 
 def resid(model: LinearModel, data: IdData, max_lag: int = 25) -> Residuals:
     """Correlations of the residuals of a single-output, single-input model on ``data``."""

@@ -50,7 +50,7 @@ def armax_data(seed: int, c: np.ndarray = C, N: int = 5000, lam: float = 0.1) ->
 
 def armax_c(seed: int) -> list[float]:
     """C's coefficients after the leading 1 as E-Lab's armax(2, 2, 2, 1) estimates them."""
-    return [float(x) for x in armax(armax_data(seed), 2, 2, 2, 1).parameters["C"][1:]]
+    return [float(x) for x in armax(armax_data(seed), 2, 2, 2, 1).parameters.C[1:]]
 
 
 def plant(seed: int, second: float, noise: list[float]) -> tuple[np.ndarray, np.ndarray]:

@@ -36,13 +36,13 @@ def test_dryer_best_structure_and_its_loss(dryer: tuple[IdData, IdData]) -> None
 def test_dryer_arx_223_coefficients_and_fit(dryer: tuple[IdData, IdData]) -> None:
     ze, zr = dryer
     m = arx(ze, 2, 2, 3)
-    assert_allclose(m.parameters["A"], [1, -1.2765, 0.3967], atol=5e-4)
+    assert_allclose(m.parameters.A, [1, -1.2765, 0.3967], atol=5e-4)
     # B against an independent least squares written out here
     y, u = ze.y[:, 0], ze.u[:, 0]
     t = np.arange(4, 500)
     Phi = np.column_stack([-y[t - 1], -y[t - 2], u[t - 3], u[t - 4]])
     theta = np.linalg.lstsq(Phi, y[t], rcond=None)[0]
-    assert_allclose(m.parameters["B"], [0, 0, 0, *theta[2:]], atol=1e-12)
+    assert_allclose(m.parameters.B, [0, 0, 0, *theta[2:]], atol=1e-12)
     assert compare(m, zr).fit[0] == pytest.approx(89.55, abs=0.3)
     assert compare(arx(ze, 4, 4, 3), zr).fit[0] == pytest.approx(89.91, abs=0.3)
 
@@ -97,7 +97,7 @@ def test_arx_is_unbiased_over_100_seeds_at_20_db() -> None:
     for _ in range(runs):  # ARX noise: e enters through 1/A, the structure arx assumes
         y = clean + scipy.signal.lfilter([1], a, sigma * rng.standard_normal(N))
         m = arx(iddata(y, u, 1.0), 2, 2, 1)
-        est.append(np.r_[m.parameters["A"][1:], m.parameters["B"][1:]])
+        est.append(np.r_[m.parameters.A[1:], m.parameters.B[1:]])
     est = np.array(est)
     se = est.std(axis=0, ddof=1) / np.sqrt(runs)
     assert np.all(np.abs(est.mean(axis=0) - np.r_[a[1:], b[1:]]) < 2.5 * se)
@@ -171,7 +171,7 @@ def test_spectral_analysis_matches_a_known_frequency_response() -> None:
     s = spa(iddata(y, u, 0.1), window=100)
     _, true = scipy.signal.freqz(b, a, worN=s.omega * 0.1)
     assert_allclose(s.G, true, rtol=0.1)
-    assert s.as_dict()["window"] == 100 and len(s.omega) == 128
+    assert s.window == 100 and len(s.omega) == 128
     assert s.omega[-1] == pytest.approx(np.pi / 0.1)
     # white noise of variance λ = 0.01 has the flat spectrum λ·Ts (MATLAB's scaling)
     assert_allclose(np.median(s.noise), 0.01 * 0.1, rtol=0.1)

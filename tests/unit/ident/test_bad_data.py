@@ -121,7 +121,7 @@ def test_the_horizon_range_is_the_one_the_input_supports(
     code, out, _ = cli(capsys, path, "--model", "n4sid:2")  # the default horizon adapts
     assert code == 0 and "n4sid 2: validation fit" in out
     z = IdData(system(u)[:, None], u[:, None], 0.1)
-    assert wf.run(z, plan("n4sid:2")).models[0]["orders"]["horizon"] == 3
+    assert wf.run(z, plan("n4sid:2")).models[0].model.parameters.horizon == 3
     with pytest.raises(InvalidInput) as e:
         wf.run(z, plan("n4sid:2,20"))
     assert e.value.field == "models[0].horizon"
@@ -218,6 +218,6 @@ def test_a_static_model_and_an_explicit_order_need_no_more(
     assert code == 0 and err == "" and "arx 0 1 0: validation fit" in out
     plan = wf.Plan(models=(wf.parse_model("n4sid:2"),), correlation=False, spectral=False)
     result = wf.run(iddata(system(u), u, 0.1), plan)
-    assert "n4sid_orders" not in result.analyses and result.models[0]["name"] == "n4sid 2"
+    assert result.analyses.n4sid_orders is None and result.models[0].name == "n4sid 2"
     plan = wf.Plan(models=(wf.parse_model("n4sid"),), correlation=False, spectral=False)
-    assert "n4sid_orders" in wf.run(iddata(system(u), u, 0.1), plan).analyses  # needed there
+    assert wf.run(iddata(system(u), u, 0.1), plan).analyses.n4sid_orders  # needed there

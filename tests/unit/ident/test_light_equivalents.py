@@ -42,19 +42,21 @@ def record(name: str) -> IdData:
 def test_reported_models_equal_python_control_s(name: str, models: tuple[str, ...]) -> None:
     plan = wf.Plan(models=tuple(wf.parse_model(m) for m in models))
     result = wf.run(record(name), plan)
-    for m, shown in zip(result.fitted, result.models, strict=True):
+    for shown in result.models:
+        m = shown.model
         tf = m.to_tf()  # python-control's ss2tf
+        ours = m.transfer_functions()
         for i in range(m.ny):
             for j in range(m.nu):
-                got = shown["tf"][i][j]
+                num, den = ours[i][j]
                 # the same arithmetic (scipy.signal.ss2tf's): equal to rounding, same lengths
-                assert_allclose(got["num"], np.ravel(tf.num[i][j]), rtol=1e-12, atol=1e-12)
-                assert_allclose(got["den"], np.ravel(tf.den[i][j]), rtol=1e-12, atol=1e-12)
-        c = shown["continuous"]
+                assert_allclose(num, np.ravel(tf.num[i][j]), rtol=1e-12, atol=1e-12)
+                assert_allclose(den, np.ravel(tf.den[i][j]), rtol=1e-12, atol=1e-12)
+        c = shown.continuous
         if c is None:  # a pole at z = 0 (a delay) or on the negative real axis: no logarithm
             assert m.kind != "n4sid"  # these subspace models have neither
             continue
-        back = ct.c2d(ct.ss(c["A"], c["B"], c["C"], c["D"]), m.Ts, "zoh")
+        back = ct.c2d(ct.ss(c.A, c.B, c.C, c.D), m.Ts, "zoh")
         # expm(logm(M)) = M to rounding; the entries are of order 1
         assert_allclose(back.A, m.A, atol=1e-12)
         assert_allclose(back.B, m.B, atol=1e-12)

@@ -16,6 +16,7 @@ import pytest
 import scipy.signal
 from numpy.testing import assert_allclose
 
+from elab.api.identjson import ident_json
 from elab.errors import InvalidInput
 from elab.ident import IdData, iddata
 from elab.ident import workflow as wf
@@ -94,7 +95,7 @@ def test_mimo_arx_equals_octave(
 ) -> None:
     m = arx(cd_player[0], *STRUCTURES[s])
     p = m.parameters
-    ours = [p["A"][0], *p["B"][0:2], p["A"][1], *p["B"][2:4]]
+    ours = [p.A[0], *p.B[0], p.A[1], *p.B[1]]
     for mine, theirs in zip(ours, octave_arx[s], strict=True):
         # Octave solves by QR then SVD, E-Lab by LAPACK's gelsd: equal to round-off
         assert_allclose(mine, theirs, rtol=1e-9, atol=1e-12)
@@ -115,11 +116,12 @@ def test_each_output_is_its_own_least_squares_problem(cd_player: tuple[IdData, I
             for t in range(start, ze.N)
         ]
         theta = np.linalg.lstsq(np.array(rows), y[start:, i], rcond=None)[0]
-        assert_allclose(m.parameters["A"][i], [1, *theta[: na[i]]], rtol=1e-10)
+        p = m.parameters
+        assert_allclose(p.A[i], [1, *theta[: na[i]]], rtol=1e-10)
         b = theta[na[i] :]
-        assert_allclose(m.parameters["B"][2 * i], [0] * nk[i][0] + [*b[: nb[i][0]]], rtol=1e-10)
-        assert_allclose(m.parameters["B"][2 * i + 1], [0] * nk[i][1] + [*b[nb[i][0] :]], rtol=1e-10)
-        assert m.parameters["samples"][i] == ze.N - start
+        assert_allclose(p.B[i][0], [0] * nk[i][0] + [*b[: nb[i][0]]], rtol=1e-10)
+        assert_allclose(p.B[i][1], [0] * nk[i][1] + [*b[nb[i][0] :]], rtol=1e-10)
+        assert p.samples[i] == ze.N - start
 
 
 def test_a_decoupled_output_equals_the_single_input_arx(cd_player: tuple[IdData, IdData]) -> None:
@@ -128,10 +130,10 @@ def test_a_decoupled_output_equals_the_single_input_arx(cd_player: tuple[IdData,
     m = arx(ze, 2, [[2, 0], [0, 3]], 1)
     for i, (j, nb) in enumerate([(0, 2), (1, 3)]):
         siso = arx(iddata(ze.y[:, i], ze.u[:, j], ze.Ts), 2, nb, 1)
-        assert_allclose(m.parameters["A"][i], siso.parameters["A"], rtol=1e-12)
-        assert_allclose(m.parameters["B"][2 * i + j], siso.parameters["B"], rtol=1e-12)
-        assert m.parameters["B"][2 * i + 1 - j] == [0.0]  # nk = 1 zero, no coefficient
-        assert m.parameters["loss"][i] == pytest.approx(siso.parameters["loss"], rel=1e-12)
+        assert_allclose(m.parameters.A[i], siso.parameters.A, rtol=1e-12)
+        assert_allclose(m.parameters.B[i][j], siso.parameters.B, rtol=1e-12)
+        assert m.parameters.B[i][1 - j].tolist() == [0.0]  # nk = 1 zero, no coefficient
+        assert m.parameters.loss[i] == pytest.approx(siso.parameters.loss, rel=1e-12)
 
 
 # a 2 × 2 ARX system: A_1 = 1 − 1.5 q⁻¹ + 0.7 q⁻², A_2 = 1 − 0.8 q⁻¹; B with delays 0…2
@@ -154,7 +156,8 @@ def _true_system(N: int, seed: int) -> IdData:
 def test_a_noise_free_two_by_two_arx_is_recovered() -> None:
     z = _true_system(400, 7)
     m = arx(z, *ORDERS)
-    for got, true in zip(m.parameters["A"] + m.parameters["B"], TRUE_A + TRUE_B, strict=True):
+    got_b = [b for row in m.parameters.B for b in row]
+    for got, true in zip([*m.parameters.A, *got_b], TRUE_A + TRUE_B, strict=True):
         assert_allclose(got, true, atol=1e-9)
     # the state space is the same system: it simulates (D: the undelayed u1 → y2) and
     # predicts one step ahead (K) the noise-free data exactly, from rest
@@ -168,7 +171,7 @@ def test_the_state_space_is_the_arx_predictor(cd_player: tuple[IdData, IdData]) 
     prediction is (1 − A) y + B u, past values before the record taken as zero."""
     ze, zv = cd_player
     m = arx(ze, *ORDERS)
-    A, B = m.parameters["A"], m.parameters["B"]
+    A, B = m.parameters.A, [b for row in m.parameters.B for b in row]
     u, y = zv.u, zv.y
     sim = np.column_stack(
         [sum(scipy.signal.lfilter(B[2 * i + j], A[i], u[:, j]) for j in range(2)) for i in range(2)]
@@ -185,7 +188,7 @@ def test_the_state_space_is_the_arx_predictor(cd_player: tuple[IdData, IdData]) 
     # Λ: each output's residual variance (Σ ε² over samples − parameters), correlated
     lam, p = m.noise_variance, m.parameters
     d = np.array([2 + 2 + 1, 1 + 1 + 3])  # na_i + Σ_j nb_ij
-    assert_allclose(np.diag(lam), np.array(p["loss"]) / (1 - d / p["samples"]), rtol=1e-12)
+    assert_allclose(np.diag(lam), np.array(p.loss) / (1 - d / np.array(p.samples)), rtol=1e-12)
     assert_allclose(lam, lam.T, rtol=1e-15)
     assert np.all(np.linalg.eigvalsh(lam) > 0)
 
@@ -228,18 +231,18 @@ def test_arxstruc_of_one_output_and_two_inputs_is_the_arx_validation_loss(
 
 
 def test_the_order_search_is_each_outputs_own(cd_player: tuple[IdData, IdData]) -> None:
-    """The workflow's search gives each output the search of its own data (``run`` puts
+    """The workflow's search gives each output the search of its own data (the wire puts
     them under ``arx_search_outputs``)."""
     ze, zv = cd_player
     ranges = (range(1, 4), range(1, 3), range(1, 3))
     plan = wf.Plan(arx_search=ranges, correlation=False, spectral=False)
-    out = wf.run(ze, plan, validation=zv).analyses["arx_search_outputs"]
-    assert [o["output"] for o in out] == ["y1", "y2"]
+    out = wf.run(ze, plan, validation=zv).analyses.arx_search
+    assert [o.output for o in out] == ["y1", "y2"]
     for i, o in enumerate(out):
         one = (IdData(z.y[:, [i]], z.u, z.Ts) for z in (ze, zv))
         V = arxstruc(*one, struc(*ranges))
-        assert_allclose(_by_structure(np.array(o["rows"])), _by_structure(V), rtol=1e-12)
-        assert o["best"] == V[np.argmin(V[:, 3]), :3].astype(int).tolist()
+        assert_allclose(_by_structure(o.losses), _by_structure(V), rtol=1e-12)
+        assert list(o.best) == V[np.argmin(V[:, 3]), :3].astype(int).tolist()
 
 
 def _by_structure(V: np.ndarray) -> np.ndarray:
@@ -250,13 +253,13 @@ def test_the_workflow_fits_arx_to_two_outputs(cd_record: IdData) -> None:
     plan = wf.Plan(models=(wf.parse_model("arx:2,2,1"),), correlation=False, spectral=False)
     result = wf.run(cd_record, plan)
     (model,) = result.models
-    assert model["name"] == "arx 2 2 1" and len(model["parameters"]["A"]) == 2
-    for fits in model["fit"].values():
-        if isinstance(fits, list):
-            assert len(fits) == 2 and all(np.isfinite(fits)), model["fit"]
-    assert min(model["fit"]["validation_one_step"]) > 50  # 83 % and 78 %: it predicts
-    assert np.shape(model["noise_variance"]) == (2, 2)
-    json.dumps(result.as_dict(), allow_nan=False)
+    assert model.name == "arx 2 2 1" and len(model.model.parameters.A) == 2
+    f = model.fits
+    for fits in (f.validation_simulation, f.validation_simulation_x0, f.validation_one_step):
+        assert len(fits.fit) == 2 and all(np.isfinite(fits.fit)), fits.fit
+    assert min(f.validation_one_step.fit) > 50  # 83 % and 78 %: it predicts
+    assert np.shape(model.model.noise_variance) == (2, 2)
+    assert json.loads(ident_json(result))["models"][0]["kind"] == "arx"  # the wire takes it
 
 
 @pytest.mark.parametrize("kind", ["armax:2,2,2,1", "oe:2,2,1"])

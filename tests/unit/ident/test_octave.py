@@ -63,8 +63,8 @@ def test_arx_equals_octave(octave_arx: list[tuple[np.ndarray, np.ndarray]], i: i
     ze = iddata(raw[:, 1], raw[:, 0], 0.08)[:500].detrend()
     m = arx(ze, na, nb, nk)
     den, num = octave_arx[i]
-    assert_allclose(m.parameters["A"], den, rtol=1e-9, atol=1e-12)
-    assert_allclose(m.parameters["B"][nk:], num, rtol=1e-9, atol=1e-12)
+    assert_allclose(m.parameters.A, den, rtol=1e-9, atol=1e-12)
+    assert_allclose(m.parameters.B[nk:], num, rtol=1e-9, atol=1e-12)
 
 
 N4SID_SCRIPT = """pkg load control

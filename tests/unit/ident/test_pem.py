@@ -28,17 +28,17 @@ _armax_data = make.armax_data
 def test_armax_recovers_a_known_system() -> None:
     m = armax(_armax_data(0), 2, 2, 2, 1)
     p = m.parameters
-    assert_allclose(p["A"], A, atol=0.05)
-    assert_allclose(p["B"], B, atol=0.05)
-    assert_allclose(p["C"], C, atol=0.05)
+    assert_allclose(p.A, A, atol=0.05)
+    assert_allclose(p.B, B, atol=0.05)
+    assert_allclose(p.C, C, atol=0.05)
     assert m.noise_variance[0, 0] == pytest.approx(0.1, rel=0.1)
-    assert p["loss"] == m.noise_variance[0, 0] and p["fpe"] > p["loss"]
-    assert m.kind == "armax" and m.orders == {"na": 2, "nb": 2, "nc": 2, "nk": 1}
-    assert 1 <= p["iterations"] <= 50
+    assert p.loss == m.noise_variance[0, 0] and p.fpe > p.loss
+    assert m.kind == "armax" and (p.na, p.nb, p.nc, p.nk) == (2, 2, 2, 1)
+    assert 1 <= p.iterations <= 50
     # the innovations form is the ARMAX model: its one-step errors are the estimate's ε
     z = _armax_data(0)
     eps = z.y[:, 0] - m.predict(z)[:, 0]
-    assert np.mean(eps[2:] ** 2) == pytest.approx(p["loss"], rel=1e-3)
+    assert np.mean(eps[2:] ** 2) == pytest.approx(p.loss, rel=1e-3)
 
 
 @pytest.mark.parametrize("seed", [0, 17, 29])
@@ -58,9 +58,9 @@ def test_armax_recovers_c_without_bias_over_30_seeds() -> None:
 def test_armax_reflects_a_non_minimum_phase_c_into_the_unit_circle() -> None:
     """C = (1 − 2q⁻¹)(1 − ½q⁻¹) with λ gives the same spectrum as (1 − ½q⁻¹)² with 4λ."""
     m = armax(_armax_data(0, c=np.array([1, -2.5, 1.0])), 2, 2, 2, 1)
-    assert_allclose(m.parameters["C"], [1, -1, 0.25], atol=0.05)
+    assert_allclose(m.parameters.C, [1, -1, 0.25], atol=0.05)
     assert m.noise_variance[0, 0] == pytest.approx(0.4, rel=0.1)
-    assert np.all(np.abs(np.roots(m.parameters["C"])) < 1)
+    assert np.all(np.abs(np.roots(m.parameters.C)) < 1)
     assert_allclose(_reflect(np.array([1, -2.5, 1.0])), [1, -1, 0.25], atol=1e-12)
 
 
@@ -71,40 +71,41 @@ def test_oe_recovers_a_known_system_and_beats_arx() -> None:
     y = scipy.signal.lfilter(B_OE, F_OE, u) + 0.5 * rng.standard_normal(N)
     ze, zv = iddata(y, u, 1.0).split(0.5)
     m = oe(ze, 2, 2, 1)
-    assert_allclose(m.parameters["B"], B_OE, atol=0.05)
-    assert_allclose(m.parameters["F"], F_OE, atol=0.05)
-    assert m.kind == "oe" and m.orders == {"nb": 2, "nf": 2, "nk": 1}
+    p = m.parameters
+    assert_allclose(p.B, B_OE, atol=0.05)
+    assert_allclose(p.F, F_OE, atol=0.05)
+    assert m.kind == "oe" and (p.nb, p.nf, p.nk) == (2, 2, 1)
     assert_allclose(m.K, 0, atol=1e-15)  # C = F: the predictor is the simulation
     fit, fit_arx = compare(m, zv).fit[0], compare(arx(ze, 2, 2, 1), zv).fit[0]
     assert fit > fit_arx + 5
-    assert m.parameters["loss"] == pytest.approx(0.25, rel=0.1)
+    assert m.parameters.loss == pytest.approx(0.25, rel=0.1)
 
 
 def test_noise_free_data_give_the_exact_poles() -> None:
     u = np.random.default_rng(1).standard_normal(2000)
     m = armax(iddata(scipy.signal.lfilter(B, A, u), u, 1.0), 2, 2, 2, 1)
     assert_allclose(np.sort_complex(m.poles), np.sort_complex(np.roots(A)), atol=1e-6)
-    assert_allclose(m.parameters["B"], B, atol=1e-6)
+    assert_allclose(m.parameters.B, B, atol=1e-6)
     m = oe(iddata(scipy.signal.lfilter(B_OE, F_OE, u), u, 1.0), 2, 2, 1)
     assert_allclose(np.sort_complex(m.poles), np.sort_complex(np.roots(F_OE)), atol=1e-6)
-    assert_allclose(m.parameters["B"], B_OE, atol=1e-6)
+    assert_allclose(m.parameters.B, B_OE, atol=1e-6)
 
 
 def test_dryer_armax_2223(dryer: tuple[IdData, IdData]) -> None:
     ze, zv = dryer
     m = armax(ze, 2, 2, 2, 3)
     assert compare(m, zv).fit[0] >= 89
-    assert np.all(np.abs(np.roots(m.parameters["C"])) < 1)
-    assert m.parameters["B"][:3] == [0, 0, 0]
+    assert np.all(np.abs(np.roots(m.parameters.C)) < 1)
+    assert m.parameters.B[:3].tolist() == [0, 0, 0]
     # a prediction-error minimum: one-step errors on ze no larger than the ARX model's
-    assert m.parameters["loss"] <= arx(ze, 2, 2, 3).parameters["loss"]
+    assert m.parameters.loss <= arx(ze, 2, 2, 3).parameters.loss
 
 
 def test_dryer_oe_223(dryer: tuple[IdData, IdData]) -> None:
     ze, zv = dryer
     m = oe(ze, 2, 2, 3)
     assert compare(m, zv).fit[0] >= compare(arx(ze, 2, 2, 3), zv).fit[0]
-    assert np.all(np.abs(np.roots(m.parameters["F"])) < 1)
+    assert np.all(np.abs(np.roots(m.parameters.F)) < 1)
 
 
 def test_bad_requests_say_what_is_wrong(dryer: tuple[IdData, IdData]) -> None:
@@ -148,9 +149,9 @@ def test_armax_on_a_lightly_damped_arm_keeps_c_inside_and_predicts_well() -> Non
     ze, zv = z[:512].detrend(), z[512:].detrend()
     for na, nb, nc in ((2, 2, 2), (3, 3, 2)):
         m = armax(ze, na, nb, nc, 1)
-        assert np.max(np.abs(np.roots(m.parameters["C"]))) <= 0.99 + 1e-9
+        assert np.max(np.abs(np.roots(m.parameters.C))) <= 0.99 + 1e-9
         one_step = compare(m, zv, horizon=1, x0="estimate").fit[0]
         assert one_step > compare(arx(ze, na, nb, 1), zv, horizon=1, x0="estimate").fit[0] > 85
     # the robot arm's OE [4 4 1]: the multistart reference's loss 0.00168 (issue 16), not
     # the 0.00325 the single start stopped at
-    assert oe(ze, 4, 4, 1).parameters["loss"] == pytest.approx(0.001678, rel=2e-3)
+    assert oe(ze, 4, 4, 1).parameters.loss == pytest.approx(0.001678, rel=2e-3)

@@ -48,13 +48,13 @@ def test_the_global_optimum_is_found_in_95_of_100_seeds(
         if kind == "oe":
             u, y = make.oe_plant(seed)
             m = oe(iddata(y, u, 1.0), 2, 2, 1)
-            first = m.parameters["start_losses"]["instrumental variables"]
+            first = m.parameters.start_losses["instrumental variables"]
         else:
             u, y = make.armax_plant(seed)
             m = armax(iddata(y, u, 1.0), 2, 2, 1, 1)
-            first = m.parameters["start_losses"]["pseudo-linear regression"]
-        best = min(references[kind][seed], m.parameters["loss"])
-        found += m.parameters["loss"] <= best * (1 + SAME)
+            first = m.parameters.start_losses["pseudo-linear regression"]
+        best = min(references[kind][seed], m.parameters.loss)
+        found += m.parameters.loss <= best * (1 + SAME)
         single += first <= best * (1 + SAME)
     print(f"{kind}: global optimum in {found} of 100 seeds, from the first start alone in {single}")
     assert found >= 95, (found, single)

@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 
-from elab.api.convert import ident_json
+from elab.api.identjson import ident_json
 from elab.ident import workflow as wf
 from tests.unit.ident.conftest import DRYER
 

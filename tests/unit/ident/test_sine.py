@@ -35,7 +35,7 @@ def test_gain_and_phase_equal_freqz(f: float) -> None:
     assert r.phase_deg == pytest.approx(np.degrees(np.angle(g)), abs=0.06)
     assert r.samples_used == round(r.periods_used / (f * TS))
     assert r.samples_used <= 750  # the first quarter is skipped
-    assert r.as_dict()["omega"] == pytest.approx(2 * np.pi * f)
+    assert r.omega == pytest.approx(2 * np.pi * f)
 
 
 def test_a_period_of_a_fractional_number_of_samples() -> None:

@@ -14,6 +14,7 @@ from numpy.testing import assert_allclose
 
 from elab.errors import InvalidInput
 from elab.ident import IdData, iddata
+from elab.ident.assess import model_notes
 from elab.ident.subspace import choose_order, decompose, n4sid
 from elab.ident.validation import compare
 from elab.laws import StateFeedback
@@ -27,11 +28,11 @@ def test_dryer_singular_values_and_fits(dryer: tuple[IdData, IdData]) -> None:
     assert_allclose(sub.singular_values[:5], [39.13, 9.925, 2.132, 1.081, 0.416], rtol=1.5e-3)
     assert compare(n4sid(ze, 4, sub=sub), zr).fit[0] >= 89  # published: 89.8 %
     assert compare(n4sid(ze, 3, sub=sub), zr).fit[0] >= 89  # published: 89.5 %
-    order, rows, why = choose_order(sub, range(1, 11))
-    assert order in (3, 4)  # "order 3 or 4 suggested"
-    assert why.startswith("least MDL")  # the dryer's singular values fall at most 4.7×
-    assert [r["order"] for r in rows] == list(range(1, 11))
-    assert rows[0]["loss"] > rows[3]["loss"]
+    choice = choose_order(sub, range(1, 11))
+    assert choice.best in (3, 4)  # "order 3 or 4 suggested"
+    assert choice.reason.startswith("least MDL")  # the dryer's singular values fall at most 4.7×
+    assert [r.order for r in choice.rows] == list(range(1, 11))
+    assert choice.rows[0].loss > choice.rows[3].loss
 
 
 def _closed_loops() -> list[tuple[str, ct.StateSpace]]:
@@ -84,10 +85,10 @@ def test_unstable_estimates_are_kept_by_default_and_reflected_on_request() -> No
     z = iddata(scipy.signal.lfilter([0, 1, 0.3], a, u), u, 1.0)
     free = n4sid(z, 2, horizon=6)
     assert np.max(np.abs(free.poles)) == pytest.approx(1.004, abs=1e-6)
-    assert not free.parameters["stabilised"] and free.parameters["reflected"] == []
+    assert not free.parameters.stabilised and free.parameters.reflected == ()
     tamed = n4sid(z, 2, horizon=6, stable=True)
-    assert tamed.parameters["stabilised"]
-    [[before, after]] = tamed.parameters["reflected"]
+    assert tamed.parameters.stabilised
+    [(before, after)] = tamed.parameters.reflected
     assert before == pytest.approx(1.004, abs=1e-6) and after == pytest.approx(1 / before)
     assert_allclose(
         np.sort(np.abs(tamed.poles)), np.sort([1 / before, np.min(np.abs(free.poles))]), rtol=1e-9
@@ -130,14 +131,14 @@ def test_the_workflow_says_when_a_model_is_unstable_as_estimated() -> None:
         ),
     )
     assert any("n4sid 2 6: a pole outside the unit circle (|z| = 1.004" in n for n in out.notes)
-    m = out.fitted[0]
-    assert m.parameters["kalman"] == "riccati"  # B and D from the R factor: a predictor exists
+    m = out.models[0].model
+    assert m.parameters.kalman == "riccati"  # B and D from the R factor: a predictor exists
     assert np.max(np.abs(np.linalg.eigvals(m.A - m.K @ m.C))) < 1
-    fit = out.models[0]["fit"]
-    assert fit["headline_x0"] == "estimated" and "unstable" in fit["headline_why"]
-    assert fit["headline"] == fit["validation_simulation_x0"]
+    fits = out.models[0].fits
+    assert fits.headline.x0 == "estimated" and "unstable" in fits.headline.why
+    assert fits.headline_fit is fits.validation_simulation_x0
     # the fallback, when the Riccati equation has no stabilising solution, is said too
-    said = wf._said("n4sid 2", replace(m, parameters=m.parameters | {"kalman": "none"}))
+    said = model_notes("n4sid 2", replace(m, parameters=replace(m.parameters, kalman="none")))
     assert any("no Kalman gain" in n for n in said)
 
 
@@ -151,8 +152,9 @@ def test_a_gap_in_the_singular_values_decides_the_order() -> None:
     ).outputs + 1e-6 * rng.standard_normal(2000)
     z = iddata(y, u, 1.0)
     sub = decompose(z, 16)
-    order, _, why = choose_order(sub, range(1, 11))
-    assert order == 4 and "fall" in why and "after order 4" in why, why
+    choice = choose_order(sub, range(1, 11))
+    why = choice.reason
+    assert choice.best == 4 and "fall" in why and "after order 4" in why, why
     assert n4sid(z).n == 4
 
 
@@ -191,9 +193,9 @@ def test_an_unstable_estimate_of_a_lightly_damped_plant_gives_a_good_default(see
         )
         assert mine >= max(as_is, refl) - 1.0, (n, mine, as_is, refl)
         p = default.parameters
-        assert p["estimation_fit_reflected"] != p["estimation_fit_as_estimated"]
-        chosen_reflected = p["estimation_fit_reflected"] > p["estimation_fit_as_estimated"]
-        assert p["stabilised"] == chosen_reflected
+        assert p.choice.fit_reflected != p.choice.fit_as_estimated
+        chosen_reflected = p.choice.fit_reflected > p.choice.fit_as_estimated
+        assert p.stabilised == chosen_reflected
     assert crossed >= 1 or seed in (2,)  # seed 2's estimates stay inside at every order
 
 
@@ -229,15 +231,15 @@ def test_the_headline_fit_is_the_one_that_means_something(dryer: tuple[IdData, I
 
     ze, zv = dryer
     plan = wf.Plan(models=(wf.parse_model("arx:2,2,3"),), correlation=False, spectral=False)
-    fit = wf.run(ze, plan, validation=zv).models[0]["fit"]
-    assert fit["headline_x0"] == "zero" and fit["headline"] == fit["validation_simulation"]
+    fit = wf.run(ze, plan, validation=zv).models[0].fits
+    assert fit.headline.x0 == "zero" and fit.headline_fit is fit.validation_simulation
     rng = np.random.default_rng(3)
     u = np.sign(rng.standard_normal(1000))
     y = scipy.signal.lfilter([0, 0.1], [1, -1], u) + 0.01 * rng.standard_normal(1000)
     out = wf.run(
         iddata(y, u, 0.1), replace(plan, models=(wf.parse_model("arx:1,1,1"),), detrend="none")
     )
-    fit = out.models[0]["fit"]
-    assert fit["headline_x0"] == "estimated" and fit["headline"] == fit["validation_simulation_x0"]
-    assert "longer than the 500-sample record" in fit["headline_why"]
-    assert fit["headline"][0] > 90 > 0 > fit["validation_simulation"][0]  # 93.8 %, −151 %
+    fit = out.models[0].fits
+    assert fit.headline.x0 == "estimated" and fit.headline_fit is fit.validation_simulation_x0
+    assert "longer than the 500-sample record" in fit.headline.why
+    assert fit.headline_fit.fit[0] > 90 > 0 > fit.validation_simulation.fit[0]  # 93.8 %, −151 %
