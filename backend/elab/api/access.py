@@ -25,6 +25,7 @@ from elab.api.auth import (
 )
 from elab.api.http import Param, endpoint, ok, read_model, within_budget
 from elab.api.runs import manager, run_summary
+from elab.api.state import lab
 from elab.errors import Forbidden, NotFound
 from elab.store.base import Pin
 
@@ -32,7 +33,7 @@ DEMO = "demo"
 
 
 def authority(request: Request) -> Authority:
-    return request.app.state.authority  # type: ignore[no-any-return]
+    return lab(request).authority
 
 
 @endpoint("GET", "/me", "Who the server takes the caller for", response=s.Me, errors=())
@@ -124,8 +125,8 @@ async def create_token(request: Request) -> Response:
     req = await read_model(request, s.TokenCreate)
     who = _token_owner(request)
     auth = authority(request)
-    limit = request.app.state.settings.max_tokens_per_identity
-    with request.app.state.pending.hold("tokens", who.id) as others:
+    limit = lab(request).settings.max_tokens_per_identity
+    with lab(request).pending.hold("tokens", who.id) as others:
         have = await asyncio.to_thread(auth.store.tokens, who.id)
         within_budget(len(have) + others, limit, "API tokens", "ELAB_MAX_TOKENS_PER_IDENTITY")
         token, raw = await asyncio.to_thread(auth.make_token, who, req.name)

@@ -36,6 +36,7 @@ from elab.api.guard import Guard
 from elab.api.http import ENDPOINTS, BodyTimeout, Handler, Pending, Uploads, error_response
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
+from elab.api.state import Lab, lab
 from elab.api.stream import RawSend, Stream
 from elab.engines.process import ProcessEngine
 from elab.errors import ElabError
@@ -68,23 +69,12 @@ def create_app(settings: Settings | None = None) -> Starlette:
             stall_timeout=settings.engine_stall,
         )
         manager = RunManager(store, engine, MsgpackCodec(), limits=settings.limits)
-        app.state.manager = manager
-        app.state.controllers = store
-        app.state.models = store
-        app.state.authority = Authority(
-            load_secret(settings.secret, settings.data_dir),
-            store,
-            read_instructors(settings.instructors),
-            session_s=settings.session_hours * 3600.0,
-            secure=settings.secure_cookies,
-        )
         jobs = JobPool(
             workers=settings.ident_workers,
             timeout=settings.ident_timeout,
             wait=settings.ident_wait,
             preload=ident.JOB_MODULES,
         )
-        app.state.jobs = jobs
         trials = JobPool(
             workers=settings.trial_workers,
             timeout=settings.trial_timeout,
@@ -94,11 +84,26 @@ def create_app(settings: Settings | None = None) -> Starlette:
             ),
             preload=controllers.JOB_MODULES,
         )
-        app.state.trials = trials
-        app.state.ident_slots = ident.IdentSlots(settings.max_ident_per_identity)
-        app.state.pending = Pending()
-        app.state.uploads = Uploads(settings.max_uploads, settings.max_uploads_per_identity)
-        app.state.streams = Counter()  # websocket streams open, by identity
+        app.state.lab = Lab(
+            settings=settings,
+            index=STATIC / "index.html" if (STATIC / "index.html").is_file() else None,
+            manager=manager,
+            controllers=store,
+            models=store,
+            authority=Authority(
+                load_secret(settings.secret, settings.data_dir),
+                store,
+                read_instructors(settings.instructors),
+                session_s=settings.session_hours * 3600.0,
+                secure=settings.secure_cookies,
+            ),
+            jobs=jobs,
+            trials=trials,
+            ident_slots=ident.IdentSlots(settings.max_ident_per_identity),
+            pending=Pending(),
+            uploads=Uploads(settings.max_uploads, settings.max_uploads_per_identity),
+            streams=Counter(),  # websocket streams open, by identity
+        )
         # Everything imported so far (numpy, scipy, control, numba: ~160,000 objects) lives
         # as long as the process. Frozen, the collector stops scanning it: a full collection
         # held the GIL for ~110 ms on a slow host, stalling every stream at once.
@@ -148,8 +153,6 @@ def create_app(settings: Settings | None = None) -> Starlette:
             ClientDisconnect: _gone,
         },
     )
-    app.state.settings = settings
-    app.state.index = STATIC / "index.html" if (STATIC / "index.html").is_file() else None
     return app
 
 
@@ -199,7 +202,7 @@ async def _gone(request: Request, exc: Exception) -> Response:
 
 async def _http_error(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, HTTPException)
-    index: Path | None = getattr(request.app.state, "index", None)
+    index = lab(request).index
     if (
         exc.status_code == 404
         and index is not None

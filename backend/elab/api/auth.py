@@ -41,6 +41,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from elab.access import ANONYMOUS, INSTRUCTOR, NOBODY, Identity, Role
 from elab.api.http import error_response
+from elab.api.state import lab
 from elab.errors import ElabError, InvalidInput, TooMany, Unauthorized
 from elab.store.base import AccessStore, Token
 
@@ -291,7 +292,7 @@ class Identify:
         if scope["type"] not in ("http", "websocket"):
             await self.app(scope, receive, send)
             return
-        auth: Authority = scope["app"].state.authority
+        auth = lab(HTTPConnection(scope)).authority
         cookies = cookies_of(scope)
         new_cookie: str | None = None
         who: Identity | None

@@ -27,6 +27,7 @@ from elab.api import convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, read_body, read_model, within_budget
+from elab.api.state import lab
 from elab.engines import coded
 from elab.engines.coded import CodeSettings
 from elab.errors import InvalidInput, NotFound
@@ -50,7 +51,7 @@ MEDIA = {
 
 
 def store(conn: HTTPConnection) -> ControllerStore:
-    return conn.app.state.controllers  # type: ignore[no-any-return]
+    return lab(conn).controllers
 
 
 @endpoint(
@@ -133,14 +134,14 @@ async def upload_controller(request: Request) -> Response:
         raise InvalidInput("plant", req.plant, "one of " + ", ".join(PLANTS))
     plant = get_plant(req.plant)
     who = identity(request)
-    limit = request.app.state.settings.max_controllers_per_identity
-    with request.app.state.pending.hold("controllers", who.id) as others:
+    limit = lab(request).settings.max_controllers_per_identity
+    with lab(request).pending.hold("controllers", who.id) as others:
         have = await asyncio.to_thread(store(request).count_controllers, who.id)
         within_budget(have + others, limit, "controllers", "ELAB_MAX_CONTROLLERS_PER_IDENTITY")
         # in a worker process of the trial pool: a wall-clock limit kills a trial that
         # takes too long, and trials never hold the threads that answer other requests
-        parsed, report = await request.app.state.trials.run(
-            _read_and_check, data, req.format, plant, request.app.state.settings.engine.code
+        parsed, report = await lab(request).trials.run(
+            _read_and_check, data, req.format, plant, lab(request).settings.engine.code
         )
         stored = StoredController(
             id="c-" + secrets.token_hex(6),

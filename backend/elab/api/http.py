@@ -29,6 +29,7 @@ from starlette.responses import JSONResponse, Response
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from elab.api.schemas.errors import ErrorBody, ErrorDetail, FieldError
+from elab.api.state import lab
 from elab.errors import (
     Conflict,
     ElabError,
@@ -186,14 +187,14 @@ class Uploads:
 async def read_body(request: Request, upload: bool = False) -> bytes:
     """The raw body, refused with 413 past ``ELAB_MAX_BODY`` (``upload``: ``ELAB_MAX_UPLOAD``,
     and 429 while ``ELAB_MAX_UPLOADS`` others are being received) before it is all read."""
-    settings = request.app.state.settings
+    settings = lab(request).settings
     limit: int = settings.max_upload if upload else settings.max_body
     setting = "ELAB_MAX_UPLOAD" if upload else "ELAB_MAX_BODY"
     length = request.headers.get("content-length")
     if length is not None and length.isascii() and length.isdigit() and int(length) > limit:
         raise TooLarge(limit, setting)
     who = request.scope.get("elab.identity")
-    uploads = request.app.state.uploads
+    uploads = lab(request).uploads
     with uploads.slot(who.id if who is not None else "") if upload else nullcontext():
         body = bytearray()
         async for part in request.stream():

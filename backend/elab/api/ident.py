@@ -31,6 +31,7 @@ from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import endpoint, error_detail, read_model
 from elab.api.identdata import records
+from elab.api.state import lab
 from elab.errors import ElabError, InvalidInput, TooMany
 from elab.ident import IdData
 from elab.ident import workflow as wf
@@ -123,7 +124,7 @@ class IdentSlots:
 
 
 def _slots(request: Request) -> IdentSlots:
-    return request.app.state.ident_slots  # type: ignore[no-any-return]
+    return lab(request).ident_slots
 
 
 class ClientGone(Exception):
@@ -131,7 +132,7 @@ class ClientGone(Exception):
 
 
 def jobs(request: Request) -> JobPool:
-    return request.app.state.jobs  # type: ignore[no-any-return]
+    return lab(request).jobs
 
 
 async def _unless_gone(request: Request, job: Coroutine[Any, Any, T]) -> T | None:

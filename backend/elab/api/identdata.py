@@ -17,12 +17,12 @@ from starlette.requests import Request
 
 from elab.api import schemas as s
 from elab.api.auth import identity
+from elab.api.state import lab
 from elab.errors import InvalidInput
 from elab.ident import IdData
 from elab.ident.data import MAX_SAMPLES
 from elab.ident.files import Table
 from elab.plants import get_plant
-from elab.runs.manager import RunManager
 
 T = TypeVar("T")
 #: a file's text and format → its table (the caller decides where it is parsed)
@@ -85,7 +85,7 @@ async def _dataset(
         except InvalidInput as exc:
             raise _renamed(prefix, exc) from None
         return _prefixed(prefix, lambda: table.dataset(src.input, src.output, src.Ts)), None
-    m: RunManager = request.app.state.manager
+    m = lab(request).manager
     record = await m.get(src.run, identity(request))
     names = [c[0] for c in record.channels]
     units = dict(record.channels)

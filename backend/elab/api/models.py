@@ -34,6 +34,7 @@ from elab.api.http import (
     read_model,
     within_budget,
 )
+from elab.api.state import lab
 from elab.design import loop
 from elab.design.model import Model
 from elab.design.response import default_horizon
@@ -47,7 +48,7 @@ STEP_POINTS = 2001
 
 
 def store(conn: HTTPConnection) -> ModelStore:
-    return conn.app.state.models  # type: ignore[no-any-return]
+    return lab(conn).models
 
 
 @endpoint(
@@ -77,8 +78,8 @@ async def create_model(request: Request) -> Response:
         raise InvalidInput("plant", req.plant, "one of " + ", ".join(PLANTS))
     doc = _document(req)
     who = identity(request)
-    limit = request.app.state.settings.max_models_per_identity
-    with request.app.state.pending.hold("models", who.id) as others:
+    limit = lab(request).settings.max_models_per_identity
+    with lab(request).pending.hold("models", who.id) as others:
         have = await asyncio.to_thread(store(request).count_models, who.id)
         within_budget(have + others, limit, "identified models", "ELAB_MAX_MODELS_PER_IDENTITY")
         kept = StoredModel(

@@ -15,6 +15,7 @@ from elab.api import changes, controllers, convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_int, read_model
+from elab.api.state import lab
 from elab.engines.base import Action, EngineStatus, StoreHealth
 from elab.errors import Conflict, InvalidInput
 from elab.laws import is_code
@@ -28,7 +29,7 @@ RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
 
 
 def manager(request: HTTPConnection) -> RunManager:
-    return request.app.state.manager  # type: ignore[no-any-return]
+    return lab(request).manager
 
 
 def run_summary(record: RunSummary, who: Identity) -> s.RunSummaryInfo:
@@ -211,7 +212,7 @@ async def server_status(request: Request) -> Response:
     """For operators and benchmarks: is the engine up and keeping up? Its ticks' lateness
     over the last minute and the trend of that lateness (the drift of the runs' clocks);
     whether its writes to the store work."""
-    jobs, uploads = request.app.state.jobs, request.app.state.uploads
+    jobs, uploads = lab(request).jobs, lab(request).uploads
     return ok(
         server_model(
             manager(request).status(),

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import contextlib
 import struct
-from collections import Counter
 from collections.abc import Awaitable, Callable, Mapping
 from typing import Any, assert_never
 
@@ -30,6 +29,7 @@ from elab.api.auth import identity
 from elab.api.frames import pack
 from elab.api.http import error_detail, query_int
 from elab.api.runs import apply_params, run_info
+from elab.api.state import lab
 from elab.errors import ElabError, InvalidInput, NotFound, TooMany
 from elab.runs.fanout import Watcher
 
@@ -140,11 +140,11 @@ async def stream(
         await ws.accept()
         await ws.close(s.CloseCode.BAD_REQUEST, f"use the websocket subprotocol {s.PROTOCOL}")
         return
-    m = ws.app.state.manager
+    m = lab(ws).manager
     who = identity(ws)
-    streams: Counter[str] = ws.app.state.streams
+    streams = lab(ws).streams
     key = who.id or f"address {ws.client.host if ws.client else ''}"
-    limit = ws.app.state.settings.max_streams_per_identity
+    limit = lab(ws).settings.max_streams_per_identity
     try:
         from_seq = query_int(ws, "from_seq", -1, 0, 2**62)
         record = await m.get(ws.path_params["run_id"], who)
@@ -183,7 +183,7 @@ async def _watch(
     watcher = Watcher(
         send_bytes,
         m.codec,
-        max_frames=ws.app.state.settings.watcher_frames,
+        max_frames=lab(ws).settings.watcher_frames,
         write=write,
         who=who.id,
     )
@@ -256,7 +256,7 @@ async def _handle(
         case s.SetParams():
             await apply_params(ws, run_id, msg, who)
         case s.Pause() | s.Resume() | s.Stop():
-            await ws.app.state.manager.control(run_id, msg.type, who)
+            await lab(ws).manager.control(run_id, msg.type, who)
         case _:
             assert_never(msg)
 
