@@ -111,7 +111,7 @@ def _arx_siso(data: IdData, na: int, nb: int, nk: int) -> LinearModel:
             dB=np.r_[np.zeros(nk), sd[na:]],
             loss=loss,
             fpe=loss * (1 + d / n) / (1 - d / n),
-            aic=math.log(loss) + 2 * d / n,
+            aic=math.log(loss) + 2 * d / n if loss > 0 else -math.inf,  # an exact fit
             samples=n,
         ),
     )

@@ -14,6 +14,7 @@ from numpy.testing import assert_allclose
 from elab.errors import InvalidInput
 from elab.ident import IdData, iddata
 from elab.ident.nonparametric import cra, spa
+from elab.ident.parameters import ArxParameters
 from elab.ident.polynomial import arx, arxstruc, from_polynomials, selstruc, struc
 from elab.ident.validation import compare, fit_percent, resid
 from elab.laws import StateFeedback
@@ -185,3 +186,13 @@ def test_spectral_analysis_default_window_and_bad_input(dryer: tuple[IdData, IdD
     assert err.value.field == "window"
     with pytest.raises(InvalidInput, match="rad/s"):
         spa(ze, omega=np.array([100.0]))
+
+
+def test_an_exact_fit_has_a_zero_loss_and_an_aic_of_minus_infinity() -> None:
+    """An output of zeros is fitted exactly (loss 0): its AIC is −∞, as for several outputs,
+    not a math domain error (the workflow names such an output before estimating; a
+    direct ``arx`` call raised)."""
+    u = np.sign(np.random.default_rng(1).standard_normal(200))
+    m = arx(IdData(np.zeros((200, 1)), u[:, None], 0.01), 1, 1, 1)
+    assert isinstance(m.parameters, ArxParameters)
+    assert m.parameters.loss == 0.0 and m.parameters.aic == -np.inf
