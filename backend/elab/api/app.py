@@ -68,7 +68,8 @@ def create_app(settings: Settings | None = None) -> Starlette:
             command_timeout=settings.engine_timeout,
             stall_timeout=settings.engine_stall,
         )
-        manager = RunManager(store, engine, MsgpackCodec(), limits=settings.limits)
+        engines = {"simulation": engine}
+        manager = RunManager(store, engines, MsgpackCodec(), limits=settings.limits)
         jobs = JobPool(
             workers=settings.ident_workers,
             timeout=settings.ident_timeout,

@@ -16,13 +16,13 @@ from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_int, read_model
 from elab.api.state import lab
-from elab.engines.base import Action, EngineStatus, StoreHealth
+from elab.engines.base import Action, StoreHealth
 from elab.errors import Conflict, InvalidInput
 from elab.laws import is_code
 from elab.lifecycle import RunState
 from elab.plants import PLANTS, get_plant
 from elab.runs.fanout import frame_samples
-from elab.runs.manager import RunManager
+from elab.runs.manager import ManagerStatus, RunManager
 from elab.store.base import RunRecord, RunSummary
 
 RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
@@ -104,8 +104,9 @@ async def create_run(request: Request) -> Response:
     at ``ELAB_OWNER_GONE`` s."""
     req = await read_model(request, s.RunCreate)
     plant = get_plant(req.plant)
-    if req.mode == "rig":
-        raise InvalidInput("mode", "rig", "simulation (the rig is not connected to this server)")
+    if req.mode not in plant.modes:
+        raise InvalidInput("mode", req.mode, " or ".join(plant.modes) + f" for {plant.id}")
+    manager(request).engine_for(req.mode)  # a server without a rig says so here
     uploaded = None
     if req.controller_id is not None:
         uploaded = await controllers.law_of(request, req.controller_id, plant.id)
@@ -232,25 +233,30 @@ async def server_status(request: Request) -> Response:
 async def health(request: Request) -> Response:
     """For a load balancer or a supervisor: the engine is up and ticking and its store
     writes work."""
-    st = manager(request).status()["engine"]
+    engines = manager(request).status().engines
+    st = engines["simulation"]
     down = st.problem or (None if st.up else "the engine is not running")
     if down:
         return ok(s.HealthInfo(status="unavailable", problems=[down]), status=503)
-    if st.warning:
-        return ok(s.HealthInfo(status="degraded", problems=[st.warning]))
+    problems = [e.warning for e in engines.values() if e.warning]
+    problems += [  # a rig out of service leaves the rest of the lab working
+        f"{mode}: {e.problem or 'not running'}"
+        for mode, e in engines.items()
+        if mode != "simulation" and (e.problem or not e.up)
+    ]
+    if problems:
+        return ok(s.HealthInfo(status="degraded", problems=problems))
     return ok(s.HealthInfo(status="ok", problems=[]))
 
 
-def server_model(
-    status: dict[str, Any], jobs: s.JobsInfo, uploads: s.UploadsInfo
-) -> s.ServerStatus:
-    st: EngineStatus = status["engine"]
+def server_model(status: ManagerStatus, jobs: s.JobsInfo, uploads: s.UploadsInfo) -> s.ServerStatus:
+    st = status.engines["simulation"]
     h = st.health
     timing = s.StepperTiming() if h is None else s.StepperTiming.model_validate(h.timing)
     store = h.store if h is not None else StoreHealth()
     return s.ServerStatus(
-        live_runs=status["live_runs"],
-        watchers=status["watchers"],
+        live_runs=status.live_runs,
+        watchers=status.watchers,
         stepper=timing,
         engine=s.EngineInfo(
             id=st.engine,

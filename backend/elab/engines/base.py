@@ -11,6 +11,7 @@ later cross machines through a broker without changing the run manager.
 
 from __future__ import annotations
 
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import Any, Literal, NamedTuple, Protocol
 
@@ -191,3 +192,37 @@ class Engine(Protocol):
 
     def status(self) -> EngineStatus:
         """Up or not, why, and its last heartbeat."""
+
+
+class SteppingEngine(Protocol):
+    """What an engine process runs (:mod:`elab.engines.child`), one per kind: the
+    simulation (:class:`~elab.engines.simulation.SimulationEngine`) and the rig's host loop.
+    Every method is safe to call from any thread; it reports through the
+    :class:`EngineEvents` it was built with."""
+
+    id: str
+
+    def start(self) -> list[str]:
+        """Ready to take runs; the ids of runs its earlier end left live, now interrupted."""
+
+    def close(self, reason: str = "server shut down") -> None:
+        """Live runs end interrupted with ``reason``; everything is stored."""
+
+    def add(self, order: RunOrder) -> RunRecord:
+        """Take a run (stored before it steps); its record."""
+
+    def control(self, run_id: str, action: Action, reason: str | None = None) -> Future[int]:
+        """Pause, resume or stop: the sample it happens at, once the stepping decided it."""
+
+    def replace(
+        self,
+        run_id: str,
+        *,
+        law: ControlLaw | None,
+        reference: Signal | None,
+        params: dict[str, Any],
+    ) -> int:
+        """As :meth:`Engine.replace`."""
+
+    def health(self) -> Health:
+        """Its heartbeat."""

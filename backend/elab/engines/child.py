@@ -27,10 +27,10 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Any, assert_never
+from typing import assert_never
 
 from elab.engines import wire
-from elab.engines.base import Block, Changed, Ended, Health
+from elab.engines.base import Block, Changed, Ended, EngineEvents, Health, SteppingEngine
 from elab.engines.simulation import EngineSettings, SimulationEngine
 from elab.errors import ElabError
 from elab.runtime import return_memory
@@ -152,9 +152,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     sock = socket.socket(fileno=args.fd)
     outbox = Outbox(sock, max_queue, backlog_bytes=min(4 << 20, max_queue // 4))
     store = SQLiteStore(Path(args.database), migrate=False)
-    engine = SimulationEngine(
-        args.engine, store, WireEvents(outbox), settings, backlog=outbox.backlogged
-    )
+    engine = _build(args.kind, args.engine, store, WireEvents(outbox), settings, outbox)
     interrupted = engine.start()
     # what is loaded by now (numpy, scipy, control, numba, the compiled loop: ~160,000
     # objects) is never garbage: out of the collector's way, so that a full collection
@@ -162,7 +160,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # 5-10 s after 300 runs were started: a tick 64-110 ms late)
     gc.collect()
     gc.freeze()
-    outbox.put(wire.event_out(wire.Ready(engine.id, os.getpid(), interrupted)))
+    outbox.put(wire.event_out(wire.Ready(engine.id, os.getpid(), interrupted, kind=args.kind)))
     beat = threading.Thread(
         target=_heartbeat, args=(engine, outbox), name="elab-engine-beat", daemon=True
     )
@@ -179,8 +177,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
+def _build(
+    kind: str,
+    engine_id: str,
+    store: SQLiteStore,
+    events: EngineEvents,
+    settings: EngineSettings,
+    outbox: Outbox,
+) -> SteppingEngine:
+    """The engine of ``kind`` (``--kind``)."""
+    if kind == "simulation":
+        return SimulationEngine(engine_id, store, events, settings, backlog=outbox.backlogged)
+    raise SystemExit(f"unknown engine kind {kind!r}: simulation")
+
+
 def _serve(
-    sock: socket.socket, engine: SimulationEngine, outbox: Outbox, workers: ThreadPoolExecutor
+    sock: socket.socket, engine: SteppingEngine, outbox: Outbox, workers: ThreadPoolExecutor
 ) -> str | None:
     """Commands until the web process closes us (its reason) or goes away (``None``)."""
     while True:
@@ -188,18 +200,18 @@ def _serve(
         if message is None:
             return None
         try:
-            cmd = wire.command_in(message)
-        except (ValueError, KeyError, TypeError) as exc:
+            cmd = wire.decode_command(message)
+        except wire.Unreadable as exc:
             error = ElabError(f"a command the engine cannot read: {exc}")
-            outbox.put(wire.event_out(wire.Reply(message.get("id", -1), error=error)))
+            outbox.put(wire.event_out(wire.Reply(exc.command_id, error=error)))
             continue
         match cmd:
             case wire.Close():
                 return cmd.reason
             case wire.Add():
-                _reply_when(workers.submit(engine.add, cmd.order), outbox, cmd.id, wire.record_out)
+                _reply_when(workers.submit(engine.add, cmd.order), outbox, cmd.id)
             case wire.Control():
-                _reply_when(engine.control(cmd.run, cmd.action, cmd.reason), outbox, cmd.id, int)
+                _reply_when(engine.control(cmd.run, cmd.action, cmd.reason), outbox, cmd.id)
             case wire.Replace():
                 change = workers.submit(
                     engine.replace,
@@ -208,16 +220,16 @@ def _serve(
                     reference=cmd.reference,
                     params=cmd.params,
                 )
-                _reply_when(change, outbox, cmd.id, int)
+                _reply_when(change, outbox, cmd.id)
             case _:
                 assert_never(cmd)
 
 
-def _reply_when(fut: Future[Any], outbox: Outbox, cid: int, out: Callable[[Any], Any]) -> None:
-    def reply(f: Future[Any]) -> None:
+def _reply_when(fut: Future[RunRecord] | Future[int], outbox: Outbox, cid: int) -> None:
+    def reply(f: Future[RunRecord] | Future[int]) -> None:
         exc = f.exception()
         if exc is None:
-            outbox.put(wire.event_out(wire.Reply(cid, ok=out(f.result()))))
+            outbox.put(wire.event_out(wire.Reply(cid, ok=f.result())))
             return
         if not isinstance(exc, ElabError):
             log.error("engine command failed", exc_info=exc)
@@ -227,7 +239,8 @@ def _reply_when(fut: Future[Any], outbox: Outbox, cid: int, out: Callable[[Any],
     fut.add_done_callback(reply)
 
 
-def _receive(sock: socket.socket) -> dict[str, Any] | None:
+def _receive(sock: socket.socket) -> bytes | None:
+    """A command's header (commands carry no payload), or ``None`` at the end."""
     prefix = _exactly(sock, wire.HEADER_BYTES)
     if prefix is None:
         return None
@@ -235,7 +248,7 @@ def _receive(sock: socket.socket) -> dict[str, Any] | None:
     header = _exactly(sock, head)
     if header is None or (payload and _exactly(sock, payload) is None):
         return None
-    return json.loads(header)  # type: ignore[no-any-return]
+    return header
 
 
 def _exactly(sock: socket.socket, n: int) -> bytes | None:
@@ -252,7 +265,7 @@ def _exactly(sock: socket.socket, n: int) -> bytes | None:
     return bytes(buf)
 
 
-def _heartbeat(engine: SimulationEngine, outbox: Outbox) -> None:
+def _heartbeat(engine: SteppingEngine, outbox: Outbox) -> None:
     while True:
         time.sleep(HEARTBEAT)
         try:
@@ -287,6 +300,7 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m elab.engines.child")
     p.add_argument("--fd", type=int, required=True, help="the socket to the web process")
     p.add_argument("--engine", required=True, help="this engine's id (its runs in the store)")
+    p.add_argument("--kind", default="simulation", help="what it steps: simulation")
     p.add_argument("--database", required=True, help="the SQLite store")
     p.add_argument("--settings", default="{}", help="EngineSettings as JSON, plus nice, max_queue")
     return p

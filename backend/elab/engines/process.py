@@ -53,12 +53,14 @@ class ProcessEngine:
         database: Path,
         settings: EngineSettings,
         *,
+        kind: str = "simulation",
         nice: int = 0,
         max_queue: int = 64 << 20,
         command_timeout: float = 10.0,
         stall_timeout: float = 30.0,
     ) -> None:
         self.id = engine_id
+        self.kind = kind
         self.database = database
         self.settings = settings
         self.nice = nice
@@ -72,7 +74,7 @@ class ProcessEngine:
         self._closing = False
         self._problem: str | None = "not started"
         self._killed: str | None = None  # why the supervisor killed the process, if it did
-        self._pending: dict[int, asyncio.Future[Any]] = {}
+        self._pending: dict[int, asyncio.Future[RunRecord | int | None]] = {}
         self._ids = itertools.count()
         self._health: Health | None = None
         self._beat: float | None = None  # monotonic time of the last heartbeat
@@ -134,10 +136,13 @@ class ProcessEngine:
 
     # -- commands ------------------------------------------------------------------
     async def add(self, order: RunOrder) -> RunRecord:
-        return wire.record_in(await self._call(lambda cid: wire.Add(cid, order)))
+        record = await self._call(lambda cid: wire.Add(cid, order))
+        if not isinstance(record, RunRecord):
+            raise ElabError(f"the {self.kind} engine answered a new run with {record!r}")
+        return record
 
     async def control(self, run_id: str, action: Action, reason: str | None = None) -> int:
-        return int(await self._call(lambda cid: wire.Control(cid, run_id, action, reason)))
+        return _sample(await self._call(lambda cid: wire.Control(cid, run_id, action, reason)))
 
     async def replace(
         self,
@@ -147,31 +152,33 @@ class ProcessEngine:
         reference: Signal | None,
         params: dict[str, Any],
     ) -> int:
-        return int(await self._call(lambda cid: wire.Replace(cid, run_id, law, reference, params)))
+        return _sample(
+            await self._call(lambda cid: wire.Replace(cid, run_id, law, reference, params))
+        )
 
-    async def _call(self, command: Callable[[int], wire.Command]) -> Any:
+    async def _call(self, command: Callable[[int], wire.Command]) -> RunRecord | int | None:
         """Send the command made for a fresh id; its answer."""
         if not self._ready or self._writer is None:
             raise Unavailable(
-                f"the simulation engine is not running ({self._problem}); it "
+                f"the {self.kind} engine is not running ({self._problem}); it "
                 "restarts by itself, try again shortly",
                 retry_after=2.0,
             )
         cid = next(self._ids)
-        fut: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
+        fut: asyncio.Future[RunRecord | int | None] = asyncio.get_running_loop().create_future()
         self._pending[cid] = fut
         try:
             self._writer.write(wire.command_out(command(cid)))
             return await asyncio.wait_for(self._answer(fut), self.command_timeout)
         except TimeoutError:
             raise Unavailable(
-                f"the simulation engine did not answer within {self.command_timeout:g} s",
+                f"the {self.kind} engine did not answer within {self.command_timeout:g} s",
                 retry_after=5.0,
             ) from None
         finally:
             self._pending.pop(cid, None)
 
-    async def _answer(self, fut: asyncio.Future[Any]) -> Any:
+    async def _answer(self, fut: asyncio.Future[RunRecord | int | None]) -> RunRecord | int | None:
         assert self._writer is not None
         await self._writer.drain()
         return await fut
@@ -188,6 +195,8 @@ class ProcessEngine:
             str(child.fileno()),
             "--engine",
             self.id,
+            "--kind",
+            self.kind,
             "--database",
             str(self.database),
             "--settings",
@@ -206,15 +215,20 @@ class ProcessEngine:
             self._proc.kill()
             code = await asyncio.to_thread(self._proc.wait)
             raise ElabError(
-                f"the simulation engine did not start ({_ended(code)}; its "
+                f"the {self.kind} engine did not start ({_ended(code)}; its "
                 f"messages are in the server's log)"
             ) from exc
         try:
-            ready: wire.Event | None = wire.event_in(header, b"")
-        except (ValueError, KeyError, TypeError):
+            ready: wire.Event | None = wire.decode_event(header, b"")
+        except wire.Unreadable:
             ready = None
-        if not isinstance(ready, wire.Ready):
-            raise ElabError(f"the simulation engine said {header!r} instead of ready")
+        if not isinstance(ready, wire.Ready) or ready.protocol != wire.PROTOCOL:
+            self._proc.kill()
+            said = f"protocol {ready.protocol}" if isinstance(ready, wire.Ready) else header[:200]
+            raise ElabError(
+                f"the {self.kind} engine said {said!r} instead of ready with protocol "
+                f"{wire.PROTOCOL}: it is another version of E-Lab"
+            )
         self._ready, self._problem, self._beat = True, None, time.monotonic()
         if ready.interrupted:
             log.warning(
@@ -231,17 +245,17 @@ class ProcessEngine:
                 try:
                     self._dispatch(header, payload)
                 except Exception:  # a bug in a handler must not cut the engine off
-                    log.exception("engine %s: handling %s failed", self.id, header.get("ev"))
+                    log.exception("engine %s: handling %s failed", self.id, header[:80])
         except (asyncio.IncompleteReadError, ConnectionError, OSError):
             pass
         await self._lost()
 
-    def _dispatch(self, h: dict[str, Any], payload: bytes) -> None:
+    def _dispatch(self, head: bytes, payload: bytes) -> None:
         events = self._events
         assert events is not None
         try:
-            ev = wire.event_in(h, payload)
-        except (ValueError, KeyError, TypeError) as exc:
+            ev = wire.decode_event(head, payload)
+        except wire.Unreadable as exc:
             log.error("engine %s sent a message not understood here: %s", self.id, exc)
             return
         match ev:
@@ -331,11 +345,17 @@ class ProcessEngine:
         return task
 
 
-async def _read(reader: asyncio.StreamReader) -> tuple[dict[str, Any], bytes]:
+async def _read(reader: asyncio.StreamReader) -> tuple[bytes, bytes]:
     head, size = wire.lengths(await reader.readexactly(wire.HEADER_BYTES))
-    header = json.loads(await reader.readexactly(head))
+    header = await reader.readexactly(head)
     payload = await reader.readexactly(size) if size else b""
     return header, payload
+
+
+def _sample(answer: RunRecord | int | None) -> int:
+    if not isinstance(answer, int):
+        raise ElabError(f"an engine answered a command with {answer!r}, not a sample index")
+    return answer
 
 
 def _ended(code: int | None) -> str:

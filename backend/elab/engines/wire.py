@@ -8,10 +8,12 @@ later go through a broker between machines.
 
 Both directions are typed: a :data:`Command` (web process → engine) and an
 :data:`Event` (engine → web process) are frozen dataclasses, encoded by
-:func:`command_out` / :func:`event_out` and decoded by :func:`command_in` /
-:func:`event_in`; the engine process and :class:`~elab.engines.process.ProcessEngine`
-dispatch on them with ``match`` and ``assert_never``, so a new message fails mypy
-wherever it must be handled (``scripts/check_dispatch.py``).
+:func:`command_out` / :func:`event_out` and decoded from a frame's bytes by
+:func:`decode_command` / :func:`decode_event` (the JSON in between never leaves this
+module); the engine process and :class:`~elab.engines.process.ProcessEngine` dispatch on
+them with ``match`` and ``assert_never``, so a new message fails mypy wherever it must be
+handled (``scripts/check_dispatch.py``). The engine's first message, :class:`Ready`, says
+which :data:`PROTOCOL` it speaks; a web process refuses an engine that speaks another.
 """
 
 from __future__ import annotations
@@ -34,6 +36,9 @@ from elab.sim import signals
 from elab.sim.signals import Signal
 from elab.sim.spec import RunSpec
 from elab.store.base import ParamChange, RunRecord
+
+#: The version of these messages; bumped with any change to a message's fields.
+PROTOCOL = 2
 
 _FRAME = struct.Struct("<II")
 HEADER_BYTES = _FRAME.size
@@ -102,28 +107,68 @@ def command_out(cmd: Command) -> bytes:
     """One framed command."""
     match cmd:
         case Add():
-            return frame({"op": "add", "id": cmd.id, "order": order_out(cmd.order)})
+            return _frame({"op": "add", "id": cmd.id, "order": _order_out(cmd.order)})
         case Control():
             h = {"op": "control", "id": cmd.id, "run": cmd.run, "action": cmd.action}
-            return frame({**h, "reason": cmd.reason})
+            return _frame({**h, "reason": cmd.reason})
         case Replace():
             h = {"op": "replace", "id": cmd.id, "run": cmd.run, "params": cmd.params}
-            return frame({**h, "law": plain(cmd.law), "reference": plain(cmd.reference)})
+            return _frame({**h, "law": _plain(cmd.law), "reference": _plain(cmd.reference)})
         case Close():
-            return frame({"op": "close", "reason": cmd.reason})
+            return _frame({"op": "close", "reason": cmd.reason})
         case _:
             assert_never(cmd)
 
 
-def command_in(h: dict[str, Any]) -> Command:
-    """The command a header holds; ``ValueError`` for one this engine does not know."""
+class Unreadable(ValueError):
+    """A frame that holds no message known here; ``command_id``: the id of the command it
+    seems to be (to answer it with an error), or -1."""
+
+    def __init__(self, message: str, command_id: int = -1) -> None:
+        super().__init__(message)
+        self.command_id = command_id
+
+
+def decode_command(head: bytes) -> Command:
+    """The command in a frame's header; :class:`Unreadable` for one not known here."""
+    h = _object(head)
+    try:
+        return _command_in(h)
+    except (ValueError, KeyError, TypeError) as exc:
+        cid = h.get("id")
+        raise Unreadable(f"a command not understood: {exc!r}", _int_or(cid)) from exc
+
+
+def decode_event(head: bytes, payload: bytes) -> Event:
+    """The event in a frame's header and payload; :class:`Unreadable` for one not known."""
+    try:
+        return _event_in(_object(head), payload)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise Unreadable(f"an event not understood: {exc!r}") from exc
+
+
+def _object(head: bytes) -> dict[str, Any]:
+    try:
+        h = json.loads(head)
+    except ValueError as exc:
+        raise Unreadable(f"a header that is not JSON: {exc}") from exc
+    if not isinstance(h, dict):
+        raise Unreadable(f"a header that is not an object: {type(h).__name__}")
+    return h
+
+
+def _int_or(value: object, default: int = -1) -> int:
+    return value if isinstance(value, int) else default
+
+
+def _command_in(h: dict[str, Any]) -> Command:
     match h.get("op"):
         case "add":
-            return Add(h["id"], order_in(h["order"]))
+            return Add(h["id"], _order_in(h["order"]))
         case "control":
             return Control(h["id"], h["run"], h["action"], h["reason"])
         case "replace":
-            law, reference = typed(h["law"]), typed(h["reference"])
+            law, reference = _typed(h["law"]), _typed(h["reference"])
             return Replace(h["id"], h["run"], law, reference, h["params"])
         case "close":
             return Close(str(h.get("reason") or "server shut down"))
@@ -134,19 +179,23 @@ def command_in(h: dict[str, Any]) -> Command:
 # -- events: engine → web process -------------------------------------------------------
 @dataclass(frozen=True)
 class Ready:
-    """The engine is up; ``interrupted``: runs its earlier end interrupted."""
+    """The engine is up; ``interrupted``: runs its earlier end interrupted; ``protocol``:
+    the :data:`PROTOCOL` it speaks; ``kind``: what it steps (``"simulation"``, ``"rig"``)."""
 
     engine: str
     pid: int
     interrupted: list[str]
+    protocol: int = PROTOCOL
+    kind: str = "simulation"
 
 
 @dataclass(frozen=True)
 class Reply:
-    """The answer to command ``id``: ``ok``, or ``error``."""
+    """The answer to command ``id``: ``ok`` (an added run's record, or the sample index a
+    command took effect at), or ``error``."""
 
     id: int
-    ok: Any = None
+    ok: RunRecord | int | None = None
     error: ElabError | None = None
 
 
@@ -203,48 +252,53 @@ def event_out(ev: Event) -> bytes:
     """One framed event."""
     match ev:
         case Ready():
-            return frame({"ev": "ready", **dataclasses.asdict(ev)})
+            return _frame({"ev": "ready", **dataclasses.asdict(ev)})
+        case Reply(error=None, ok=RunRecord() as record):
+            return _frame({"ev": "reply", "id": ev.id, "record": dataclasses.asdict(record)})
         case Reply(error=None):
-            return frame({"ev": "reply", "id": ev.id, "ok": ev.ok})
+            return _frame({"ev": "reply", "id": ev.id, "k": ev.ok})
         case Reply():
             assert ev.error is not None
-            return frame({"ev": "reply", "id": ev.id, "error": error_out(ev.error)})
+            return _frame({"ev": "reply", "id": ev.id, "error": _error_out(ev.error)})
         case Blocks():
-            return blocks_out(ev.blocks)
+            return _blocks_out(ev.blocks)
         case StateChanged():
-            return frame(changed_out(ev.change))
+            return _frame(_changed_out(ev.change))
         case Started():
-            return frame({"ev": "started", "record": record_out(ev.record)})
+            return _frame({"ev": "started", "record": dataclasses.asdict(ev.record)})
         case Params():
             c = ev.change
-            return frame({"ev": "params", "run": ev.run, "k": c.k, "params": c.params, "at": c.at})
+            return _frame({"ev": "params", "run": ev.run, "k": c.k, "params": c.params, "at": c.at})
         case Committed():
-            return frame({"ev": "committed", "counts": ev.counts})
+            return _frame({"ev": "committed", "counts": ev.counts})
         case Stored():
-            return frame({"ev": "stored", "run": ev.run})
+            return _frame({"ev": "stored", "run": ev.run})
         case RunEnded():
-            return frame({"ev": "ended", "run": ev.run, **ended_out(ev.ended)})
+            e = ev.ended
+            h = {"ev": "ended", "run": ev.run, "state": e.state.value}
+            return _frame({**h, "error": e.error, "n": e.n})
         case Beat():
-            return frame(health_out(ev.health))
+            return _frame({"ev": "health", **dataclasses.asdict(ev.health)})
         case _:
             assert_never(ev)
 
 
-def event_in(h: dict[str, Any], payload: bytes) -> Event:
-    """The event a header (and payload) holds; ``ValueError`` for one not known here."""
+def _event_in(h: dict[str, Any], payload: bytes) -> Event:
     match h.get("ev"):
         case "ready":
-            return Ready(h["engine"], h["pid"], h["interrupted"])
+            return Ready(h["engine"], h["pid"], h["interrupted"], h["protocol"], h["kind"])
         case "reply" if "error" in h:
-            return Reply(h["id"], error=error_in(h["error"]))
+            return Reply(h["id"], error=_error_in(h["error"]))
+        case "reply" if "record" in h:
+            return Reply(h["id"], ok=_record_in(h["record"]))
         case "reply":
-            return Reply(h["id"], ok=h["ok"])
+            return Reply(h["id"], ok=h["k"])
         case "blocks":
-            return Blocks(blocks_in(h, payload))
+            return Blocks(_blocks_in(h, payload))
         case "changed":
-            return StateChanged(changed_in(h))
+            return StateChanged(_changed_in(h))
         case "started":
-            return Started(record_in(h["record"]))
+            return Started(_record_in(h["record"]))
         case "params":
             return Params(h["run"], ParamChange(h["k"], h["params"], h["at"]))
         case "committed":
@@ -252,14 +306,14 @@ def event_in(h: dict[str, Any], payload: bytes) -> Event:
         case "stored":
             return Stored(h["run"])
         case "ended":
-            return RunEnded(h["run"], ended_in(h))
+            return RunEnded(h["run"], Ended(RunState(h["state"]), h["error"], h["n"]))
         case "health":
-            return Beat(health_in(h))
+            return Beat(_health_in(h))
         case ev:
             raise ValueError(f"unknown engine event {ev!r}")
 
 
-def frame(header: dict[str, Any], payload: bytes = b"") -> bytes:
+def _frame(header: dict[str, Any], payload: bytes = b"") -> bytes:
     """One framed message."""
     head = json.dumps(header, separators=(",", ":")).encode()
     return _FRAME.pack(len(head), len(payload)) + head + payload
@@ -274,51 +328,51 @@ def lengths(prefix: bytes) -> tuple[int, int]:
 
 
 # -- run specs ------------------------------------------------------------------------
-def spec_out(spec: RunSpec) -> dict[str, Any]:
+def _spec_out(spec: RunSpec) -> dict[str, Any]:
     return {
-        f.name: spec.plant.id if f.name == "plant" else plain(getattr(spec, f.name))
+        f.name: spec.plant.id if f.name == "plant" else _plain(getattr(spec, f.name))
         for f in dataclasses.fields(spec)
     }
 
 
-def spec_in(data: dict[str, Any]) -> RunSpec:
-    fields = {k: typed(v) for k, v in data.items()}
+def _spec_in(data: dict[str, Any]) -> RunSpec:
+    fields = {k: _typed(v) for k, v in data.items()}
     fields["plant"] = get_plant(data["plant"])
     return RunSpec(**fields)
 
 
-def plain(value: Any) -> Any:
+def _plain(value: object) -> object:
     """A law, signal or any value of a spec as JSON-able data."""
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         if type(value).__name__ not in _TYPES:
             raise TypeError(f"{type(value).__name__} cannot go to an engine")
         return {
             "type": type(value).__name__,
-            **{f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)},
+            **{f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)},
         }
     if isinstance(value, tuple | list):
-        return [plain(v) for v in value]
+        return [_plain(v) for v in value]
     if isinstance(value, complex):  # an observer's poles
         return {"type": "complex", "re": value.real, "im": value.imag}
     return value
 
 
-def typed(value: Any) -> Any:
-    """The inverse of :func:`plain`."""
+def _typed(value: Any) -> Any:
+    """The inverse of :func:`_plain`."""
     if isinstance(value, dict) and value.get("type") == "complex":
         return complex(value["re"], value["im"])
     if isinstance(value, dict) and "type" in value:
         cls = _TYPES[value["type"]]
-        return cls(**{k: typed(v) for k, v in value.items() if k != "type"})
+        return cls(**{k: _typed(v) for k, v in value.items() if k != "type"})
     if isinstance(value, list):
-        return tuple(typed(v) for v in value)
+        return tuple(_typed(v) for v in value)
     return value
 
 
-def order_out(order: RunOrder) -> dict[str, Any]:
+def _order_out(order: RunOrder) -> dict[str, Any]:
     return {
         "id": order.id,
-        "spec": spec_out(order.spec),
+        "spec": _spec_out(order.spec),
         "pace": order.pace,
         "mode": order.mode,
         "experiment": order.experiment,
@@ -328,10 +382,10 @@ def order_out(order: RunOrder) -> dict[str, Any]:
     }
 
 
-def order_in(data: dict[str, Any]) -> RunOrder:
+def _order_in(data: dict[str, Any]) -> RunOrder:
     return RunOrder(
         id=data["id"],
-        spec=spec_in(data["spec"]),
+        spec=_spec_in(data["spec"]),
         pace=data["pace"],
         mode=data["mode"],
         experiment=data["experiment"],
@@ -341,22 +395,18 @@ def order_in(data: dict[str, Any]) -> RunOrder:
     )
 
 
-def record_out(record: RunRecord) -> dict[str, Any]:
-    return dataclasses.asdict(record)
-
-
-def record_in(data: dict[str, Any]) -> RunRecord:
+def _record_in(data: dict[str, Any]) -> RunRecord:
     return RunRecord(**{**data, "channels": tuple(tuple(c) for c in data["channels"])})
 
 
 # -- events -------------------------------------------------------------------------
-def blocks_out(blocks: list[Block]) -> bytes:
+def _blocks_out(blocks: list[Block]) -> bytes:
     groups = [[b.run_ids, b.k0, int(b.data.shape[1]), int(b.data.shape[2])] for b in blocks]
     payload = b"".join(np.ascontiguousarray(b.data, dtype="<f8").tobytes() for b in blocks)
-    return frame({"ev": "blocks", "groups": groups}, payload)
+    return _frame({"ev": "blocks", "groups": groups}, payload)
 
 
-def blocks_in(header: dict[str, Any], payload: bytes) -> list[Block]:
+def _blocks_in(header: dict[str, Any], payload: bytes) -> list[Block]:
     out, at = [], 0
     for run_ids, k0, n, ncols in header["groups"]:
         size = len(run_ids) * n * ncols * 8
@@ -368,7 +418,7 @@ def blocks_in(header: dict[str, Any], payload: bytes) -> list[Block]:
     return out
 
 
-def changed_out(change: Changed) -> dict[str, Any]:
+def _changed_out(change: Changed) -> dict[str, Any]:
     return {
         "ev": "changed",
         "run": change.run_id,
@@ -379,29 +429,17 @@ def changed_out(change: Changed) -> dict[str, Any]:
     }
 
 
-def changed_in(h: dict[str, Any]) -> Changed:
+def _changed_in(h: dict[str, Any]) -> Changed:
     return Changed(h["run"], RunState(h["state"]), h["k"], h["error"], h.get("compute"))
 
 
-def ended_out(ended: Ended) -> dict[str, Any]:
-    return {"state": ended.state.value, "error": ended.error, "n": ended.n}
-
-
-def ended_in(h: dict[str, Any]) -> Ended:
-    return Ended(RunState(h["state"]), h["error"], h["n"])
-
-
-def health_out(health: Health) -> dict[str, Any]:
-    return {"ev": "health", **dataclasses.asdict(health)}
-
-
-def health_in(h: dict[str, Any]) -> Health:
+def _health_in(h: dict[str, Any]) -> Health:
     fields = {k: v for k, v in h.items() if k != "ev"}
     return Health(**{**fields, "store": StoreHealth(**fields["store"])})
 
 
 # -- errors ---------------------------------------------------------------------------
-def error_out(exc: ElabError) -> dict[str, Any]:
+def _error_out(exc: ElabError) -> dict[str, Any]:
     out: dict[str, Any] = {"type": type(exc).__name__, "message": str(exc)}
     if isinstance(exc, InvalidInput):
         out.update(field=exc.field, value=_json_safe(exc.value), allowed=exc.allowed)
@@ -412,7 +450,7 @@ def error_out(exc: ElabError) -> dict[str, Any]:
     return out
 
 
-def error_in(e: dict[str, Any]) -> ElabError:
+def _error_in(e: dict[str, Any]) -> ElabError:
     kind = e["type"]
     if "field" in e:
         return InvalidInput(e["field"], e["value"], e["allowed"])

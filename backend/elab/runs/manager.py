@@ -1,11 +1,12 @@
 """Run lifecycle on the web side: start runs on an engine, follow them, fan them out.
 
-The manager lives on the event loop. It sends commands to the engine that steps
-a run (the engine decides them, records everything and answers) and hears from
-it through :class:`~elab.engines.base.EngineEvents`: new samples go to the
-run's channel (and to a short in-memory tail of what the store has not
-committed yet, so a watcher catching up reads one consecutive recording),
-state changes go to its watchers. A run the engine has ended stays here until
+The manager lives on the event loop. It starts a run on the engine of its mode
+(:class:`Engines`: simulation, rig) and sends every later command to the engine that
+steps it, as recorded with the run (the engine decides them, records everything and
+answers), and hears from it through :class:`~elab.engines.base.EngineEvents`: new
+samples go to the run's channel (and to a short in-memory tail of what the store has
+not committed yet, so a watcher catching up reads one consecutive recording), state
+changes go to its watchers. A run the engine has ended stays here until
 the engine reports its final record stored, and only then do its watchers and
 clients hear how it ended, with the samples the recording holds (a run is
 ``finished`` only with all of them stored); after that the store answers.
@@ -19,15 +20,26 @@ import logging
 import secrets
 import time
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from elab.access import Identity, may_view, require_control
-from elab.engines.base import Action, Block, Changed, Ended, Engine, Health, Pace, RunOrder
-from elab.errors import Conflict, ElabError, NotFound
+from elab.engines.base import (
+    Action,
+    Block,
+    Changed,
+    Ended,
+    Engine,
+    EngineStatus,
+    Health,
+    Pace,
+    RunOrder,
+)
+from elab.errors import Conflict, ElabError, InvalidInput, NotFound, Unavailable
 from elab.laws import ControlLaw
 from elab.lifecycle import RunState
 from elab.runs.fanout import Codec, RunChannel, Sender, publish_block
@@ -48,14 +60,30 @@ def new_run_id() -> str:
     return f"r-{secrets.token_hex(6)}"
 
 
+#: The engines of a server by the mode of the runs they step (``"simulation"``, ``"rig"``).
+Engines = Mapping[str, Engine]
+
+
+@dataclass(frozen=True)
+class ManagerStatus:
+    """Live runs, connected watchers, and each engine as it reports itself, by mode."""
+
+    live_runs: int
+    watchers: int
+    engines: dict[str, EngineStatus]
+
+
 class RunManager:
     """All runs as this web process sees them; implements ``EngineEvents``."""
 
     def __init__(
-        self, store: RunStore, engine: Engine, codec: Codec, *, limits: Limits | None = None
+        self, store: RunStore, engines: Engines, codec: Codec, *, limits: Limits | None = None
     ) -> None:
+        if "simulation" not in engines:
+            raise ValueError("a run manager needs a simulation engine")
         self.store = store
-        self.engine = engine
+        self.engines = dict(engines)
+        self._by_id = {e.id: e for e in engines.values()}
         self.codec = codec
         self.limits = limits or Limits()
         self._runs: dict[str, LiveRun] = {}
@@ -68,7 +96,8 @@ class RunManager:
         self._patrol_task: asyncio.Task[None] | None = None
 
     async def start(self) -> None:
-        await self.engine.start(self)
+        for engine in self.engines.values():
+            await engine.start(self)
         patrol = Patrol(self._runs, self.limits, self.store, self._command, self._remove)
         self._patrol_task = asyncio.get_running_loop().create_task(patrol.run())
 
@@ -76,21 +105,42 @@ class RunManager:
         if self._patrol_task is not None:
             self._patrol_task.cancel()
             await asyncio.gather(self._patrol_task, return_exceptions=True)
-        await self.engine.close()
+        for engine in self.engines.values():
+            await engine.close()
 
     # -- queries ---------------------------------------------------------------
     @property
     def live_count(self) -> int:
         return sum(r.state.live for r in self._runs.values())
 
-    def status(self) -> dict[str, Any]:
-        """Live runs, connected watchers, and the engine as it reports itself."""
-        st = self.engine.status()
-        return {
-            "live_runs": self.live_count,
-            "watchers": sum(len(ch.watchers) for ch in self._channels.values()),
-            "engine": st,
-        }
+    def status(self) -> ManagerStatus:
+        return ManagerStatus(
+            live_runs=self.live_count,
+            watchers=sum(len(ch.watchers) for ch in self._channels.values()),
+            engines={mode: e.status() for mode, e in self.engines.items()},
+        )
+
+    def engine_for(self, mode: str) -> Engine:
+        """The engine that steps runs of ``mode``; :class:`InvalidInput` for a mode this
+        server has none for."""
+        engine = self.engines.get(mode)
+        if engine is None:
+            if mode == "rig":
+                allowed = "simulation (no rig is configured on this server: ELAB_RIG)"
+            else:
+                allowed = " or ".join(sorted(self.engines))
+            raise InvalidInput("mode", mode, allowed)
+        return engine
+
+    def _engine_of(self, run_id: str) -> Engine:
+        """The engine stepping a live run (the one recorded with it)."""
+        run = self._runs.get(run_id)
+        if run is None:
+            raise Conflict(f"run {run_id} is not live")
+        engine = self._by_id.get(run.engine)
+        if engine is None:
+            raise Unavailable(f"run {run_id}: its engine {run.engine} is not known here")
+        return engine
 
     async def get(self, run_id: str, who: Identity | None = None) -> RunRecord:
         """A run as it is now; given ``who``, :class:`NotFound` for a private run of
@@ -178,6 +228,7 @@ class RunManager:
         plant = spec.plant
         nch = 2 + plant.ny + plant.nx
         self.limits.check(spec, nch)
+        engine = self.engine_for(mode)
         owner = who.id or None
         self._check_room(owner)
         self._starting[owner] += 1
@@ -185,7 +236,7 @@ class RunManager:
             if owner is not None:
                 await self._check_quota(owner, spec, nch)
             order = RunOrder(new_run_id(), spec, pace, mode, experiment, request, owner, private)
-            record = await self.engine.add(order)
+            record = await engine.add(order)
         finally:
             self._starting[owner] -= 1
         return await self.get(record.id)
@@ -275,7 +326,7 @@ class RunManager:
 
     async def _command(self, run_id: str, action: Action, reason: str | None) -> None:
         try:
-            await self.engine.control(run_id, action, reason)
+            await self._engine_of(run_id).control(run_id, action, reason)
         except Conflict:
             run = self._runs.get(run_id)
             if run is not None and run.ending:
@@ -300,7 +351,8 @@ class RunManager:
         record = await self.get(run_id, who)
         require_control(who, record.owner, f"run {run_id}", "change")
         await self._require_live(run_id)
-        return await self.engine.replace(run_id, law=law, reference=reference, params=params)
+        engine = self._engine_of(run_id)
+        return await engine.replace(run_id, law=law, reference=reference, params=params)
 
     async def _require_live(self, run_id: str) -> None:
         run = self._runs.get(run_id)

@@ -13,6 +13,7 @@ from elab.engines.base import RunOrder
 from elab.laws import PID, CodeController, LTIController, OpenLoop, StateFeedback
 from elab.plants import get_plant
 from elab.sim import PRBS, Chirp, RunSpec, Sine, Square, Step
+from elab.store.base import RunRecord
 
 FLEX = get_plant("flexible_link")
 LAWS = [
@@ -41,5 +42,48 @@ def test_a_run_order_survives_the_wire(law: object, signal: object) -> None:
         {"x": 1},
         owner="a-1",
     )
-    back = wire.order_in(json.loads(json.dumps(wire.order_out(order))))
-    assert back == order
+    message = wire.command_out(wire.Add(7, order))
+    head, _ = wire.lengths(message[: wire.HEADER_BYTES])
+    back = wire.decode_command(message[wire.HEADER_BYTES : wire.HEADER_BYTES + head])
+    assert back == wire.Add(7, order)
+
+
+def _head(message: bytes) -> tuple[bytes, bytes]:
+    head, size = wire.lengths(message[: wire.HEADER_BYTES])
+    body = message[wire.HEADER_BYTES :]
+    return body[:head], body[head : head + size]
+
+
+def test_replies_keep_their_type_across_the_wire() -> None:
+    channels = (("r", "rad"), ("u", "V"))
+    record = RunRecord(
+        id="r-1",
+        plant="flexible_link",
+        mode="simulation",
+        experiment="design",
+        status="running",
+        Ts=1e-3,
+        channels=channels,
+        n_planned=9,
+        spec={"duration": 0.009},
+    )
+    for ok in (record, 42, None):
+        assert wire.decode_event(*_head(wire.event_out(wire.Reply(3, ok=ok)))) == wire.Reply(
+            3, ok=ok
+        )
+
+
+def test_the_handshake_names_the_protocol_and_the_kind() -> None:
+    ready = wire.decode_event(*_head(wire.event_out(wire.Ready("rig-0", 12, [], kind="rig"))))
+    assert ready == wire.Ready("rig-0", 12, [], wire.PROTOCOL, "rig")
+
+
+@pytest.mark.parametrize(
+    "head",
+    [b"not json", b"[1, 2]", b'{"op": "launch", "id": 5}', b'{"op": "control", "id": 9}'],
+)
+def test_an_unknown_command_is_unreadable_with_its_id(head: bytes) -> None:
+    with pytest.raises(wire.Unreadable) as err:
+        wire.decode_command(head)
+    expected = json.loads(head)["id"] if head.startswith(b"{") else -1
+    assert err.value.command_id == expected
