@@ -5,8 +5,9 @@ must *arm* within a no-show grace (``grace`` s) or loses its turn. Armed, the dr
 run; the run ends (stop, finish, e-stop, trip) and the driver, still seated, may arm again
 until the slot ends. Between runs the rig *settles* (0 V, still, re-zeroed): nobody starts
 until the rig reports it settled. An instructor may take over (driving now, ahead of
-everyone; a displaced driver waits first in line), extend the slot or clear the waiting
-users. An out-of-service rig seats nobody. Spectators are not in the queue.
+everyone; a displaced student waits first in line, an instructor's take-over ends with its
+seat), extend the slot or clear the waiting users. An out-of-service rig seats nobody.
+Spectators are not in the queue.
 
 ::
 
@@ -319,6 +320,8 @@ def _take_over(q: RigQueue, user: str, policy: QueuePolicy, now: float) -> RigQu
     if q.seat is not None and q.seat.user == user:
         raise Conflict(f"{user} already drives the rig")
     settling = q.settling or _is_running(q)
+    if q.seat is not None and q.seat.took_over:  # a take-over ends with its seat
+        q = _remove(q, q.seat.user)
     seat = Seat(user, Phase.SEATED, now, now + policy.slot, took_over=True)
     users = (user, *(u for u in q.users if u != user))
     return replace(q, users=users, seat=seat, settling=settling)
@@ -335,4 +338,6 @@ def _extend(q: RigQueue, seconds: float) -> RigQueue:
 def _set_service(q: RigQueue, reason: str) -> RigQueue:
     if not reason:
         return replace(q, out_of_service="", settling=False)
+    if q.seat is not None and q.seat.took_over:  # a take-over ends with its seat
+        q = _remove(q, q.seat.user)
     return replace(q, out_of_service=reason, seat=None, settling=q.settling or _is_running(q))

@@ -152,3 +152,10 @@ def test_a_refused_operation_changes_nothing() -> None:
     with pytest.raises(Conflict):
         apply(q, Arm("b"), P, 1.0)
     assert apply(q, Tick(), P, 1.0) == QueueChange(q)
+
+
+def test_an_instructors_take_over_ends_with_its_seat() -> None:
+    q = run(RigQueue(), (0.0, Join("a")), (1.0, TakeOver("i1")), (2.0, TakeOver("i2")))
+    assert q.users == ("i2", "a")  # i1 is not queued as a student would be
+    q = run(q, (3.0, SetService("encoder fault")), (4.0, SetService("")))
+    assert q.users == ("a",) and q.seat is not None and not q.seat.took_over
