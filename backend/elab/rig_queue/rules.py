@@ -78,9 +78,7 @@ def advance(q: RigQueue, policy: QueuePolicy, now: float) -> RigQueue:
 
 
 def _stopped(before: RigQueue, after: RigQueue) -> str | None:
-    run = before.seat.run_id if before.seat and before.seat.phase is Phase.RUNNING else None
-    still = after.seat is not None and after.seat.run_id == run
-    return None if run is None or still else run
+    return before.running if before.running != after.running else None
 
 
 def _join(q: RigQueue, user: str) -> RigQueue:

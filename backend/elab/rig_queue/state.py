@@ -60,6 +60,14 @@ class RigQueue:
     def driver(self) -> str | None:
         return self.seat.user if self.seat else None
 
+    @property
+    def running(self) -> str | None:
+        """The one run that may be on the rig now. The rig engine compares its run with
+        this at every check (level-triggered), so a stop that no caller acted on (a crash
+        between the commit and the stop) still happens."""
+        s = self.seat
+        return s.run_id if s is not None and s.phase is Phase.RUNNING else None
+
     def place(self, user: str) -> int | None:
         """1 for the head (the driver when seated), ``None`` for someone not in the queue."""
         return self.users.index(user) + 1 if user in self.users else None
@@ -81,7 +89,8 @@ class RigQueue:
 @dataclass(frozen=True)
 class QueueChange:
     """The queue after an operation, and the run the caller must stop now (the driver lost
-    the seat, stopped or was taken over), if any."""
+    the seat, stopped or was taken over), if any: a prompt for this caller; the rig engine
+    relies on :attr:`RigQueue.running` instead."""
 
     queue: RigQueue
     stop_run: str | None = None

@@ -217,7 +217,7 @@ class RigQueueStore(Protocol):
     def apply_rig(self, rig: str, op: QueueOp, policy: QueuePolicy, now: float) -> QueueChange:
         """Apply ``op`` at ``now`` atomically; :class:`~elab.errors.Conflict` (nothing
         written) if the rules refuse it. ``stop_run`` of the result: the run the caller must
-        stop now."""
+        stop now (the rig engine also stops any run that is not the queue's ``running``)."""
 
 
 class RunStore(Protocol):

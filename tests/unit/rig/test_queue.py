@@ -48,8 +48,9 @@ def test_the_first_to_join_is_seated_and_the_next_waits_with_a_place_and_a_wait(
 def test_arm_start_stop_then_the_rig_settles_before_the_next_start() -> None:
     q = run(RigQueue(), (0.0, Join("a")), (5.0, Arm("a")), (6.0, Start("a", "r-1")))
     assert q.seat is not None and (q.seat.phase, q.seat.run_id) == (Phase.RUNNING, "r-1")
+    assert q.running == "r-1"
     change = apply(q, Stop("a"), P, 20.0)
-    assert change.stop_run == "r-1" and change.queue.settling
+    assert change.stop_run == "r-1" and change.queue.settling and change.queue.running is None
     q = run(change.queue, (21.0, Arm("a")))
     with pytest.raises(Conflict, match="settling"):
         apply(q, Start("a", "r-2"), P, 22.0)

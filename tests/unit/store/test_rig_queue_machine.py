@@ -76,6 +76,10 @@ class RigQueueMachine(RuleBasedStateMachine):
             assert expected is None, f"the store refused {op}, the rules did not"
             return
         assert got == expected
+        # the prompt to stop a run agrees with the level the rig engine follows
+        assert got.stop_run == (
+            self.model.running if got.queue.running != self.model.running else None
+        )
         self.model = got.queue
 
     @rule(user=students)
