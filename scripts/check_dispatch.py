@@ -91,6 +91,13 @@ UNIONS = (
         "ModelParameters = (\n    Dummy | ArxParameters",
         frozenset({"ident/models.py", "ident/assess.py", "api/identjson.py", "cli/identify.py"}),
     ),
+    Union(
+        "rig queue operations",
+        "rig_queue/ops.py",
+        "QueueOp = (\n    Join",
+        "@dataclass(frozen=True)\nclass Dummy:\n    n: int\n\n\nQueueOp = (\n    Dummy\n    | Join",
+        frozenset({"rig_queue/rules.py"}),
+    ),
 )
 
 

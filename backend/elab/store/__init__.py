@@ -1,7 +1,7 @@
 """Storage: runs, their parameter changes and their samples, uploaded controllers,
 identified models, tokens and pins behind protocols (:class:`RunStore`,
-:class:`ControllerStore`, :class:`ModelStore`, :class:`AccessStore`), with SQLite as the
-embedded implementation."""
+:class:`ControllerStore`, :class:`ModelStore`, :class:`AccessStore`) and the rig queue
+(:class:`RigQueueStore`), with SQLite as the embedded implementation."""
 
 from elab.store.base import (
     AccessStore,
@@ -9,6 +9,7 @@ from elab.store.base import (
     ModelStore,
     ParamChange,
     Pin,
+    RigQueueStore,
     RunRecord,
     RunStore,
     RunSummary,
@@ -26,6 +27,7 @@ __all__ = [
     "ModelStore",
     "ParamChange",
     "Pin",
+    "RigQueueStore",
     "RunRecord",
     "RunStore",
     "RunSummary",

@@ -79,6 +79,26 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         """CREATE TABLE ended_sessions (
             sid TEXT PRIMARY KEY, until REAL NOT NULL)""",
     ),
+    (  # 8: the rig queue (elab.rig_queue): a row per rig, its users in order, and its seat,
+        # one row per rig (the primary key) and always the user at place 1 (the foreign
+        # key): a second driver cannot be written
+        """CREATE TABLE rigs (
+            rig TEXT PRIMARY KEY, settling INTEGER NOT NULL CHECK (settling IN (0, 1)),
+            out_of_service TEXT NOT NULL, updated_at REAL NOT NULL)""",
+        """CREATE TABLE rig_queue (
+            rig TEXT NOT NULL REFERENCES rigs (rig), place INTEGER NOT NULL CHECK (place >= 1),
+            user_id TEXT NOT NULL, PRIMARY KEY (rig, place), UNIQUE (rig, user_id),
+            UNIQUE (rig, place, user_id))""",
+        """CREATE TABLE rig_seat (
+            rig TEXT PRIMARY KEY REFERENCES rigs (rig),
+            place INTEGER NOT NULL DEFAULT 1 CHECK (place = 1), user_id TEXT NOT NULL,
+            phase TEXT NOT NULL CHECK (phase IN ('seated', 'armed', 'running')),
+            since REAL NOT NULL, until REAL NOT NULL, run_id TEXT,
+            took_over INTEGER NOT NULL CHECK (took_over IN (0, 1)),
+            CHECK ((phase = 'running') = (run_id IS NOT NULL)),
+            FOREIGN KEY (rig, place, user_id) REFERENCES rig_queue (rig, place, user_id)
+                DEFERRABLE INITIALLY DEFERRED)""",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 

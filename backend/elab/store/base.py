@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elab.errors import Unavailable
+from elab.rig_queue import QueueChange, QueueOp, QueuePolicy, RigQueue
 
 Array = NDArray[np.float64]
 
@@ -201,6 +202,22 @@ class AccessStore(Protocol):
 
     def ended_sessions(self, now: float) -> set[str]:
         """The sessions ended and not yet expired at ``now``."""
+
+
+class RigQueueStore(Protocol):
+    """The queue of each rig (:mod:`elab.rig_queue`), kept across restarts. One operation
+    is one write transaction: the queue is read, the pure rule applied at ``now`` (s, the
+    caller's clock) and the result written before any other writer (thread or process)
+    reads it, so two drivers at once cannot happen, whatever the timing."""
+
+    def rig_queue(self, rig: str, policy: QueuePolicy, now: float) -> RigQueue:
+        """The queue of ``rig`` at ``now`` (expired slots and no-shows applied, and
+        written if that changed anything). A rig never seen has an empty queue."""
+
+    def apply_rig(self, rig: str, op: QueueOp, policy: QueuePolicy, now: float) -> QueueChange:
+        """Apply ``op`` at ``now`` atomically; :class:`~elab.errors.Conflict` (nothing
+        written) if the rules refuse it. ``stop_run`` of the result: the run the caller must
+        stop now (the rig engine also stops any run that is not the queue's ``running``)."""
 
 
 class RunStore(Protocol):

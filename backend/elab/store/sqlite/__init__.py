@@ -4,7 +4,8 @@
 One class per group of tables, all on :class:`~elab.store.sqlite.connections.SQLiteConnections`
 (the connections, transactions and faults): :mod:`~elab.store.sqlite.runs` (runs,
 parameter changes, samples), :mod:`~elab.store.sqlite.library` (uploaded controllers,
-identified models), :mod:`~elab.store.sqlite.access` (tokens, ended sessions, pins);
+identified models), :mod:`~elab.store.sqlite.access` (tokens, ended sessions, pins),
+:mod:`~elab.store.sqlite.rig` (the rig queue);
 :class:`SQLiteStore` is all of them.
 
 Durability: WAL journal, ``synchronous = NORMAL``. Every committed transaction
@@ -26,9 +27,10 @@ from __future__ import annotations
 
 from elab.store.sqlite.access import SQLiteAccess
 from elab.store.sqlite.library import SQLiteLibrary
+from elab.store.sqlite.rig import SQLiteRigQueue
 from elab.store.sqlite.runs import SQLiteRuns
 
 
-class SQLiteStore(SQLiteRuns, SQLiteLibrary, SQLiteAccess):
+class SQLiteStore(SQLiteRuns, SQLiteLibrary, SQLiteAccess, SQLiteRigQueue):
     """Runs, parameter changes and samples, uploaded controllers, identified models,
-    tokens and pins in one SQLite file (WAL mode)."""
+    tokens, pins and the rig queue in one SQLite file (WAL mode)."""
