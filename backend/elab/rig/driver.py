@@ -99,6 +99,14 @@ class TcpDriver:
         except OSError as err:
             raise RigDisconnected(f"rig at {self._where}: cannot connect ({err})") from None
         self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        try:
+            return self._greet()
+        except BaseException:
+            self._sock.close()
+            self._sock = None
+            raise
+
+    def _greet(self) -> RigIdentity:
         self._send(Hello())
         message = self._receive(time.monotonic() + self.connect_timeout)
         match message:

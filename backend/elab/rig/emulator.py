@@ -87,6 +87,8 @@ class Host:
             sent = self.sock.send(self.backlog)
         except BlockingIOError:
             sent = 0
+        except OSError:  # gone: the next read sees it and drops the host
+            return True
         del self.backlog[:sent]
         return len(self.backlog) <= MAX_BACKLOG
 
@@ -144,7 +146,8 @@ class Emulator:
         while (remaining := due - time.monotonic_ns()) > 0 and not stopping():
             sockets = [self.listener] + ([self.host.sock] if self.host else [])
             readable, _, _ = select.select(sockets, [], [], remaining * 1e-9)
-            for sock in readable:
+            # the host first: a host that left and a new one can arrive together
+            for sock in sorted(readable, key=lambda s: s is self.listener):
                 if sock is self.listener:
                     self._accept()
                 else:
@@ -193,17 +196,18 @@ class Emulator:
 
     def _receive(self) -> None:
         assert self.host is not None
-        try:
-            data = self.host.sock.recv(65536)
-        except BlockingIOError:
-            return
-        except OSError as err:
-            self._drop_host(f"connection lost ({err})")
-            return
-        if not data:
-            self._drop_host("the host closed the connection")
-            return
-        self.host.decoder.feed(data)
+        while True:  # to the end of what arrived: a close after data is seen now
+            try:
+                data = self.host.sock.recv(65536)
+            except BlockingIOError:
+                break
+            except OSError as err:
+                self._drop_host(f"connection lost ({err})")
+                return
+            if not data:
+                self._drop_host("the host closed the connection")
+                return
+            self.host.decoder.feed(data)
         try:
             while self.host is not None and (message := self.host.decoder.next()) is not None:
                 self._handle(message)
