@@ -1,9 +1,9 @@
 """The predefined LQR closes the loop on the emulated rig through TcpDriver, as the
 host loop will: stable, and a 30° step tracked within a few degrees.
 
-The watchdog is set to 50 samples here: on a loaded 2-core machine this test process
-can be descheduled for several ms, which the real host loop (a real-time process) must
-not be, and which the default 5 would rightly punish.
+The watchdog is set to 200 samples here: beside two busy processes on two cores this
+test process is descheduled for over 50 ms now and then, which the real host loop (a
+real-time process) must not be, and which the default 5 would rightly punish.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ def run_lqr(driver: TcpDriver, seconds: float) -> list[tuple[RigSample, float]]:
 
 
 def test_the_predefined_lqr_tracks_a_30_degree_step_on_the_emulated_rig() -> None:
-    with running_emulator("--rig-seed", "11", "--watchdog-samples", "50") as rig:
+    with running_emulator("--rig-seed", "11", "--watchdog-samples", "200") as rig:
         driver = rig.driver()
         driver.connect()
         try:

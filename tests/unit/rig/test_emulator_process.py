@@ -2,6 +2,10 @@
 
 No assertion on a single time: states are waited for with generous caps (counted in
 samples, which the rig's clock makes), so a loaded machine slows them, not fails them.
+This test process is no real-time host: beside two busy processes on two cores it
+stalls for more than 5 ms now and then, which the default watchdog (5 samples) rightly
+punishes. So the shared emulator allows 100 unanswered samples, and the 5-sample
+default is tested where the host is silent on purpose.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from tests.unit.rig.emulator_process import Running, drive, environment, listen,
 
 @pytest.fixture(scope="module")
 def rig() -> Iterator[Running]:
-    with running_emulator("--rig-seed", "7") as running:
+    with running_emulator("--rig-seed", "7", "--watchdog-samples", "100") as running:
         yield running
 
 
@@ -50,7 +54,7 @@ def test_the_handshake_gives_the_identity_and_calibration(rig: Running) -> None:
     assert identity.counts_per_rev == COUNTS_PER_REV == 4096
     # the nominal calibration, not the rig's hidden true gauge gain and offset
     assert identity.gauge_rad_per_count == GAUGE_RAD_PER_COUNT and identity.gauge_offset == 0
-    assert identity.Ts == 1e-3 and identity.watchdog_samples == 5
+    assert identity.Ts == 1e-3 and identity.watchdog_samples == 100
 
 
 def test_samples_come_in_order_at_about_1_kHz(rig: Running) -> None:
@@ -94,8 +98,8 @@ def test_the_watchdog_cuts_a_silent_host_until_enable(rig: Running) -> None:
     finally:
         driver.close()
     tripped = [i for i, s in enumerate(silent) if s.status & Status.WATCHDOG_TRIPPED]
-    # 5 unanswered samples trip it; 30 allows for answers still in flight
-    assert tripped and tripped[0] < 30, tripped[:3]
+    # 100 unanswered samples trip it; 30 more allow for answers still in flight
+    assert tripped and tripped[0] < 130, tripped[:3]
     assert all(not s.status & Status.MOTOR_ENABLED for s in silent[tripped[0] :])
     # 0 V: the servo and the link coast (the link's momentum bends it and drags the servo
     # about 0.4 rad on) while back-EMF and friction take the energy out; driven, the servo
@@ -181,11 +185,16 @@ def test_a_killed_host_leaves_the_motor_at_0_V(rig: Running) -> None:
     assert travel(samples[-100:]) < 0.05
 
 
-def test_sigterm_stops_it_cleanly_and_it_reports_its_lateness() -> None:
+def test_by_default_5_silent_samples_trip_the_watchdog_then_sigterm_stops_it() -> None:
     with running_emulator("--rig-seed", "1") as running:
         driver = running.driver()
-        driver.connect()
-        listen(driver, 20)
+        assert driver.connect().watchdog_samples == 5
+        driver.command(Action.ENABLE)
+        silent = listen(driver, 40)
+        enabled = [s for s in silent if s.status & Status.MOTOR_ENABLED]
+        # the 5 samples sent after ENABLE go unanswered; from the 6th on it is tripped
+        assert len(enabled) == 5, [int(s.status) for s in silent]
+        assert silent[-1].status & Status.WATCHDOG_TRIPPED
         running.proc.send_signal(signal.SIGTERM)
         with pytest.raises(RigDisconnected):
             listen(driver, 5000)  # the rig closes the connection as it goes
