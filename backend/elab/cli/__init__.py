@@ -5,9 +5,9 @@ Errors in the input print ``error: <field>: got ...; allowed: ...`` and exit 2.
 This module holds the argument parser and the dispatch; each command runs in the module
 of its group, imported only when it runs: :mod:`~elab.cli.plants` (plants, analyze,
 design), :mod:`~elab.cli.simulate`, :mod:`~elab.cli.identify`,
-:mod:`~elab.cli.controller_files` (check, template) and :mod:`~elab.cli.server` (serve,
-instructor). :mod:`~elab.cli.arguments` reads the commands' values and
-:mod:`~elab.cli.formatting` prints their numbers.
+:mod:`~elab.cli.controller_files` (check, template), :mod:`~elab.cli.server` (serve,
+instructor) and :mod:`~elab.cli.rig` (rig-emulator). :mod:`~elab.cli.arguments` reads
+the commands' values and :mod:`~elab.cli.formatting` prints their numbers.
 """
 
 from __future__ import annotations
@@ -76,6 +76,17 @@ def build_parser() -> argparse.ArgumentParser:
         "--password-stdin", action="store_true", help="read the password from standard input"
     )
     p.set_defaults(run="elab.cli.server:cmd_instructor")
+    p = sub.add_parser("rig-emulator", help="run an emulated flexible-link rig (byte protocol)")
+    p.add_argument("--port", type=int, required=True, help="TCP port (0: any free one)")
+    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--rig-seed", type=int, default=0, help="which rig: its hidden parameters")
+    p.add_argument(
+        "--watchdog-samples",
+        type=int,
+        default=5,
+        help="samples the host may leave unanswered before the motor is cut",
+    )
+    p.set_defaults(run="elab.cli.rig:cmd_rig_emulator")
     return parser
 
 
