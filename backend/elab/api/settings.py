@@ -61,7 +61,13 @@ class Settings:
     0), ``session_hours`` an instructor's sign-in lasts (``ELAB_SESSION_HOURS``, 12).
     ``trusted_proxies``: the addresses of reverse proxies whose ``X-Forwarded-For`` and
     ``X-Forwarded-Proto`` are believed (``ELAB_TRUSTED_PROXIES``; none by default: a client's
-    own ``X-Forwarded-For`` never changes its address)."""
+    own ``X-Forwarded-For`` never changes its address).
+
+    The rig (docs/rig.md): ``rig`` is ``ELAB_RIG``: ``none`` (the default: no rig; runs in
+    mode ``rig`` are refused with 422), ``emulator`` (the server starts one
+    ``elab rig-emulator`` process, shown everywhere as emulated; ``make run`` does this) or
+    the ``host:port`` of a rig speaking E-Lab's byte protocol; ``rig_seed``
+    (``ELAB_RIG_SEED``, 1): the emulated rig's hidden parameters."""
 
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
@@ -94,6 +100,8 @@ class Settings:
     max_streams_per_identity: int = 32
     trusted_proxies: tuple[str, ...] = ()
     trial_timeout: float = 60.0
+    rig: str = "none"
+    rig_seed: int = 1
 
     @property
     def database(self) -> Path:
@@ -162,6 +170,8 @@ class Settings:
             instructors=Path(env["ELAB_INSTRUCTORS"]) if env.get("ELAB_INSTRUCTORS") else None,
             secure_cookies=_int(env, "ELAB_SECURE_COOKIES", 0, lo=0, hi=1) == 1,
             session_hours=_float(env, "ELAB_SESSION_HOURS", 12.0),
+            rig=_rig(env),
+            rig_seed=_int(env, "ELAB_RIG_SEED", 1, lo=0, hi=(1 << 32) - 1),
         )
 
 
@@ -213,4 +223,14 @@ def _secret(env: Mapping[str, str]) -> str | None:
     raw = env.get("ELAB_SECRET")
     if raw is not None and len(raw) < 32:
         raise InvalidInput("ELAB_SECRET", "…", "at least 32 characters of random text")
+    return raw
+
+
+def _rig(env: Mapping[str, str]) -> str:
+    raw = env.get("ELAB_RIG", "none").strip()
+    if raw in ("none", "emulator"):
+        return raw
+    host, _, port = raw.rpartition(":")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise InvalidInput("ELAB_RIG", raw, "none, emulator or a rig's host:port")
     return raw

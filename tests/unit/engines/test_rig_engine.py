@@ -1,0 +1,199 @@
+"""The rig engine's host loop against the emulated rig as a real process: a run recorded
+like a simulation's and close to it, trips that stop the motor and say why, a rig that
+dies mid-run, and laws the rig cannot run.
+
+The emulator's watchdog is 200 samples here: this loop runs in the test process, which
+is not real-time and is descheduled for tens of milliseconds beside two CPU hogs (the
+engine process of a server is; tests/unit/rig/test_closed_loop.py says the same)."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elab.engines.base import Block, Changed, Ended, Health, RunOrder
+from elab.engines.rig import CHANNELS, RigEngine, RigSettings
+from elab.errors import Conflict, InvalidInput
+from elab.laws import StateFeedback
+from elab.lifecycle import RunState
+from elab.plants.flexible_link import PLANT
+from elab.rig.driver import TcpDriver
+from elab.sim import RunSpec, Square, Step, simulate
+from elab.store.base import ParamChange, RunRecord
+from elab.store.sqlite import SQLiteStore
+from tests.unit.rig.emulator_process import Running, running_emulator
+
+
+class Heard:
+    """The engine's events, as the run manager would hear them."""
+
+    def __init__(self) -> None:
+        self.changes: list[Changed] = []
+        self.ends: dict[str, Ended] = {}
+        self.rows = 0
+        self.cond = threading.Condition()
+
+    def started(self, engine: str, record: RunRecord) -> None:
+        pass
+
+    def blocks(self, engine: str, blocks: list[Block]) -> None:
+        self.rows += sum(b.data.shape[1] for b in blocks)
+
+    def changed(self, engine: str, change: Changed) -> None:
+        with self.cond:
+            self.changes.append(change)
+            self.cond.notify_all()
+
+    def params(self, engine: str, run_id: str, change: ParamChange) -> None:
+        pass
+
+    def committed(self, engine: str, counts: dict[str, int]) -> None:
+        pass
+
+    def ended(self, engine: str, run_id: str, ended: Ended) -> None:
+        with self.cond:
+            self.ends[run_id] = ended
+            self.cond.notify_all()
+
+    def stored(self, engine: str, run_id: str) -> None:
+        pass
+
+    def health(self, engine: str, health: Health) -> None:
+        pass
+
+    def lost(self, engine: str, reason: str) -> None:
+        pass
+
+    def wait_ended(self, run_id: str, timeout: float = 60.0) -> Ended:
+        with self.cond:
+            assert self.cond.wait_for(lambda: run_id in self.ends, timeout), self.changes
+            return self.ends[run_id]
+
+
+@pytest.fixture
+def rig() -> Iterator[Running]:
+    with running_emulator("--rig-seed", "7", "--watchdog-samples", "200") as running:
+        yield running
+
+
+def _engine(tmp_path: Path, rig: Running, heard: Heard, **settings: float) -> RigEngine:
+    store = SQLiteStore(tmp_path / "elab.sqlite3")
+    connect: Callable[[], TcpDriver] = rig.driver
+    engine = RigEngine(
+        "rig-0", store, heard, RigSettings(address="", still_for=0.2, **settings), connect
+    )
+    engine.start()
+    _until(lambda: engine.identity is not None, "the engine connects to the rig")
+    return engine
+
+
+def _until(ok: Callable[[], bool], what: str, timeout: float = 30.0) -> None:
+    end = time.monotonic() + timeout
+    while not ok():
+        assert time.monotonic() < end, f"not within {timeout} s: {what}"
+        time.sleep(0.01)
+
+
+def _order(run_id: str, spec: RunSpec) -> RunOrder:
+    return RunOrder(run_id, spec, "realtime", "rig", "design", {"plant": "flexible_link"})
+
+
+SQUARE = RunSpec(PLANT, PLANT.predefined, Square(math.radians(20), 2.0), duration=2.0)
+
+
+def test_the_predefined_lqr_runs_on_the_rig_recorded_and_close_to_its_simulation(
+    tmp_path: Path, rig: Running
+) -> None:
+    heard = Heard()
+    engine = _engine(tmp_path, rig, heard)
+    try:
+        record = engine.add(_order("r-1", SQUARE))
+        assert record.channels == CHANNELS and record.n_planned == 2000
+        ended = heard.wait_ended("r-1")
+        assert (ended.state, ended.n) == (RunState.FINISHED, 2000)
+        data = engine.store.read("r-1", 0, 2000)
+        assert heard.rows == 2000
+        sim = simulate(SQUARE)
+        theta_rig, theta_sim = data[:, 2], sim.y[:, 0]
+        # the emulated rig differs from the model (its hidden parameters, friction, a dead
+        # zone): the same law tracks the same square wave within 3° RMS of the simulation
+        rms = math.degrees(float(np.sqrt(np.mean((theta_rig - theta_sim) ** 2))))
+        assert rms < 3.0, rms
+        # and ends near the reference (−20° after the square's second half-period)
+        assert abs(math.degrees(theta_rig[-1] - data[-1, 0])) < 4.0
+        assert np.all(np.abs(data[:, 1]) <= 10.0)  # the supervisor's clip
+        assert np.all(data[:, 6] < 0.5)  # every answer's latency recorded, in s
+    finally:
+        engine.close()
+
+
+def test_an_unstable_law_trips_the_angle_limit_and_the_motor_stops(
+    tmp_path: Path, rig: Running
+) -> None:
+    heard = Heard()
+    engine = _engine(tmp_path, rig, heard)
+    try:
+        # positive feedback on θ: a run-away whose voltage grows with θ (10 V only beyond
+        # 120°), so the link bends little and the angle limit trips
+        unstable = StateFeedback((-5.0, 0.0, 0.0, 0.0), "velocity_filters")
+        spec = RunSpec(PLANT, unstable, Step(math.radians(30)), duration=10.0)
+        engine.add(_order("r-2", spec))
+        ended = heard.wait_ended("r-2")
+        assert ended.state is RunState.FAILED
+        assert ended.error is not None and "safety trip (angle)" in ended.error, ended.error
+        data = engine.store.read("r-2", 0, ended.n)
+        assert ended.n < 10_000 and np.all(np.abs(data[-10:, 2]) > math.radians(120))
+        assert data[-1, 1] == 0.0  # the tripping sample was answered with 0 V
+        stored = engine.store.get_run("r-2")
+        assert stored.status == "failed" and "angle" in (stored.error or "")
+    finally:
+        engine.close()
+
+
+def test_a_rig_that_dies_mid_run_fails_the_run_and_keeps_its_samples(
+    tmp_path: Path, rig: Running
+) -> None:
+    heard = Heard()
+    engine = _engine(tmp_path, rig, heard)
+    try:
+        engine.add(_order("r-3", SQUARE))
+        _until(lambda: heard.rows >= 200, "200 samples recorded")
+        rig.proc.kill()
+        ended = heard.wait_ended("r-3")
+        assert ended.state is RunState.FAILED
+        assert ended.error is not None and "rig" in ended.error
+        assert 200 <= ended.n < 2000
+        assert engine.store.read("r-3", 0, ended.n).shape == (ended.n, len(CHANNELS))
+        _until(lambda: engine.identity is None, "the engine sees the rig gone")
+        assert engine.health().timing["connected"] == 0
+    finally:
+        engine.close()
+
+
+def test_one_run_at_a_time_and_only_laws_the_rig_can_run(tmp_path: Path, rig: Running) -> None:
+    heard = Heard()
+    engine = _engine(tmp_path, rig, heard)
+    try:
+        true_state = StateFeedback(PLANT.predefined.K, "true_state")
+        with pytest.raises(InvalidInput, match="controller.estimate"):
+            engine.add(_order("r-4", RunSpec(PLANT, true_state, duration=1.0)))
+        engine.add(_order("r-5", SQUARE))
+        with pytest.raises(Conflict, match="one run at a time"):
+            engine.add(_order("r-6", SQUARE))
+        k = engine.control("r-5", "stop", "stopped by its owner").result(timeout=10)
+        ended = heard.wait_ended("r-5")
+        assert (ended.state, ended.n) == (RunState.STOPPED, k)
+        with pytest.raises(Conflict, match="cannot pause"):
+            engine.control("r-5", "pause").result(timeout=10)
+        # after a run the rig settles (0 V until still) and re-zeroes before the next
+        _until(lambda: engine.settle is None, "the rig settles and re-zeroes")
+        engine.add(_order("r-7", SQUARE))
+        assert heard.wait_ended("r-7").state is RunState.FINISHED
+    finally:
+        engine.close()
