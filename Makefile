@@ -44,9 +44,10 @@ test-debs:
 
 chromium: test-debs
 
-# The lab server on http://127.0.0.1:8000 (data: $ELAB_DATA or ./data).
+# The lab server on http://127.0.0.1:8000 (data: $ELAB_DATA or ./data), with an emulated
+# flexible-link rig unless ELAB_RIG says otherwise (none, or a real rig's host:port).
 run: install
-	$(VENV)/bin/elab serve --host 127.0.0.1 --port 8000
+	ELAB_RIG=$${ELAB_RIG:-emulator} $(VENV)/bin/elab serve --host 127.0.0.1 --port 8000
 
 # The house rules, held by tools: every import declared in pyproject.toml
 # (scripts/check_deps.py: nothing relies on a package left on the machine), ruff (lint and

@@ -38,7 +38,10 @@ from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
 from elab.api.state import Lab, lab
 from elab.api.stream import RawSend, Stream
+from elab.engines.base import Engine
+from elab.engines.emulated import EmulatorProcess
 from elab.engines.process import ProcessEngine
+from elab.engines.rig import RigSettings
 from elab.errors import ElabError
 from elab.jobs import JobPool, Names
 from elab.runs.manager import RunManager
@@ -68,7 +71,17 @@ def create_app(settings: Settings | None = None) -> Starlette:
             command_timeout=settings.engine_timeout,
             stall_timeout=settings.engine_stall,
         )
-        engines = {"simulation": engine}
+        engines: dict[str, Engine] = {"simulation": engine}
+        emulator = EmulatorProcess(settings.rig_seed) if settings.rig == "emulator" else None
+        if settings.rig != "none":
+            address = settings.rig if emulator is None else emulator.start()
+            engines["rig"] = ProcessEngine(
+                "rig-0",
+                settings.database,
+                RigSettings(address=address, realtime=settings.engine.realtime),
+                command_timeout=settings.engine_timeout,
+                stall_timeout=settings.engine_stall,
+            )
         manager = RunManager(store, engines, MsgpackCodec(), limits=settings.limits)
         jobs = JobPool(
             workers=settings.ident_workers,
@@ -119,6 +132,8 @@ def create_app(settings: Settings | None = None) -> Starlette:
             await jobs.close()
             await trials.close()
             await manager.close()
+            if emulator is not None:
+                emulator.close()
             store.close()
 
     doc = openapi_document()

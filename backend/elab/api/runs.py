@@ -16,7 +16,7 @@ from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_int, read_model
 from elab.api.state import lab
-from elab.engines.base import Action, StoreHealth
+from elab.engines.base import Action, EngineStatus, StoreHealth
 from elab.errors import Conflict, InvalidInput
 from elab.laws import is_code
 from elab.lifecycle import RunState
@@ -107,6 +107,8 @@ async def create_run(request: Request) -> Response:
     if req.mode not in plant.modes:
         raise InvalidInput("mode", req.mode, " or ".join(plant.modes) + f" for {plant.id}")
     manager(request).engine_for(req.mode)  # a server without a rig says so here
+    if req.mode == "rig" and req.pace != "realtime":
+        raise InvalidInput("pace", req.pace, "realtime: a rig run goes at the rig's clock")
     uploaded = None
     if req.controller_id is not None:
         uploaded = await controllers.law_of(request, req.controller_id, plant.id)
@@ -258,14 +260,7 @@ def server_model(status: ManagerStatus, jobs: s.JobsInfo, uploads: s.UploadsInfo
         live_runs=status.live_runs,
         watchers=status.watchers,
         stepper=timing,
-        engine=s.EngineInfo(
-            id=st.engine,
-            up=st.up,
-            problem=st.problem,
-            restarts=st.restarts,
-            pid=st.pid,
-            heartbeat_age_s=st.heartbeat_age,
-        ),
+        engine=_engine_model(st),
         store=s.StoreInfo(
             ok=store.ok,
             error=store.error,
@@ -275,7 +270,43 @@ def server_model(status: ManagerStatus, jobs: s.JobsInfo, uploads: s.UploadsInfo
         ),
         ident=jobs,
         uploads=uploads,
+        rig=_rig_model(status.engines.get("rig")),
     )
+
+
+def _engine_model(st: EngineStatus) -> s.EngineInfo:
+    return s.EngineInfo(
+        id=st.engine,
+        up=st.up,
+        problem=st.problem,
+        restarts=st.restarts,
+        pid=st.pid,
+        heartbeat_age_s=st.heartbeat_age,
+    )
+
+
+def _rig_model(st: EngineStatus | None) -> s.RigInfo | None:
+    if st is None:
+        return None
+    h = st.health
+    link = h.rig if h is not None else None
+    timing = h.timing if h is not None else {}
+    latency = {k: float(timing[k]) if k in timing else None for k in _LATENCY}
+    return s.RigInfo(
+        engine=_engine_model(st),
+        connected=link is not None and link.connected,
+        rig_id=link.rig_id if link else None,
+        firmware=link.firmware if link else None,
+        emulated=link is not None and link.emulated,
+        problem=(link.problem if link else None) or st.problem,
+        settling=link is not None and link.settling,
+        samples=int(timing.get("samples", 0)),
+        late_1ms=int(timing.get("late_1ms", 0)),
+        **latency,
+    )
+
+
+_LATENCY = ("latency_p50_us", "latency_p99_us", "latency_max_us")
 
 
 @endpoint(

@@ -93,16 +93,32 @@ class StoreHealth:
 
 
 @dataclass(frozen=True)
+class RigLink:
+    """A rig engine's link to its rig: who the rig is (``emulated``: ``elab rig-emulator``,
+    never hardware), whether it answers, and ``problem`` (why not connected, or out of
+    service); ``settling``: after a run, until it is still and re-zeroed."""
+
+    connected: bool
+    rig_id: str | None = None
+    firmware: str | None = None
+    emulated: bool = False
+    problem: str | None = None
+    settling: bool = False
+
+
+@dataclass(frozen=True)
 class Health:
-    """What an engine says about itself (every heartbeat)."""
+    """What an engine says about itself (every heartbeat). ``timing``: the simulation's
+    stepping thread's (see Stepper.timing), or the rig loop's response latency."""
 
     engine: str
     pid: int
     live_runs: int
-    timing: dict[str, float | int]  # the stepping thread's timing (see Stepper.timing)
+    timing: dict[str, float | int]
     store: StoreHealth = field(default_factory=StoreHealth)
     stepping: bool = True  # the stepping thread ticked recently
     at: float = 0.0  # unix s, when it was said
+    rig: RigLink | None = None  # a rig engine's link
 
 
 @dataclass(frozen=True)

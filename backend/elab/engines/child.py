@@ -31,8 +31,10 @@ from typing import assert_never
 
 from elab.engines import wire
 from elab.engines.base import Block, Changed, Ended, EngineEvents, Health, SteppingEngine
+from elab.engines.rig import RigEngine, RigSettings
 from elab.engines.simulation import EngineSettings, SimulationEngine
 from elab.errors import ElabError
+from elab.rig.driver import TcpDriver
 from elab.runtime import return_memory
 from elab.store.base import ParamChange, RunRecord
 from elab.store.sqlite import SQLiteStore
@@ -144,7 +146,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     options = json.loads(args.settings)
     max_queue = int(options.pop("max_queue", 64 << 20))
     nice = int(options.pop("nice", 0))
-    settings = EngineSettings(**options)
+    settings: EngineSettings | RigSettings = (
+        RigSettings(**options) if args.kind == "rig" else EngineSettings(**options)
+    )
     _prioritise(settings.realtime, nice)  # before any thread starts: they inherit it
     # a thread running Python (compiling a new run, sorting samples for the store) gives
     # the GIL to the stepping thread within 1 ms of its asking, not the default 5 ms
@@ -182,13 +186,18 @@ def _build(
     engine_id: str,
     store: SQLiteStore,
     events: EngineEvents,
-    settings: EngineSettings,
+    settings: EngineSettings | RigSettings,
     outbox: Outbox,
 ) -> SteppingEngine:
-    """The engine of ``kind`` (``--kind``)."""
-    if kind == "simulation":
-        return SimulationEngine(engine_id, store, events, settings, backlog=outbox.backlogged)
-    raise SystemExit(f"unknown engine kind {kind!r}: simulation")
+    """The engine of ``kind`` (``--kind``) with its settings."""
+    match settings:
+        case EngineSettings():
+            return SimulationEngine(engine_id, store, events, settings, backlog=outbox.backlogged)
+        case RigSettings():
+            host, _, port = settings.address.rpartition(":")
+            return RigEngine(engine_id, store, events, settings, lambda: TcpDriver(host, int(port)))
+        case _:
+            assert_never(settings)
 
 
 def _serve(
@@ -300,7 +309,7 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m elab.engines.child")
     p.add_argument("--fd", type=int, required=True, help="the socket to the web process")
     p.add_argument("--engine", required=True, help="this engine's id (its runs in the store)")
-    p.add_argument("--kind", default="simulation", help="what it steps: simulation")
+    p.add_argument("--kind", default="simulation", choices=["simulation", "rig"])
     p.add_argument("--database", required=True, help="the SQLite store")
     p.add_argument("--settings", default="{}", help="EngineSettings as JSON, plus nice, max_queue")
     return p

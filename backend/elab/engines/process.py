@@ -32,6 +32,7 @@ from typing import Any, assert_never
 
 from elab.engines import wire
 from elab.engines.base import Action, EngineEvents, EngineStatus, Health, RunOrder
+from elab.engines.rig import RigSettings
 from elab.engines.simulation import EngineSettings
 from elab.errors import ElabError, Unavailable
 from elab.laws import ControlLaw
@@ -51,16 +52,15 @@ class ProcessEngine:
         self,
         engine_id: str,
         database: Path,
-        settings: EngineSettings,
+        settings: EngineSettings | RigSettings,
         *,
-        kind: str = "simulation",
         nice: int = 0,
         max_queue: int = 64 << 20,
         command_timeout: float = 10.0,
         stall_timeout: float = 30.0,
     ) -> None:
         self.id = engine_id
-        self.kind = kind
+        self.kind = "rig" if isinstance(settings, RigSettings) else "simulation"
         self.database = database
         self.settings = settings
         self.nice = nice

@@ -38,6 +38,7 @@ from elab.engines.base import (
     Changed,
     EngineEvents,
     Health,
+    RigLink,
     RunOrder,
     StoreHealth,
 )
@@ -297,7 +298,18 @@ class RigEngine:
         store = replace(store, pending_bytes=self.recorder.pending_bytes())
         timing: dict[str, float | int] = self._latency.summary()
         timing["connected"] = int(self.identity is not None)
+        rig, settle = self.identity, self.settle
+        out = settle is not None and settle.phase is SettlePhase.OUT_OF_SERVICE
+        link = RigLink(
+            connected=rig is not None,
+            rig_id=None if rig is None else rig.rig_id,
+            firmware=None if rig is None else rig.firmware,
+            emulated=rig is not None and rig.emulated,
+            problem=settle.message if out and settle is not None else self.problem,
+            settling=settle is not None and not out,
+        )
         return Health(
+            rig=link,
             engine=self.id,
             pid=os.getpid(),
             live_runs=int(self._busy()),

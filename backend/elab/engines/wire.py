@@ -27,7 +27,16 @@ from typing import Any, assert_never
 import numpy as np
 
 from elab import laws
-from elab.engines.base import Action, Block, Changed, Ended, Health, RunOrder, StoreHealth
+from elab.engines.base import (
+    Action,
+    Block,
+    Changed,
+    Ended,
+    Health,
+    RigLink,
+    RunOrder,
+    StoreHealth,
+)
 from elab.errors import Conflict, ElabError, InvalidInput, NotFound, TooMany, Unavailable
 from elab.laws import ControlLaw
 from elab.lifecycle import RunState
@@ -435,7 +444,8 @@ def _changed_in(h: dict[str, Any]) -> Changed:
 
 def _health_in(h: dict[str, Any]) -> Health:
     fields = {k: v for k, v in h.items() if k != "ev"}
-    return Health(**{**fields, "store": StoreHealth(**fields["store"])})
+    rig = RigLink(**fields["rig"]) if fields.get("rig") is not None else None
+    return Health(**{**fields, "store": StoreHealth(**fields["store"]), "rig": rig})
 
 
 # -- errors ---------------------------------------------------------------------------

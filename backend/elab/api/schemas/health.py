@@ -80,6 +80,23 @@ class UploadsInfo(Model):
     limit: int = Field(description="ELAB_MAX_UPLOADS: more at once get 429")
 
 
+class RigInfo(Model):
+    """The flexible-link rig of this server, if it has one (``ELAB_RIG``)."""
+
+    engine: EngineInfo
+    connected: bool = Field(description="the rig answers the host loop")
+    rig_id: str | None
+    firmware: str | None
+    emulated: bool = Field(description="an elab rig-emulator process, not hardware")
+    problem: str | None = Field(description="why it is not connected, or out of service")
+    settling: bool = Field(description="after a run: 0 V until still, then re-zero")
+    samples: int = Field(description="samples the host loop answered since it started")
+    late_1ms: int = Field(description="of them, answered more than 1 ms after arriving")
+    latency_p50_us: float | None = Field(description="response latency, last 10 s (µs)")
+    latency_p99_us: float | None
+    latency_max_us: float | None
+
+
 class ServerStatus(Model):
     live_runs: int
     watchers: int = Field(description="websocket watchers connected, all runs")
@@ -88,6 +105,7 @@ class ServerStatus(Model):
     store: StoreInfo
     ident: JobsInfo
     uploads: UploadsInfo
+    rig: RigInfo | None = Field(description="the rig, if this server has one")
 
 
 class HealthInfo(Model):

@@ -1,0 +1,126 @@
+"""The rig through the server (``ELAB_RIG=emulator``: the server starts ``elab
+rig-emulator`` as a process of its own and a rig engine process drives it): a run in mode
+``rig`` streams live and records like a simulation's, the server says what the rig is
+(emulated) and how fast its loop answers, a rig run cannot go fast or run twice at once,
+and a killed host loop leaves the motor at 0 V (the emulator's watchdog) and the run
+ended with a reason. A server without a rig refuses mode ``rig`` naming ``ELAB_RIG``."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import os
+import signal
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+
+from tests.api.server import Server, Watcher, until
+
+RIG_RUN = {
+    "plant": "flexible_link",
+    "mode": "rig",
+    "duration": 2.0,
+    "signal": {"kind": "square", "amplitude": math.radians(20), "period": 2.0},
+}
+
+
+def call(srv: Server, method: str, path: str, **kw: Any) -> httpx.Response:
+    with srv.client() as c:
+        return c.request(method, path, **kw)
+
+
+def start(srv: Server, **body: object) -> dict[str, Any]:
+    """Start a rig run; after a run the rig settles and re-zeroes first (409 until then,
+    as a client would retry)."""
+
+    def attempt() -> httpx.Response | None:
+        r = call(srv, "POST", "/runs", json={**RIG_RUN, **body})
+        return None if r.status_code == 409 and "settling" in r.text else r
+
+    r = until(attempt, 60, every=0.2)
+    assert r.status_code == 201, r.text
+    return r.json()  # type: ignore[no-any-return]
+
+
+@pytest.fixture(scope="module")
+def srv(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    server = Server(tmp_path_factory.mktemp("rig"), ELAB_RIG="emulator").start()
+    try:
+        until(lambda: (server.status().get("rig") or {}).get("connected"), 60)
+        yield server
+    finally:
+        server.stop()
+
+
+def test_a_rig_run_streams_live_and_records_every_sample(srv: Server) -> None:
+    rig = srv.status()["rig"]
+    assert rig["emulated"] and rig["rig_id"].startswith("emulator")
+    run = start(srv)
+    assert run["mode"] == "rig" and [c["name"] for c in run["channels"]][:4] == [
+        "r",
+        "u",
+        "theta",
+        "alpha",
+    ]
+
+    async def watch() -> dict[str, np.ndarray]:
+        w = await Watcher.open(srv.ws_url, run["id"], as_=srv)
+        try:
+            end = await w.until_status({"finished", "failed", "stopped"}, 60)
+            assert end["state"] == "finished", end
+            return w.assemble(2000)
+        finally:
+            await w.conn.close()
+
+    cols = asyncio.run(watch())
+    # the square's first half-period: θ follows the reference +20° (within 4°)
+    k = slice(800, 1000)
+    assert abs(np.degrees(np.mean(cols["theta"][k] - cols["r"][k]))) < 4.0
+    csv = call(srv, "GET", f"/runs/{run['id']}/data?format=csv")
+    assert csv.status_code == 200 and "mode: rig" in csv.text
+    st = srv.status()["rig"]
+    assert st["samples"] >= 2000 and st["latency_p99_us"] is not None
+
+
+def test_a_rig_run_goes_at_the_rigs_clock_one_at_a_time(srv: Server) -> None:
+    r = call(srv, "POST", "/runs", json={**RIG_RUN, "pace": "fast"})
+    assert r.status_code == 422 and r.json()["error"]["field"] == "pace"
+    first = start(srv, duration=30.0)
+    second = call(srv, "POST", "/runs", json=RIG_RUN)
+    assert second.status_code == 409 and "one run at a time" in second.text
+    stop = call(srv, "POST", f"/runs/{first['id']}/stop")
+    assert stop.status_code == 200 and stop.json()["status"] == "stopped"
+
+
+def test_a_killed_host_loop_ends_its_run_and_the_rig_stops(srv: Server) -> None:
+    run = start(srv, duration=30.0)
+    until(lambda: call(srv, "GET", f"/runs/{run['id']}").json()["n_samples"] > 500, 30)
+    os.kill(srv.status()["rig"]["engine"]["pid"], signal.SIGKILL)
+
+    def ended_run() -> dict[str, Any] | None:
+        j: dict[str, Any] = call(srv, "GET", f"/runs/{run['id']}").json()
+        return None if j["status"] == "running" else j
+
+    ended = until(ended_run, 30)
+    assert ended["status"] == "interrupted" and ended["error"], ended
+    # what it committed is kept (a killed engine loses at most its flush interval, 0.25 s)
+    assert ended["n_samples"] > 500 - 300
+    # the engine comes back and connects to the rig again (the emulator took the motor to
+    # 0 V and dropped the lost host, so it accepts the new one)
+    until(lambda: srv.status()["rig"]["connected"], 60)
+
+
+def test_a_server_without_a_rig_says_how_to_get_one(tmp_path: Path) -> None:
+    server = Server(tmp_path).start()
+    try:
+        assert server.status()["rig"] is None
+        with server.client() as c:
+            r = c.post("/runs", json=RIG_RUN)
+        assert r.status_code == 422 and "ELAB_RIG" in r.json()["error"]["message"]
+    finally:
+        server.stop()
