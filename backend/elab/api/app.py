@@ -72,7 +72,11 @@ def create_app(settings: Settings | None = None) -> Starlette:
             stall_timeout=settings.engine_stall,
         )
         engines: dict[str, Engine] = {"simulation": engine}
-        emulator = EmulatorProcess(settings.rig_seed) if settings.rig == "emulator" else None
+        emulator = (
+            EmulatorProcess(settings.rig_seed, settings.rig_watchdog)
+            if settings.rig == "emulator"
+            else None
+        )
         if settings.rig != "none":
             address = settings.rig if emulator is None else emulator.start()
             engines["rig"] = ProcessEngine(

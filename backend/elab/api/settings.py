@@ -67,7 +67,9 @@ class Settings:
     mode ``rig`` are refused with 422), ``emulator`` (the server starts one
     ``elab rig-emulator`` process, shown everywhere as emulated; ``make run`` does this) or
     the ``host:port`` of a rig speaking E-Lab's byte protocol; ``rig_seed``
-    (``ELAB_RIG_SEED``, 1): the emulated rig's hidden parameters."""
+    (``ELAB_RIG_SEED``, 1): the emulated rig's hidden parameters; ``rig_watchdog``
+    (``ELAB_RIG_WATCHDOG``, 5): samples the emulated rig waits for an answer before its
+    watchdog cuts the motor (a host loop that is not real-time needs more)."""
 
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
@@ -102,6 +104,7 @@ class Settings:
     trial_timeout: float = 60.0
     rig: str = "none"
     rig_seed: int = 1
+    rig_watchdog: int = 5
 
     @property
     def database(self) -> Path:
@@ -172,6 +175,7 @@ class Settings:
             session_hours=_float(env, "ELAB_SESSION_HOURS", 12.0),
             rig=_rig(env),
             rig_seed=_int(env, "ELAB_RIG_SEED", 1, lo=0, hi=(1 << 32) - 1),
+            rig_watchdog=_int(env, "ELAB_RIG_WATCHDOG", 5, hi=10_000),
         )
 
 

@@ -19,14 +19,21 @@ log = logging.getLogger(__name__)
 class EmulatorProcess:
     """Start with :meth:`start` (its ``host:port``), end with :meth:`close`."""
 
-    def __init__(self, rig_seed: int) -> None:
+    def __init__(self, rig_seed: int, watchdog_samples: int = 5) -> None:
         self.rig_seed = rig_seed
+        self.watchdog_samples = watchdog_samples
         self.proc: subprocess.Popen[str] | None = None
 
     def start(self, timeout: float = 60.0) -> str:
         cmd = [sys.executable, "-m", "elab.cli", "rig-emulator", "--port", "0"]
         self.proc = subprocess.Popen(
-            [*cmd, "--rig-seed", str(self.rig_seed)],
+            [
+                *cmd,
+                "--rig-seed",
+                str(self.rig_seed),
+                "--watchdog-samples",
+                str(self.watchdog_samples),
+            ],
             stdout=subprocess.PIPE,
             stdin=subprocess.DEVNULL,
             text=True,

@@ -98,8 +98,9 @@ def test_the_watchdog_cuts_a_silent_host_until_enable(rig: Running) -> None:
     finally:
         driver.close()
     tripped = [i for i, s in enumerate(silent) if s.status & Status.WATCHDOG_TRIPPED]
-    # 100 unanswered samples trip it; 30 more allow for answers still in flight
-    assert tripped and tripped[0] < 130, tripped[:3]
+    # 100 unanswered samples trip it; up to 100 more allow for answers still in flight and
+    # samples queued unread while this (not real-time) process waits for a CPU
+    assert tripped and tripped[0] < 200, tripped[:3]
     assert all(not s.status & Status.MOTOR_ENABLED for s in silent[tripped[0] :])
     # 0 V: the servo and the link coast (the link's momentum bends it and drags the servo
     # about 0.4 rad on) while back-EMF and friction take the energy out; driven, the servo
