@@ -34,7 +34,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.engines.base import Block, Ended, StoreHealth
+from elab.engines.base import Block, Ended, EngineEvents, StoreHealth
 from elab.errors import ElabError
 from elab.lifecycle import RunState
 from elab.store.base import ParamChange, RunStore, StoreError
@@ -106,6 +106,31 @@ class Recorder:
         self._thread = threading.Thread(target=self._loop, name="elab-writer", daemon=True)
         self.health = StoreHealth()
         self.last_flush = time.monotonic()  # the end of the writer's last try (its watchdog)
+
+    @classmethod
+    def reporting(
+        cls,
+        store: RunStore,
+        engine_id: str,
+        events: EngineEvents,
+        *,
+        interval: float,
+        retry_for: float,
+        max_pending: int,
+        on_fault: Callable[[StoreHealth], None],
+    ) -> Recorder:
+        """The recorder of engine ``engine_id``, reporting what it commits, decides and
+        stores to ``events``."""
+        return cls(
+            store,
+            interval=interval,
+            retry_for=retry_for,
+            max_pending=max_pending,
+            on_committed=lambda counts: events.committed(engine_id, counts),
+            on_ended=lambda run_id, ended: events.ended(engine_id, run_id, ended),
+            on_stored=lambda run_id: events.stored(engine_id, run_id),
+            on_fault=on_fault,
+        )
 
     @property
     def failed(self) -> bool:

@@ -132,14 +132,13 @@ class RigEngine:
         self.limits = limits or SafetyLimits()
         self._events = events
         self._connect = connect
-        self.recorder = Recorder(
+        self.recorder = Recorder.reporting(
             store,
+            engine_id,
+            events,
             interval=settings.flush_interval,
             retry_for=settings.retry_for,
             max_pending=settings.max_pending,
-            on_committed=lambda counts: events.committed(self.id, counts),
-            on_ended=lambda run_id, ended: events.ended(self.id, run_id, ended),
-            on_stored=lambda run_id: events.stored(self.id, run_id),
             on_fault=self._on_fault,
         )
         self._lock = threading.Lock()
