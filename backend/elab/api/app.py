@@ -3,6 +3,7 @@ the OpenAPI document and its reference page, JSON errors, lifespan."""
 
 from __future__ import annotations
 
+import asyncio
 import gc
 import logging
 from collections import Counter
@@ -78,7 +79,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
             else None
         )
         if settings.rig != "none":
-            address = settings.rig if emulator is None else emulator.start()
+            address = settings.rig if emulator is None else await asyncio.to_thread(emulator.start)
             engines["rig"] = ProcessEngine(
                 "rig-0",
                 settings.database,

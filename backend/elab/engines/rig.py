@@ -13,8 +13,11 @@ next run; a rig that does not settle is out of service until the engine restarts
 
 The controller is the run's law as the simulation compiles it (:func:`compile_run`),
 stepped one sample at a time by the same compiled arithmetic
-(:func:`elab.sim.kernel.control_step`) on the measured θ and α: a law that needs the
-true state (state feedback without an estimate) cannot run here.
+(:func:`elab.sim.kernel.control_step`) on the measured θ and α, with the run's reference
+and excitation (:meth:`CompiledRun.exogenous`; the rig's sensors are real, so a run's
+simulated noise and quantisation are left out): a law that needs the true state (state
+feedback without an estimate) cannot run here. A store write (a new run's record) never
+happens under the lock the loop takes every sample.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from elab.engines.recorder import Recorder
 from elab.errors import Conflict, ElabError, InvalidInput, Unavailable
 from elab.laws import ControlLaw, is_code
 from elab.lifecycle import RunState
+from elab.plants import get_plant
 from elab.rig.driver import Driver, RigDisconnected, RigSample, RigTimeout
 from elab.rig.messages import Action as RigAction
 from elab.rig.messages import RigIdentity, Status
@@ -60,8 +64,10 @@ from elab.rig.settle import (
 from elab.rig.supervisor import SafetyLimits, Supervisor, Trip
 from elab.sim.kernel import control_step
 from elab.sim.signals import Signal
-from elab.sim.spec import CompiledRun, compile_run
+from elab.sim.spec import CompiledRun, RunSpec, compile_run
 from elab.store.base import ParamChange, RunRecord, RunStore
+
+EXO_BLOCK = 1000  # samples of reference and excitation computed at once
 
 log = logging.getLogger(__name__)
 
@@ -101,17 +107,31 @@ class RigSettings:
 
 @dataclass
 class _Active:
-    """The run the loop steps now."""
+    """The run the loop steps now: its controller as the loop steps it (``law``), the
+    rows not yet handed on (from sample ``k0``), its reference and excitation for samples
+    ``exo_k0 ..`` (``exo``: rows ``[r, e, …]``), and whether it was asked to end."""
 
     record: RunRecord
-    run: CompiledRun
+    law: _Law
     supervisor: Supervisor
     k: int = 0
-    law: _Law | None = None  # the run's controller as the loop steps it
     rows: list[list[float]] | None = None
     k0: int = 0
-    u: float = 0.0  # the voltage applied last
-    stop: tuple[RunState, str | None, Future[int] | None] | None = None  # asked to end
+    exo: Array | None = None
+    exo_k0: int = 0
+    stop: tuple[RunState, str | None, Future[int] | None] | None = None
+
+    @property
+    def run(self) -> CompiledRun:
+        return self.law.run
+
+    def exogenous(self, k: int) -> tuple[float, float]:
+        """The reference and the input excitation at sample ``k`` (V)."""
+        if self.exo is None or not self.exo_k0 <= k < self.exo_k0 + self.exo.shape[0]:
+            n = min(EXO_BLOCK, self.run.n_samples - k)
+            self.exo, self.exo_k0 = self.run.exogenous(k, max(n, 1)), k
+        row = self.exo[k - self.exo_k0]
+        return float(row[0]), float(row[1])
 
 
 class RigEngine:
@@ -144,7 +164,8 @@ class RigEngine:
         self._lock = threading.Lock()
         self._active: _Active | None = None
         self._pending: _Active | None = None  # added, starting at the next sample
-        self._swap: tuple[CompiledRun, bool, bool, Future[int]] | None = None
+        self._reserved = False  # a run is being stored, outside the lock
+        self._swaps: list[tuple[CompiledRun, Future[int]]] = []  # changes, in order
         self._closing = threading.Event()
         self._driver: Driver | None = None
         self._thread = threading.Thread(target=self._loop, name="elab-rig-loop", daemon=True)
@@ -184,7 +205,7 @@ class RigEngine:
 
     def _busy(self) -> bool:
         with self._lock:
-            return self._active is not None or self._pending is not None
+            return self._active is not None or self._pending is not None or self._reserved
 
     # -- commands --------------------------------------------------------------------
     def add(self, order: RunOrder) -> RunRecord:
@@ -198,6 +219,8 @@ class RigEngine:
             busy = self._active or self._pending
             if busy is not None:
                 raise Conflict(f"the rig is driven by run {busy.record.id}; one run at a time")
+            if self._reserved:
+                raise Conflict("the rig is taking another run; one run at a time")
             settle = self.settle
             if settle is not None and settle.phase is SettlePhase.OUT_OF_SERVICE:
                 raise Unavailable(f"the rig is out of service: {settle.message}")
@@ -206,6 +229,8 @@ class RigEngine:
                     "the rig is settling after the last run (0 V until the link is still, "
                     "then it re-zeroes); try again in a few seconds"
                 )
+            self._reserved = True
+        try:
             now = time.time()
             record = RunRecord(
                 id=order.id,
@@ -223,10 +248,14 @@ class RigEngine:
                 owner=order.owner,
                 private=order.private,
             )
-            self.store.create_run(record)
+            self.store.create_run(record)  # not under the lock: the loop takes it
             self.recorder.open(record.id, len(CHANNELS))
-            supervisor = Supervisor(self.limits, run.Ts)
-            self._pending = _Active(record, run, supervisor)
+            active = _Active(record, _Law.of(run), Supervisor(self.limits, run.Ts))
+        finally:
+            with self._lock:
+                self._reserved = False
+        with self._lock:
+            self._pending = active
         self._events.started(self.id, record)
         return record
 
@@ -278,8 +307,13 @@ class RigEngine:
             )
         applied: Future[int] = Future()
         with self._lock:
-            self._swap = (run, law is not None, reference is not None, applied)
-        k = applied.result(timeout=5.0)
+            self._swaps.append((run, applied))
+        try:
+            k = applied.result(timeout=5.0)
+        except TimeoutError:
+            raise Unavailable(
+                "the rig sent no sample for 5 s: the change was not applied"
+            ) from None
         change = ParamChange(k=k, params=params, at=time.time())
         self.recorder.param(run_id, change)
         self._events.params(self.id, run_id, change)
@@ -384,19 +418,18 @@ class RigEngine:
                 self._theta_dot.reset(s.theta)
                 self._alpha_dot.reset(s.alpha)
                 theta_dot = alpha_dot = 0.0
-            active, swap, self._swap = self._active, self._swap, None
+            active, swaps, self._swaps = self._active, self._swaps, []
         self._t += Ts
-        if active is None:
-            if swap is not None:
-                swap[3].set_exception(Conflict("the run ended before its change"))
-            return self._settling(theta_dot, alpha_dot)
-        if swap is not None:
-            run, _, _, applied = swap
-            if active.law is not None:  # the controller's state goes on with the new law
-                active.law = _Law.of(run, active.law.xc)
-            active.run = run
+        for run, applied in swaps:
+            if active is None:
+                applied.set_exception(Conflict("the run ended before its change"))
+                continue
+            active.law = _Law.of(run, active.law.xc)  # the controller's state goes on
+            active.exo = None
             active.supervisor.touch(active.k * run.Ts)
             applied.set_result(active.k)
+        if active is None:
+            return self._settling(theta_dot, alpha_dot)
         if active.stop is not None:
             state, reason, fut = active.stop
             self._finish(active, state, reason)
@@ -405,8 +438,8 @@ class RigEngine:
             return 0.0
         run, k = active.run, active.k
         t = k * run.Ts
-        r = float(run.spec.reference.sample(k, 1, run.Ts)[0])
-        u_req = self._control(active, r, s)
+        r, e = active.exogenous(k)
+        u_req = self._control(active.law, r, e, s)
         fault = bool(s.status & Status.WATCHDOG_TRIPPED)
         decision = active.supervisor.step(
             k, t, s.theta, s.alpha, theta_dot, u_req, False, fault=fault
@@ -437,13 +470,10 @@ class RigEngine:
         self.settle = None if settle.phase is SettlePhase.READY else settle
         return 0.0
 
-    def _control(self, active: _Active, r: float, s: RigSample) -> float:
-        law = active.law
-        if law is None or law.run is not active.run:
-            law = active.law = _Law.of(active.run)
+    def _control(self, law: _Law, r: float, e: float, s: RigSample) -> float:
         law.z[0], law.z[1] = s.theta, s.alpha
         u = control_step(
-            0, r, law.z, 0.0, law.Ac, law.Bc, law.Cc, law.Dc, law.Lw, law.u_lim, law.xc, law.xcn
+            0, r, law.z, e, law.Ac, law.Bc, law.Cc, law.Dc, law.Lw, law.u_lim, law.xc, law.xcn
         )
         law.xc[0, :] = law.xcn
         return float(u) if math.isfinite(u) else 0.0
@@ -498,8 +528,9 @@ def _compile(order: RunOrder) -> CompiledRun:
     return _compile_spec(order.spec)
 
 
-def _compile_spec(spec: Any) -> CompiledRun:
-    run = compile_run(spec)
+def _compile_spec(spec: RunSpec) -> CompiledRun:
+    """The run as the loop steps it: its sensors are the rig's, not simulated ones."""
+    run = compile_run(replace(spec, noise_seed=None, quantize=False))
     if run.controller.feedback != "output":
         raise InvalidInput(
             "controller.estimate",
@@ -547,9 +578,6 @@ class _Law:
 
 
 def _warm() -> None:
-    from elab.plants import get_plant
-    from elab.sim.spec import RunSpec
-
     plant = get_plant("flexible_link")
     law = _Law.of(_compile_spec(RunSpec(plant, plant.predefined, duration=0.01)))
     control_step(

@@ -20,11 +20,12 @@ import pytest
 from elab.engines.base import Block, Changed, Ended, Health, RunOrder
 from elab.engines.rig import CHANNELS, RigEngine, RigSettings
 from elab.errors import Conflict, InvalidInput
-from elab.laws import StateFeedback
+from elab.laws import OpenLoop, StateFeedback
 from elab.lifecycle import RunState
 from elab.plants.flexible_link import PLANT
 from elab.rig.driver import TcpDriver
 from elab.sim import RunSpec, Square, Step, simulate
+from elab.sim.spec import compile_run
 from elab.store.base import ParamChange, RunRecord
 from elab.store.sqlite import SQLiteStore
 from tests.unit.rig.emulator_process import Running, running_emulator
@@ -195,5 +196,31 @@ def test_one_run_at_a_time_and_only_laws_the_rig_can_run(tmp_path: Path, rig: Ru
         _until(lambda: engine.settle is None, "the rig settles and re-zeroes")
         engine.add(_order("r-7", SQUARE))
         assert heard.wait_ended("r-7").state is RunState.FINISHED
+    finally:
+        engine.close()
+
+
+def test_an_identification_runs_excitation_reaches_the_motor(tmp_path: Path, rig: Running) -> None:
+    heard = Heard()
+    engine = _engine(tmp_path, rig, heard)
+    try:
+        # open loop, the excitation at the plant input: u is the excitation itself (its
+        # steps of 0.8 V are within the supervisor's slew limit of 1 V per sample); the
+        # simulated sensor noise a run may ask for is not added to a real rig's sensors
+        spec = RunSpec(
+            PLANT,
+            OpenLoop(),
+            Step(0.0),
+            duration=1.0,
+            excitation=Square(0.4, 0.2),
+            excitation_at="input",
+            noise_seed=3,
+        )
+        engine.add(_order("r-8", spec))
+        ended = heard.wait_ended("r-8")
+        assert (ended.state, ended.n) == (RunState.FINISHED, 1000)
+        data = engine.store.read("r-8", 0, 1000)
+        expected = compile_run(spec).exogenous(0, 1000)[:, 1]
+        np.testing.assert_allclose(data[:, 1], expected, rtol=0, atol=1e-12)
     finally:
         engine.close()
