@@ -66,7 +66,8 @@ def encode_frames(
     k0 = np.asarray(k0, dtype=np.int64)
     out[:, at_seq : at_seq + 8] = (k0 // F).astype(">u8").view(np.uint8).reshape(R, 8)
     out[:, at_k0 : at_k0 + 8] = k0.astype(">u8").view(np.uint8).reshape(R, 8)
-    cols = np.ascontiguousarray(data.transpose(0, 2, 1), dtype="<f4").view(np.uint8)
+    with np.errstate(over="ignore"):  # beyond float32's range is ±inf on the wire, as it should
+        cols = np.ascontiguousarray(data.transpose(0, 2, 1), dtype="<f4").view(np.uint8)
     for i, at in enumerate(at_cols):
         out[:, at : at + 4 * n] = cols[:, i]
     return [row.tobytes() for row in out]

@@ -68,6 +68,8 @@ from elab.sim.spec import CompiledRun, RunSpec, compile_run
 from elab.store.base import ParamChange, RunRecord, RunStore
 
 EXO_BLOCK = 1000  # samples of reference and excitation computed at once
+ENABLE_EVERY = 50  # samples between two requests to enable a disabled amplifier
+ENABLE_PATIENCE = 1000  # samples a new run waits for the amplifier before it fails
 
 log = logging.getLogger(__name__)
 
@@ -173,6 +175,7 @@ class RigEngine:
         self.problem: str | None = "not connected yet"
         self.last_sample = 0.0  # monotonic s
         self._latency = _Latency()
+        self._disabled = 0  # samples in a row the amplifier was off between runs
         self.settle_limits = SettleLimits(still_for=settings.still_for)
         self.settle: Settle | None = None  # after a run, until the rig is ready again
         self._t = 0.0  # s, the rig's clock: samples since connecting times Ts
@@ -214,21 +217,11 @@ class RigEngine:
             raise Unavailable("new runs are refused while the run store fails", retry_after=5.0)
         if self.identity is None:
             raise Unavailable(f"the rig is not connected: {self.problem}", retry_after=5.0)
+        with self._lock:  # before compiling too: a refused run costs the loop's GIL nothing
+            self._check_free()
         run = _compile(order)
         with self._lock:
-            busy = self._active or self._pending
-            if busy is not None:
-                raise Conflict(f"the rig is driven by run {busy.record.id}; one run at a time")
-            if self._reserved:
-                raise Conflict("the rig is taking another run; one run at a time")
-            settle = self.settle
-            if settle is not None and settle.phase is SettlePhase.OUT_OF_SERVICE:
-                raise Unavailable(f"the rig is out of service: {settle.message}")
-            if settle is not None:
-                raise Conflict(
-                    "the rig is settling after the last run (0 V until the link is still, "
-                    "then it re-zeroes); try again in a few seconds"
-                )
+            self._check_free()
             self._reserved = True
         try:
             now = time.time()
@@ -258,6 +251,22 @@ class RigEngine:
             self._pending = active
         self._events.started(self.id, record)
         return record
+
+    def _check_free(self) -> None:
+        """With the lock held: :class:`Conflict` unless the rig can take a run now."""
+        busy = self._active or self._pending
+        if busy is not None:
+            raise Conflict(f"the rig is driven by run {busy.record.id}; one run at a time")
+        if self._reserved:
+            raise Conflict("the rig is taking another run; one run at a time")
+        settle = self.settle
+        if settle is not None and settle.phase is SettlePhase.OUT_OF_SERVICE:
+            raise Unavailable(f"the rig is out of service: {settle.message}")
+        if settle is not None:
+            raise Conflict(
+                "the rig is settling after the last run (0 V until the link is still, "
+                "then it re-zeroes); try again in a few seconds"
+            )
 
     def control(self, run_id: str, action: Action, reason: str | None = None) -> Future[int]:
         """Stop at the next sample (0 V from there); a rig run does not pause."""
@@ -412,14 +421,23 @@ class RigEngine:
         Ts = self.identity.Ts if self.identity is not None else 1e-3
         theta_dot = self._theta_dot.next(s.theta, Ts)
         alpha_dot = self._alpha_dot.next(s.alpha, Ts)
+        enabled = s.status & Status.MOTOR_ENABLED and not s.status & Status.WATCHDOG_TRIPPED
         with self._lock:
-            if self._active is None and self._pending is not None:
+            waiting = self._pending
+            if waiting is not None and waiting.stop is not None:  # stopped before it began
+                self._pending = None
+                self._end(waiting, waiting.stop[0], waiting.stop[1])
+                if waiting.stop[2] is not None:
+                    waiting.stop[2].set_result(0)
+            if self._active is None and self._pending is not None and enabled:
                 self._active, self._pending = self._pending, None
                 self._theta_dot.reset(s.theta)
                 self._alpha_dot.reset(s.alpha)
                 theta_dot = alpha_dot = 0.0
             active, swaps, self._swaps = self._active, self._swaps, []
         self._t += Ts
+        if enabled:
+            self._disabled = 0
         for run, applied in swaps:
             if active is None:
                 applied.set_exception(Conflict("the run ended before its change"))
@@ -429,6 +447,8 @@ class RigEngine:
             active.supervisor.touch(active.k * run.Ts)
             applied.set_result(active.k)
         if active is None:
+            if not enabled:
+                self._enable()
             return self._settling(theta_dot, alpha_dot)
         if active.stop is not None:
             state, reason, fut = active.stop
@@ -454,6 +474,22 @@ class RigEngine:
         if active.k >= run.n_samples:
             self._finish(active, RunState.FINISHED, None)
         return u
+
+    def _enable(self) -> None:
+        """The amplifier is off (a tripped watchdog, a STOP): ask the rig to enable it, at
+        most every :data:`ENABLE_EVERY` samples; a new run waits for it (and fails if it
+        never comes, see :meth:`_overdue`)."""
+        self._disabled += 1
+        if self._driver is not None and self._disabled % ENABLE_EVERY == 1:
+            self._driver.command(RigAction.ENABLE)
+        if self._disabled > ENABLE_PATIENCE:
+            self._overdue()
+
+    def _overdue(self) -> None:
+        with self._lock:
+            waiting, self._pending = self._pending, None
+        if waiting is not None:
+            self._end(waiting, RunState.FAILED, "the rig's amplifier could not be enabled")
 
     def _settling(self, theta_dot: float, alpha_dot: float) -> float:
         """Between runs: 0 V; after one, settle and re-zero."""

@@ -24,6 +24,7 @@ from elab.laws import OpenLoop, StateFeedback
 from elab.lifecycle import RunState
 from elab.plants.flexible_link import PLANT
 from elab.rig.driver import TcpDriver
+from elab.rig.messages import Action
 from elab.sim import RunSpec, Square, Step, simulate
 from elab.sim.spec import compile_run
 from elab.store.base import ParamChange, RunRecord
@@ -222,5 +223,41 @@ def test_an_identification_runs_excitation_reaches_the_motor(tmp_path: Path, rig
         data = engine.store.read("r-8", 0, 1000)
         expected = compile_run(spec).exogenous(0, 1000)[:, 1]
         np.testing.assert_allclose(data[:, 1], expected, rtol=0, atol=1e-12)
+    finally:
+        engine.close()
+
+
+class StoppingDriver(TcpDriver):
+    """A driver that, when told to, answers one sample with STOP instead of a voltage (as
+    an amplifier that tripped between runs leaves the motor off)."""
+
+    stop_once = False
+
+    def write(self, seq: int, u: float) -> None:
+        if self.stop_once:
+            self.stop_once = False
+            self.command(Action.STOP)
+            return
+        super().write(seq, u)
+
+
+def test_a_motor_switched_off_between_runs_is_enabled_before_the_next(
+    tmp_path: Path, rig: Running
+) -> None:
+    heard = Heard()
+    driver = StoppingDriver(rig.host, rig.port)
+    store = SQLiteStore(tmp_path / "elab.sqlite3")
+    engine = RigEngine("rig-0", store, heard, RigSettings(still_for=0.2), lambda: driver)
+    engine.start()
+    try:
+        _until(lambda: engine.identity is not None, "the engine connects to the rig")
+        driver.stop_once = True
+        _until(lambda: not driver.stop_once, "the rig told to stop its motor")
+        spec = RunSpec(PLANT, PLANT.predefined, Step(math.radians(20)), duration=1.5)
+        engine.add(_order("r-9", spec))
+        assert heard.wait_ended("r-9").state is RunState.FINISHED
+        theta = engine.store.read("r-9", 0, 1500)[:, 2]
+        # driven (not a motor left off): the step is tracked within 4°
+        assert abs(math.degrees(theta[-1]) - 20.0) < 4.0
     finally:
         engine.close()
