@@ -460,6 +460,15 @@ class RigEngine:
         t = k * run.Ts
         r, e = active.exogenous(k)
         u_req = self._control(active.law, r, e, s)
+        if not math.isfinite(u_req):  # the law's arithmetic overflowed: nothing to apply
+            self._row(active, [r, 0.0, s.theta, s.alpha, theta_dot, alpha_dot, 0.0])
+            active.k += 1
+            reason = (
+                f"the controller's voltage is {u_req} at t = {t:.4g} s: its numbers overflow "
+                "(a reference or gain too large); 0 V since"
+            )
+            self._finish(active, RunState.FAILED, reason)
+            return 0.0
         fault = bool(s.status & Status.WATCHDOG_TRIPPED)
         decision = active.supervisor.step(
             k, t, s.theta, s.alpha, theta_dot, u_req, False, fault=fault
@@ -512,7 +521,7 @@ class RigEngine:
             0, r, law.z, e, law.Ac, law.Bc, law.Cc, law.Dc, law.Lw, law.u_lim, law.xc, law.xcn
         )
         law.xc[0, :] = law.xcn
-        return float(u) if math.isfinite(u) else 0.0
+        return float(u)
 
     def _row(self, active: _Active, row: list[float]) -> None:
         if active.rows is None:

@@ -261,3 +261,19 @@ def test_a_motor_switched_off_between_runs_is_enabled_before_the_next(
         assert abs(math.degrees(theta[-1]) - 20.0) < 4.0
     finally:
         engine.close()
+
+
+def test_a_reference_that_overflows_the_law_ends_the_run_at_0_v(
+    tmp_path: Path, rig: Running
+) -> None:
+    heard = Heard()
+    engine = _engine(tmp_path, rig, heard)
+    try:
+        spec = RunSpec(PLANT, PLANT.predefined, Step(1e308), duration=3.0)
+        engine.add(_order("r-10", spec))
+        ended = heard.wait_ended("r-10")
+        assert ended.state is RunState.FAILED, ended
+        assert ended.error is not None and "overflow" in ended.error, ended.error
+        assert engine.store.read("r-10", 0, ended.n)[-1, 1] == 0.0
+    finally:
+        engine.close()
