@@ -11,6 +11,7 @@ import asyncio
 import math
 import os
 import signal
+import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -127,5 +128,51 @@ def test_a_server_without_a_rig_says_how_to_get_one(tmp_path: Path) -> None:
         with server.client() as c:
             r = c.post("/runs", json=RIG_RUN)
         assert r.status_code == 422 and "ELAB_RIG" in r.json()["error"]["message"]
+    finally:
+        server.stop()
+
+
+def test_a_killed_emulator_fails_its_run_says_so_and_comes_back(srv: Server) -> None:
+    run = start(srv, duration=30.0)
+    until(lambda: call(srv, "GET", f"/runs/{run['id']}").json()["n_samples"] > 300, 30)
+    assert srv.proc is not None
+    found = subprocess.run(
+        ["pgrep", "-P", str(srv.proc.pid), "-f", "rig-emulator"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    os.kill(int(found.stdout.split()[0]), signal.SIGKILL)
+
+    def ended_run() -> dict[str, Any] | None:
+        j: dict[str, Any] = call(srv, "GET", f"/runs/{run['id']}").json()
+        return None if j["status"] == "running" else j
+
+    ended = until(ended_run, 30)
+    assert ended["status"] == "failed" and "rig" in ended["error"], ended
+    assert ended["n_samples"] > 0
+    # the server starts the emulator again on the same port and the engine reconnects;
+    # meanwhile /health may say the rig is not connected (degraded, not down)
+    health = call(srv, "GET", "/health").json()
+    assert health["status"] in ("ok", "degraded")
+    until(lambda: srv.status()["rig"]["connected"], 60)
+    assert start(srv)["status"] == "running"
+
+
+def test_a_rig_that_does_not_answer_degrades_health_and_only_rig_runs(tmp_path: Path) -> None:
+    server = Server(tmp_path, ELAB_RIG="127.0.0.1:9").start()  # the discard port: refused
+    try:
+
+        def rig_problem() -> list[str] | None:
+            h = httpx.get(server.url + "/api/v1/health", timeout=30).json()
+            return h["problems"] if h["status"] == "degraded" else None
+
+        problems = until(rig_problem, 30)
+        assert any("rig is not connected" in p for p in problems), problems
+        with server.client() as c:
+            r = c.post("/runs", json=RIG_RUN)
+            assert r.status_code == 503 and "not connected" in r.text
+            sim = c.post("/runs", json={"plant": "flexible_link", "duration": 1.0})
+            assert sim.status_code == 201
     finally:
         server.stop()

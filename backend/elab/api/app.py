@@ -78,8 +78,12 @@ def create_app(settings: Settings | None = None) -> Starlette:
             if settings.rig == "emulator"
             else None
         )
+        keeping = None  # the task that starts a dead emulator again
         if settings.rig != "none":
-            address = settings.rig if emulator is None else await asyncio.to_thread(emulator.start)
+            address = settings.rig
+            if emulator is not None:
+                address = await asyncio.to_thread(emulator.start)
+                keeping = asyncio.get_running_loop().create_task(emulator.keep())
             engines["rig"] = ProcessEngine(
                 "rig-0",
                 settings.database,
@@ -137,6 +141,9 @@ def create_app(settings: Settings | None = None) -> Starlette:
             await jobs.close()
             await trials.close()
             await manager.close()
+            if keeping is not None:
+                keeping.cancel()
+                await asyncio.gather(keeping, return_exceptions=True)
             if emulator is not None:
                 emulator.close()
             store.close()

@@ -242,9 +242,9 @@ async def health(request: Request) -> Response:
         return ok(s.HealthInfo(status="unavailable", problems=[down]), status=503)
     problems = [e.warning for e in engines.values() if e.warning]
     problems += [  # a rig out of service leaves the rest of the lab working
-        f"{mode}: {e.problem or 'not running'}"
+        f"{mode}: {problem}"
         for mode, e in engines.items()
-        if mode != "simulation" and (e.problem or not e.up)
+        if mode != "simulation" and (problem := _rig_problem(e))
     ]
     if problems:
         return ok(s.HealthInfo(status="degraded", problems=problems))
@@ -272,6 +272,16 @@ def server_model(status: ManagerStatus, jobs: s.JobsInfo, uploads: s.UploadsInfo
         uploads=uploads,
         rig=_rig_model(status.engines.get("rig")),
     )
+
+
+def _rig_problem(st: EngineStatus) -> str | None:
+    """Why the rig cannot take a run now, if it cannot."""
+    if st.problem or not st.up:
+        return st.problem or "its engine is not running"
+    link = st.health.rig if st.health is not None else None
+    if link is not None and not link.connected:
+        return f"the rig is not connected: {link.problem}"
+    return link.problem if link is not None else None
 
 
 def _engine_model(st: EngineStatus) -> s.EngineInfo:

@@ -1,10 +1,13 @@
 """The emulated rig a server starts for itself (``ELAB_RIG=emulator``, what ``make run``
 does): ``elab rig-emulator`` as a child process on a free loopback port, so that a
 newcomer can try the whole rig flow without hardware. Everything the lab shows about it
-says *emulated* (the rig's identity says so on the wire)."""
+says *emulated* (the rig's identity says so on the wire). One that dies is started again
+on the same port (:meth:`EmulatorProcess.keep`), as a power-cycled board would come back;
+the rig engine reconnects by itself."""
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import logging
 import signal
@@ -23,9 +26,12 @@ class EmulatorProcess:
         self.rig_seed = rig_seed
         self.watchdog_samples = watchdog_samples
         self.proc: subprocess.Popen[str] | None = None
+        self.port = 0  # chosen by the first start, kept by later ones
+        self.restarts = 0
 
-    def start(self, timeout: float = 60.0) -> str:
-        cmd = [sys.executable, "-m", "elab.cli", "rig-emulator", "--port", "0"]
+    def start(self) -> str:
+        """Start it; its ``host:port``."""
+        cmd = [sys.executable, "-m", "elab.cli", "rig-emulator", "--port", str(self.port)]
         self.proc = subprocess.Popen(
             [
                 *cmd,
@@ -44,7 +50,23 @@ class EmulatorProcess:
         if not line.startswith("listening on "):
             self.close()
             raise ElabError(f"the rig emulator did not start (it said {line!r})")
-        return line.split()[-1]
+        address = line.split()[-1]
+        self.port = int(address.rpartition(":")[2])
+        return address
+
+    async def keep(self, every: float = 1.0) -> None:
+        """Start it again whenever it has died (until cancelled)."""
+        while True:
+            await asyncio.sleep(every)
+            proc = self.proc
+            if proc is None or proc.poll() is None:
+                continue
+            log.error("the rig emulator ended (exit status %s); starting it again", proc.returncode)
+            try:
+                await asyncio.to_thread(self.start)
+                self.restarts += 1
+            except (ElabError, OSError) as exc:
+                log.error("the rig emulator did not start again: %s", exc)
 
     def close(self) -> None:
         proc, self.proc = self.proc, None
