@@ -15,6 +15,7 @@ it interrupts its live runs, stores everything and exits.
 from __future__ import annotations
 
 import argparse
+import ctypes
 import gc
 import json
 import logging
@@ -150,6 +151,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         RigSettings(**options) if args.kind == "rig" else EngineSettings(**options)
     )
     _prioritise(settings.realtime, nice)  # before any thread starts: they inherit it
+    if isinstance(settings, RigSettings) and settings.realtime > 0:
+        _lock_memory()  # the host loop never waits for a page fault
     # a thread running Python (compiling a new run, sorting samples for the store) gives
     # the GIL to the stepping thread within 1 ms of its asking, not the default 5 ms
     sys.setswitchinterval(0.001)
@@ -303,6 +306,17 @@ def _prioritise(realtime: int, nice: int) -> None:
             os.setpriority(os.PRIO_PROCESS, 0, nice)
         except OSError as exc:
             log.warning("could not set the engine's priority to nice %d: %s", nice, exc)
+
+
+def _lock_memory() -> None:
+    """``mlockall(MCL_CURRENT | MCL_FUTURE)`` where allowed (root or CAP_IPC_LOCK): every
+    page of the rig engine stays in memory; else a warning, and it runs unlocked."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.mlockall(3) != 0:
+        log.warning(
+            "mlockall refused (%s): the rig loop may wait for paging",
+            os.strerror(ctypes.get_errno()),
+        )
 
 
 def _parser() -> argparse.ArgumentParser:

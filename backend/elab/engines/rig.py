@@ -46,6 +46,7 @@ from elab.engines.base import (
     StoreHealth,
 )
 from elab.engines.recorder import Recorder
+from elab.engines.ticks import realtime_thread
 from elab.errors import Conflict, ElabError, InvalidInput, Unavailable
 from elab.laws import ControlLaw, is_code
 from elab.lifecycle import RunState
@@ -363,6 +364,8 @@ class RigEngine:
 
     # -- the loop --------------------------------------------------------------------
     def _loop(self) -> None:
+        if self.settings.realtime > 0:  # answered ahead of every ordinary thread
+            realtime_thread(self.settings.realtime)
         driver: Driver | None = None
         while not self._closing.is_set():
             self._driver = driver

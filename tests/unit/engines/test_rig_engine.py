@@ -88,7 +88,13 @@ def _engine(tmp_path: Path, rig: Running, heard: Heard, **settings: float) -> Ri
     store = SQLiteStore(tmp_path / "elab.sqlite3")
     connect: Callable[[], TcpDriver] = rig.driver
     engine = RigEngine(
-        "rig-0", store, heard, RigSettings(address="", still_for=0.2, **settings), connect
+        "rig-0",
+        store,
+        heard,
+        # the loop thread real-time where allowed (as in the rig engine process; refused
+        # without CAP_SYS_NICE, with a warning in the log)
+        RigSettings(address="", still_for=0.2, realtime=10, **settings),
+        connect,
     )
     engine.start()
     _until(lambda: engine.identity is not None, "the engine connects to the rig")
@@ -126,7 +132,7 @@ def test_the_predefined_lqr_runs_on_the_rig_recorded_and_close_to_its_simulation
         # the emulated rig differs from the model (its hidden parameters, friction, a dead
         # zone): the same law tracks the same square wave within 3° RMS of the simulation
         rms = math.degrees(float(np.sqrt(np.mean((theta_rig - theta_sim) ** 2))))
-        assert rms < 3.0, rms
+        assert rms < 3.0, rms  # 2.0° measured quiet
         # and ends near the reference (−20° after the square's second half-period)
         assert abs(math.degrees(theta_rig[-1] - data[-1, 0])) < 4.0
         assert np.all(np.abs(data[:, 1]) <= 10.0)  # the supervisor's clip
