@@ -66,6 +66,9 @@ def srv(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
 def test_a_rig_run_streams_live_and_records_every_sample(srv: Server) -> None:
     rig = srv.status()["rig"]
     assert rig["emulated"] and rig["rig_id"].startswith("emulator")
+    modes = {p["id"]: p["modes"] for p in call(srv, "GET", "/plants").json()}
+    assert modes["flexible_link"] == ["simulation", "rig"]
+    assert modes["belt_conveyor"] == ["simulation"]  # the rig is the flexible link's
     run = start(srv)
     assert run["mode"] == "rig" and [c["name"] for c in run["channels"]][:4] == [
         "r",
@@ -96,6 +99,8 @@ def test_a_rig_run_streams_live_and_records_every_sample(srv: Server) -> None:
 def test_a_rig_run_goes_at_the_rigs_clock_one_at_a_time(srv: Server) -> None:
     r = call(srv, "POST", "/runs", json={**RIG_RUN, "pace": "fast"})
     assert r.status_code == 422 and r.json()["error"]["field"] == "pace"
+    r = call(srv, "POST", "/runs", json={**RIG_RUN, "plant": "belt_conveyor"})
+    assert r.status_code == 422 and r.json()["error"]["field"] == "mode"
     first = start(srv, duration=30.0)
     assert call(srv, "GET", f"/runs/{first['id']}").json()["status"] == "running"
     second = call(srv, "POST", "/runs", json=RIG_RUN)
@@ -127,6 +132,7 @@ def test_a_server_without_a_rig_says_how_to_get_one(tmp_path: Path) -> None:
     try:
         assert server.status()["rig"] is None
         with server.client() as c:
+            assert c.get("/plants/flexible_link").json()["modes"] == ["simulation"]
             r = c.post("/runs", json=RIG_RUN)
         assert r.status_code == 422 and "ELAB_RIG" in r.json()["error"]["message"]
     finally:

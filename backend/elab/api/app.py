@@ -74,7 +74,12 @@ def create_app(settings: Settings | None = None) -> Starlette:
         )
         engines: dict[str, Engine] = {"simulation": engine}
         emulator = (
-            EmulatorProcess(settings.rig_seed, settings.rig_watchdog)
+            # the emulator's clock above the host loop, as hardware's own would be
+            EmulatorProcess(
+                settings.rig_seed,
+                settings.rig_watchdog,
+                min(99, settings.engine.realtime + 1) if settings.engine.realtime else 0,
+            )
             if settings.rig == "emulator"
             else None
         )

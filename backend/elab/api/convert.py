@@ -133,6 +133,8 @@ def run_spec(req: s.RunCreate, plant: Plant, law_: ControlLaw | None = None) -> 
     an uploaded controller, instead of ``req.controller``'s)."""
     if req.mode == "rig" and "rig" not in plant.modes:
         raise InvalidInput("mode", req.mode, f"one of {', '.join(plant.modes)} for {plant.id}")
+    if req.mode == "rig" and req.pace != "realtime":
+        raise InvalidInput("pace", req.pace, "realtime: a rig run goes at the rig's clock")
     if req.experiment not in plant.experiments:
         raise InvalidInput("experiment", req.experiment, f"one of {', '.join(plant.experiments)}")
     return RunSpec(

@@ -14,6 +14,7 @@ from elab import design
 from elab.api import convert
 from elab.api import schemas as s
 from elab.api.http import Param, computed, endpoint, ok, query, read_model
+from elab.api.state import lab
 from elab.errors import InvalidInput, NotFound
 from elab.laws import ControlLaw, OpenLoop, has_feedback
 from elab.plants import PLANTS, Channel, Plant, get_plant
@@ -29,21 +30,21 @@ PLANT_ID = Param(
 OUTPUTS = sorted({o.name for p in PLANTS.values() for o in p.outputs})
 
 
-def _summary(p: Plant) -> s.PlantSummary:
+def _summary(p: Plant, request: Request) -> s.PlantSummary:
+    engines = lab(request).manager.engines
     return s.PlantSummary(
         id=p.id,
         name=p.name,
         summary=p.summary,
-        # what this server can run: no rig is connected yet (the flexible link's rig comes
-        # with the rig engine), so the lab does not offer — or promise — one
-        modes=[m for m in p.modes if m != "rig"],
+        # what this server can run: the rig only where it has one (ELAB_RIG)
+        modes=[m for m in p.modes if m in engines],
         experiments=list(p.experiments),
     )
 
 
 @endpoint("GET", "/plants", "List the plants", response=list[s.PlantSummary], errors=())
 async def list_plants(request: Request) -> Response:
-    return ok([_summary(p) for p in PLANTS.values()])
+    return ok([_summary(p, request) for p in PLANTS.values()])
 
 
 @endpoint(
@@ -62,7 +63,7 @@ async def get_plant_detail(request: Request) -> Response:
 
     return ok(
         s.PlantDetail(
-            **_summary(p).model_dump(),
+            **_summary(p, request).model_dump(),
             A=p.A.tolist(),
             B=p.B.tolist(),
             C=p.C.tolist(),

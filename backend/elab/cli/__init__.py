@@ -86,6 +86,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=5,
         help="samples the host may leave unanswered before the motor is cut",
     )
+    p.add_argument(
+        "--realtime",
+        type=int,
+        default=0,
+        help="SCHED_FIFO priority of its clock, as a board's own (0: an ordinary process)",
+    )
     p.set_defaults(run="elab.cli.rig:cmd_rig_emulator")
     return parser
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import signal
 import sys
 from types import FrameType
@@ -18,9 +19,16 @@ def cmd_rig_emulator(args: argparse.Namespace) -> str:
         raise InvalidInput("--port", args.port, "0 (any free port) to 65535")
     if not 1 <= args.watchdog_samples <= 65535:
         raise InvalidInput("--watchdog-samples", args.watchdog_samples, "1 to 65535")
+    if not 0 <= args.realtime <= 99:
+        raise InvalidInput("--realtime", args.realtime, "0 (ordinary) to 99")
     logging.basicConfig(
         stream=sys.stderr, level=logging.INFO, format="%(asctime)s rig-emulator %(message)s"
     )
+    if args.realtime:  # hardware keeps its clock whatever the host does
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.realtime))
+        except OSError as exc:
+            logging.warning("real-time scheduling refused (%s): the clock may slip under load", exc)
     stop = []
 
     def on_signal(signum: int, frame: FrameType | None) -> None:

@@ -22,9 +22,10 @@ log = logging.getLogger(__name__)
 class EmulatorProcess:
     """Start with :meth:`start` (its ``host:port``), end with :meth:`close`."""
 
-    def __init__(self, rig_seed: int, watchdog_samples: int = 5) -> None:
+    def __init__(self, rig_seed: int, watchdog_samples: int = 5, realtime: int = 0) -> None:
         self.rig_seed = rig_seed
         self.watchdog_samples = watchdog_samples
+        self.realtime = realtime  # its clock's SCHED_FIFO priority, as a board's own
         self.proc: subprocess.Popen[str] | None = None
         self.port = 0  # chosen by the first start, kept by later ones
         self.restarts = 0
@@ -32,6 +33,7 @@ class EmulatorProcess:
     def start(self) -> str:
         """Start it; its ``host:port``."""
         cmd = [sys.executable, "-m", "elab.cli", "rig-emulator", "--port", str(self.port)]
+        cmd += ["--realtime", str(self.realtime)]
         self.proc = subprocess.Popen(
             [
                 *cmd,
