@@ -5,7 +5,7 @@
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "ClientMessage".
  */
-export type ClientMessage = SetParams | Pause | Resume | Stop | ResumeFrom;
+export type ClientMessage = SetParams | Pause | Resume | Stop | EmergencyStop | ResumeFrom;
 /**
  * Why the server closes a stream (the close frame's reason says more): 4400 the
  * request was wrong (no ``elab.v1`` subprotocol, a bad ``from_seq``), 4404 no such run,
@@ -88,6 +88,7 @@ export interface ElabProtocol {
   DemoInfo?: DemoInfo;
   DemoPin?: DemoPin;
   DesignOut?: DesignOut;
+  EmergencyStop?: EmergencyStop;
   ErrorBody?: ErrorBody;
   ErrorDetail?: ErrorDetail;
   ErrorMessage?: ErrorMessage;
@@ -631,6 +632,16 @@ export interface Resume {
  */
 export interface Stop {
   type: "stop";
+}
+/**
+ * The rig's emergency stop (the driver or an instructor), as ``POST /rig/estop``:
+ * 0 V at the rig's next sample, whichever run this stream watches.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "EmergencyStop".
+ */
+export interface EmergencyStop {
+  type: "estop";
 }
 /**
  * Send every sample from frame ``seq`` on, from the recording.

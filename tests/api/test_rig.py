@@ -8,10 +8,13 @@ ended with a reason. A server without a rig refuses mode ``rig`` naming ``ELAB_R
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 import os
 import signal
 import subprocess
+import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -21,7 +24,9 @@ import numpy as np
 import pytest
 
 from tests.api.server import Server, Watcher, until
+from tests.api.test_access import instructor, instructors_file
 
+ELAB = str(Path(sys.executable).with_name("elab"))
 RIG_RUN = {
     "plant": "flexible_link",
     "mode": "rig",
@@ -35,11 +40,27 @@ def call(srv: Server, method: str, path: str, **kw: Any) -> httpx.Response:
         return c.request(method, path, **kw)
 
 
+def armed(srv: Server) -> dict[str, Any] | None:
+    """One step of taking the rig as ``srv``'s visitor: join the queue, arm when seated;
+    the queue once armed (``None`` until then)."""
+    q: dict[str, Any] = call(srv, "GET", "/rig").json()
+    if q["you"]["place"] is None:
+        call(srv, "POST", "/rig/queue")
+    elif q["you"]["driving"] and q["phase"] == "seated":
+        call(srv, "POST", "/rig/arm")
+    elif q["you"]["driving"] and q["phase"] == "armed":
+        return q
+    return None
+
+
 def start(srv: Server, **body: object) -> dict[str, Any]:
-    """Start a rig run, retrying as a client would: after a run the rig settles and
-    re-zeroes first (409 until then), and a rig reconnecting is 503 until it answers."""
+    """Start a rig run, as a client would: in the rig's queue, armed when seated, then the
+    run; after a run the rig settles and re-zeroes first (409 until then), and a rig
+    reconnecting is 503 until it answers."""
 
     def attempt() -> httpx.Response | None:
+        if armed(srv) is None:
+            return None
         r = call(srv, "POST", "/runs", json={**RIG_RUN, **body})
         settling = r.status_code == 409 and "settling" in r.text
         return None if settling or r.status_code == 503 else r
@@ -53,8 +74,12 @@ def start(srv: Server, **body: object) -> dict[str, Any]:
 def srv(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     # a lenient watchdog: beside two CPU hogs the test machine's rig engine can wait
     # longer than 5 ms for a CPU (docs/operations.md, ELAB_RIG_WATCHDOG)
+    data = tmp_path_factory.mktemp("rig")
     server = Server(
-        tmp_path_factory.mktemp("rig"), ELAB_RIG="emulator", ELAB_RIG_WATCHDOG="200"
+        data,
+        ELAB_RIG="emulator",
+        ELAB_RIG_WATCHDOG="200",
+        ELAB_INSTRUCTORS=str(instructors_file(data.parent)),
     ).start()
     try:
         until(lambda: (server.status().get("rig") or {}).get("connected"), 60)
@@ -103,8 +128,8 @@ def test_a_rig_run_goes_at_the_rigs_clock_one_at_a_time(srv: Server) -> None:
     assert r.status_code == 422 and r.json()["error"]["field"] == "mode"
     first = start(srv, duration=30.0)
     assert call(srv, "GET", f"/runs/{first['id']}").json()["status"] == "running"
-    second = call(srv, "POST", "/runs", json=RIG_RUN)
-    assert second.status_code == 409 and "one run at a time" in second.text
+    second = call(srv, "POST", "/runs", json=RIG_RUN)  # the seat is running: arm first
+    assert second.status_code == 409 and "arm it before starting" in second.text
     stop = call(srv, "POST", f"/runs/{first['id']}/stop")
     assert stop.status_code == 200 and stop.json()["status"] == "stopped"
 
@@ -182,3 +207,118 @@ def test_a_rig_that_does_not_answer_degrades_health_and_only_rig_runs(tmp_path: 
             assert sim.status_code == 201
     finally:
         server.stop()
+
+
+def leave(srv: Server) -> None:
+    r = call(srv, "DELETE", "/rig/queue")
+    assert r.status_code in (200, 409), r.text  # 409: not in the queue
+
+
+def ended(srv: Server, run_id: str) -> dict[str, Any]:
+    def done() -> dict[str, Any] | None:
+        j: dict[str, Any] = call(srv, "GET", f"/runs/{run_id}").json()
+        return None if j["status"] in ("running", "created") else j
+
+    return until(done, 30)
+
+
+def test_two_visitors_take_turns_and_never_drive_together(srv: Server) -> None:
+    leave(srv)  # the module's visitor, from the tests before
+    a, b = srv.visitor(), srv.visitor()
+    qa = call(a, "POST", "/rig/queue").json()
+    assert qa["you"]["place"] == 1 and qa["you"]["driving"] and qa["phase"] == "seated"
+    assert qa["you"]["arm_by"] is not None and qa["you"]["arm_by"] > qa["now"]
+    qb = call(b, "POST", "/rig/queue").json()
+    assert qb["you"]["place"] == 2 and not qb["you"]["driving"] and qb["driver"] == qa["driver"]
+    assert 0 < qb["you"]["wait_s"] <= qb["slot_s"] and qb["waiting"] == 1
+    again = call(b, "POST", "/rig/queue")
+    assert again.status_code == 409 and "already in the rig queue at place 2" in again.text
+    arm = call(b, "POST", "/rig/arm")
+    assert arm.status_code == 409 and "place in the queue is 2" in arm.text
+    assert call(b, "POST", "/runs", json=RIG_RUN).status_code == 409
+    run = start(a, duration=30.0)
+    assert call(a, "GET", "/rig").json()["run_id"] == run["id"]
+    # the other visitor may watch, not stop it or press the rig's emergency stop
+    assert call(b, "POST", f"/runs/{run['id']}/stop").status_code == 403
+    estop = call(b, "POST", "/rig/estop")
+    assert estop.status_code == 403 and "driver or an instructor" in estop.text
+    # the driver leaves: the engine stops its run (it follows the queue), b is seated
+    assert call(a, "DELETE", "/rig/queue").json()["you"]["place"] is None
+    end = ended(a, run["id"])
+    assert end["status"] == "stopped" and "slot" in end["error"], end
+    qb = call(b, "GET", "/rig").json()
+    assert qb["you"]["driving"] and qb["phase"] == "seated" and qb["you"]["wait_s"] == 0
+    leave(b)
+
+
+def test_only_instructors_take_over_extend_and_clear(srv: Server) -> None:
+    leave(srv)
+    a, c = srv.visitor(), srv.visitor()
+    run = start(a, duration=30.0)
+    call(c, "POST", "/rig/queue")
+    for path in ("/rig/takeover", "/rig/clear"):
+        r = call(a, "POST", path)
+        assert r.status_code == 403 and "only an instructor" in r.text
+    assert call(a, "POST", "/rig/extend", json={"seconds": 60}).status_code == 403
+    with instructor(srv) as prof:
+        q = prof.post("/rig/takeover").json()
+        assert q["you"]["driving"] and q["taken_over"] and "(instructor)" in q["driver"]
+        end = ended(a, run["id"])
+        assert end["status"] == "stopped" and "instructor" in end["error"], end
+        # the displaced student waits first in line, the other behind
+        assert call(a, "GET", "/rig").json()["you"]["place"] == 2
+        assert call(c, "GET", "/rig").json()["you"]["place"] == 3
+        before = q["slot_ends_at"]
+        q = prof.post("/rig/extend", json={"seconds": 120}).json()
+        assert q["slot_ends_at"] == pytest.approx(before + 120)
+        bad = prof.post("/rig/extend", json={"seconds": -1})
+        assert bad.status_code == 422 and bad.json()["error"]["field"] == "seconds"
+        assert prof.post("/rig/clear").json()["waiting"] == 0
+        assert call(a, "GET", "/rig").json()["you"]["place"] is None
+        # the instructor's take-over ends with its seat: nobody drives after it leaves
+        assert prof.delete("/rig/queue").json()["driver"] is None
+
+
+def test_an_emergency_stop_reaches_the_rig_while_the_web_process_is_stopped(
+    srv: Server,
+) -> None:
+    leave(srv)
+    run = start(srv, duration=30.0)
+    until(lambda: call(srv, "GET", f"/runs/{run['id']}").json()["n_samples"] > 300, 30)
+    assert srv.proc is not None
+    n_before = call(srv, "GET", f"/runs/{run['id']}").json()["n_samples"]
+    os.kill(srv.proc.pid, signal.SIGSTOP)
+    try:
+        sent = subprocess.run(
+            [ELAB, "rig-estop", "--data", str(srv.data), "--who", "the test"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        time.sleep(2.0)  # the web process stays stopped a while after the stop
+    finally:
+        os.kill(srv.proc.pid, signal.SIGCONT)
+    assert sent.returncode == 0, sent.stderr
+    end = ended(srv, run["id"])
+    assert end["status"] == "stopped" and "emergency stop by the test" in end["error"], end
+    # it stopped while the web process was stopped: well before the 30 s run's end
+    assert end["n_samples"] < n_before + 15_000, (n_before, end["n_samples"])
+    # the page's button: the driver's own e-stop over HTTP, then over its websocket
+    run = start(srv, duration=30.0)
+    q = call(srv, "POST", "/rig/estop").json()
+    end = ended(srv, run["id"])
+    assert end["status"] == "stopped" and "emergency stop by guest" in end["error"], end
+    assert q["run_id"] is None
+    run = start(srv, duration=30.0)
+
+    async def press() -> None:
+        w = await Watcher.open(srv.ws_url, run["id"], as_=srv)
+        try:
+            await w.conn.send(json.dumps({"type": "estop"}))
+            await w.until_status({"stopped"}, 30)
+        finally:
+            await w.conn.close()
+
+    asyncio.run(press())
+    assert "emergency stop" in ended(srv, run["id"])["error"]
+    leave(srv)

@@ -29,6 +29,7 @@ from elab.api import (  # noqa: F401  (registers their endpoints)
     ident,
     models,
     plants,
+    rig,
     runs,
 )
 from elab.api.auth import Authority, Identify, load_secret, read_instructors
@@ -45,7 +46,9 @@ from elab.engines.process import ProcessEngine
 from elab.engines.rig import RigSettings
 from elab.errors import ElabError
 from elab.jobs import JobPool, Names
+from elab.rig.estop import estop_address
 from elab.runs.manager import RunManager
+from elab.runs.rigdesk import RigDesk
 from elab.store.sqlite import SQLiteStore
 
 log = logging.getLogger(__name__)
@@ -84,6 +87,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
             else None
         )
         keeping = None  # the task that starts a dead emulator again
+        desk = None
         if settings.rig != "none":
             address = settings.rig
             if emulator is not None:
@@ -92,11 +96,19 @@ def create_app(settings: Settings | None = None) -> Starlette:
             engines["rig"] = ProcessEngine(
                 "rig-0",
                 settings.database,
-                RigSettings(address=address, realtime=settings.engine.realtime),
+                RigSettings(
+                    address=address,
+                    realtime=settings.engine.realtime,
+                    slot=settings.rig_queue.slot,
+                    grace=settings.rig_queue.grace,
+                    estop=estop_address(settings.data_dir),
+                    code_deadline=settings.engine.code_deadline,
+                ),
                 command_timeout=settings.engine_timeout,
                 stall_timeout=settings.engine_stall,
             )
-        manager = RunManager(store, engines, MsgpackCodec(), limits=settings.limits)
+            desk = RigDesk(store, "rig", settings.rig_queue, estop_address(settings.data_dir))
+        manager = RunManager(store, engines, MsgpackCodec(), limits=settings.limits, desk=desk)
         jobs = JobPool(
             workers=settings.ident_workers,
             timeout=settings.ident_timeout,
@@ -131,6 +143,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
             pending=Pending(),
             uploads=Uploads(settings.max_uploads, settings.max_uploads_per_identity),
             streams=Counter(),  # websocket streams open, by identity
+            desk=desk,
         )
         # Everything imported so far (numpy, scipy, control, numba: ~160,000 objects) lives
         # as long as the process. Frozen, the collector stops scanning it: a full collection

@@ -17,7 +17,7 @@ from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_int, read_model
 from elab.api.state import lab
 from elab.engines.base import Action, EngineStatus, StoreHealth
-from elab.errors import Conflict, InvalidInput
+from elab.errors import Conflict, InvalidInput, Unavailable
 from elab.laws import is_code
 from elab.lifecycle import RunState
 from elab.plants import PLANTS, get_plant
@@ -105,6 +105,9 @@ async def create_run(request: Request) -> Response:
     req = await read_model(request, s.RunCreate)
     plant = get_plant(req.plant)
     manager(request).engine_for(req.mode)  # a server without a rig says so here
+    rig = manager(request).status().engines.get("rig") if req.mode == "rig" else None
+    if rig is not None and (problem := _rig_problem(rig)) is not None:
+        raise Unavailable(problem, retry_after=5.0)  # before the queue seats a run
     uploaded = None
     if req.controller_id is not None:
         uploaded = await controllers.law_of(request, req.controller_id, plant.id)
@@ -266,7 +269,7 @@ def server_model(status: ManagerStatus, jobs: s.JobsInfo, uploads: s.UploadsInfo
         ),
         ident=jobs,
         uploads=uploads,
-        rig=_rig_model(status.engines.get("rig")),
+        rig=rig_model(status.engines.get("rig")),
     )
 
 
@@ -291,7 +294,7 @@ def _engine_model(st: EngineStatus) -> s.EngineInfo:
     )
 
 
-def _rig_model(st: EngineStatus | None) -> s.RigInfo | None:
+def rig_model(st: EngineStatus | None) -> s.RigInfo | None:
     if st is None:
         return None
     h = st.health

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from elab.engines.simulation import EngineSettings
 from elab.errors import InvalidInput
+from elab.rig_queue import QueuePolicy
 from elab.runs.limits import Limits
 
 #: the stepping thread's SCHED_FIFO priority by default (1..99; the kernel's threads: 50)
@@ -69,7 +70,9 @@ class Settings:
     the ``host:port`` of a rig speaking E-Lab's byte protocol; ``rig_seed``
     (``ELAB_RIG_SEED``, 1): the emulated rig's hidden parameters; ``rig_watchdog``
     (``ELAB_RIG_WATCHDOG``, 5): samples the emulated rig waits for an answer before its
-    watchdog cuts the motor (a host loop that is not real-time needs more)."""
+    watchdog cuts the motor (a host loop that is not real-time needs more); ``rig_queue``:
+    a driver's slot (``ELAB_RIG_SLOT``, 300 s) and how long a seated driver may take to arm
+    (``ELAB_RIG_GRACE``, 60 s)."""
 
     data_dir: Path = Path("data")
     limits: Limits = field(default_factory=Limits)
@@ -105,6 +108,7 @@ class Settings:
     rig: str = "none"
     rig_seed: int = 1
     rig_watchdog: int = 5
+    rig_queue: QueuePolicy = field(default_factory=QueuePolicy)
 
     @property
     def database(self) -> Path:
@@ -176,6 +180,10 @@ class Settings:
             rig=_rig(env),
             rig_seed=_int(env, "ELAB_RIG_SEED", 1, lo=0, hi=(1 << 32) - 1),
             rig_watchdog=_int(env, "ELAB_RIG_WATCHDOG", 5, hi=10_000),
+            rig_queue=QueuePolicy(
+                slot=_float(env, "ELAB_RIG_SLOT", QueuePolicy.slot),
+                grace=_float(env, "ELAB_RIG_GRACE", QueuePolicy.grace),
+            ),
         )
 
 

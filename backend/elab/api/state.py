@@ -17,6 +17,7 @@ if TYPE_CHECKING:  # the modules that make these read the state through lab()
     from elab.api.settings import Settings
     from elab.jobs import JobPool
     from elab.runs.manager import RunManager
+    from elab.runs.rigdesk import RigDesk
     from elab.store.base import ControllerStore, ModelStore
 
 
@@ -27,7 +28,7 @@ class Lab:
     and identified models, who is who (``authority``), the identification workers
     (``jobs``) and the controller trials' (``trials``), and the budgets of requests under
     way: identifications, uploads (and their bodies, ``pending``) and websocket streams,
-    each by identity."""
+    each by identity; the rig's queue (``desk``) on a server with a rig."""
 
     settings: Settings
     index: Path | None
@@ -41,6 +42,7 @@ class Lab:
     pending: Pending
     uploads: Uploads
     streams: Counter[str]
+    desk: RigDesk | None = None  # the rig's queue, on a server with a rig
 
 
 def lab(conn: HTTPConnection) -> Lab:

@@ -28,6 +28,7 @@ from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.frames import pack
 from elab.api.http import error_detail, query_int
+from elab.api.rig import rig_desk
 from elab.api.runs import apply_params, run_info
 from elab.api.state import lab
 from elab.errors import ElabError, InvalidInput, NotFound, TooMany
@@ -257,6 +258,8 @@ async def _handle(
             await apply_params(ws, run_id, msg, who)
         case s.Pause() | s.Resume() | s.Stop():
             await lab(ws).manager.control(run_id, msg.type, who)
+        case s.EmergencyStop():
+            await rig_desk(ws).emergency_stop(who)
         case _:
             assert_never(msg)
 

@@ -6,7 +6,7 @@ This module holds the argument parser and the dispatch; each command runs in the
 of its group, imported only when it runs: :mod:`~elab.cli.plants` (plants, analyze,
 design), :mod:`~elab.cli.simulate`, :mod:`~elab.cli.identify`,
 :mod:`~elab.cli.controller_files` (check, template), :mod:`~elab.cli.server` (serve,
-instructor) and :mod:`~elab.cli.rig` (rig-emulator). :mod:`~elab.cli.arguments` reads
+instructor) and :mod:`~elab.cli.rig` (rig-emulator, rig-estop). :mod:`~elab.cli.arguments` reads
 the commands' values and :mod:`~elab.cli.formatting` prints their numbers.
 """
 
@@ -93,6 +93,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="SCHED_FIFO priority of its clock, as a board's own (0: an ordinary process)",
     )
     p.set_defaults(run="elab.cli.rig:cmd_rig_emulator")
+    p = sub.add_parser(
+        "rig-estop",
+        help="emergency stop of the lab's rig: 0 V now, straight to the rig engine "
+        "(works while the web server is stopped or busy)",
+    )
+    p.add_argument(
+        "--data", help="the lab's data directory (default: ELAB_DATA, else ./data), as serve's"
+    )
+    p.add_argument("--who", default="an operator (elab rig-estop)", help="recorded as who")
+    p.set_defaults(run="elab.cli.rig:cmd_rig_estop")
     return parser
 
 

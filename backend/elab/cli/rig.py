@@ -1,4 +1,5 @@
-"""``elab rig-emulator``: the emulated flexible-link rig as a process of its own."""
+"""``elab rig-emulator``: the emulated flexible-link rig as a process of its own;
+``elab rig-estop``: the rig's emergency stop from a shell."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import logging
 import os
 import signal
 import sys
+from pathlib import Path
 from types import FrameType
 
 from elab.errors import InvalidInput
@@ -41,3 +43,11 @@ def cmd_rig_emulator(args: argparse.Namespace) -> str:
     print(f"listening on {host}:{port}", flush=True)  # the first line: how tests find the port
     emulator.serve(lambda: bool(stop))
     return "rig emulator stopped"
+
+
+def cmd_rig_estop(args: argparse.Namespace) -> str:
+    from elab.rig.estop import estop_address, send_estop
+
+    data = Path(args.data or os.environ.get("ELAB_DATA", "data"))
+    send_estop(estop_address(data), args.who)  # Unavailable: no rig engine listens
+    return f"emergency stop sent to the rig engine of {data}"

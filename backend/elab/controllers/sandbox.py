@@ -158,6 +158,7 @@ class Sandboxed:
         hold: bool = True,
         patience: float = 1.0,
         budget: float | None = None,
+        nice: int = 0,
     ) -> None:
         why = available()
         if why is not None:
@@ -170,13 +171,14 @@ class Sandboxed:
         self.hold = hold
         self.patience = patience
         self.budget = budget
+        self.nice = nice
         self.times = StepTimes()
         self._k = 0
         self._u = 0.0
         self._misses = 0
         self._request = struct.Struct("<q" + "d" * (2 + ny))
         self._proc = subprocess.Popen(
-            _command(memory, cpu_seconds),
+            _command(memory, cpu_seconds, nice),
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL,
@@ -367,11 +369,12 @@ def _paths() -> list[str]:
     return sorted({str(Path(numpy.__file__).parents[1]), str(Path(pyseccomp.__file__).parent)})
 
 
-def _command(memory: int, cpu_seconds: int) -> list[str]:
+def _command(memory: int, cpu_seconds: int, nice: int = 0) -> list[str]:
     """The controller's process: its limits set by ``prlimit`` and its scheduling by
-    ``chrt`` (util-linux), each then exec'ing the next, so no Python runs between fork and
-    exec in the engine's threaded process (``preexec_fn`` may deadlock there); then
-    bubblewrap, then the interpreter."""
+    ``chrt`` (util-linux) and ``nice`` (coreutils: where lowering it is not allowed, it
+    says so and runs the process as it is), each then exec'ing the next, so no Python
+    runs between fork and exec in the engine's threaded process (``preexec_fn`` may
+    deadlock there); then bubblewrap, then the interpreter."""
     binds: list[str] = []
     for path in sorted(
         {"/usr", "/lib", "/lib64", "/bin", "/etc/ld.so.cache", sys.prefix, sys.base_prefix}
@@ -391,6 +394,9 @@ def _command(memory: int, cpu_seconds: int) -> list[str]:
         _tool("chrt"),
         "--other",  # never real-time, whatever the engine is
         "0",
+        _tool("nice"),
+        "-n",
+        str(nice),
         _tool("bwrap"),
         "--unshare-all",
         "--die-with-parent",

@@ -30,11 +30,12 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from elab.controllers.sandbox import ControllerFailed
 from elab.engines.base import (
     Action,
     Block,
@@ -45,13 +46,24 @@ from elab.engines.base import (
     RunOrder,
     StoreHealth,
 )
+from elab.engines.coded import CodeSettings
 from elab.engines.recorder import Recorder
+from elab.engines.riglaw import (
+    Differentiator,
+    Latency,
+    RigLaw,
+    compile_for_rig,
+    law_for,
+    tripped,
+    warm,
+)
+from elab.engines.rigseat import SeatKeeper, SeatSettings
 from elab.engines.ticks import realtime_thread
 from elab.errors import Conflict, ElabError, InvalidInput, Unavailable
 from elab.laws import ControlLaw, is_code
 from elab.lifecycle import RunState
-from elab.plants import get_plant
 from elab.rig.driver import Driver, RigDisconnected, RigSample, RigTimeout
+from elab.rig.estop import EStopListener
 from elab.rig.messages import Action as RigAction
 from elab.rig.messages import RigIdentity, Status
 from elab.rig.settle import (
@@ -62,11 +74,11 @@ from elab.rig.settle import (
     rezeroed,
     settle_step,
 )
-from elab.rig.supervisor import SafetyLimits, Supervisor, Trip
-from elab.sim.kernel import control_step
+from elab.rig.supervisor import SafetyLimits, Supervisor
+from elab.rig_queue import QueuePolicy
 from elab.sim.signals import Signal
-from elab.sim.spec import CompiledRun, RunSpec, compile_run
-from elab.store.base import ParamChange, RunRecord, RunStore
+from elab.sim.spec import CompiledRun
+from elab.store.base import ParamChange, RigQueueStore, RunRecord, RunStore
 
 EXO_BLOCK = 1000  # samples of reference and excitation computed at once
 ENABLE_EVERY = 50  # samples between two requests to enable a disabled amplifier
@@ -95,7 +107,11 @@ class RigSettings:
     samples per block to the recorder and the watchers (20 ms at 1 kHz); ``realtime``:
     the loop thread's SCHED_FIFO priority (0: none); ``omega_c``: rad/s of the
     differentiators that estimate θ̇ and α̇ for the record and the supervisor (the seed's
-    velocity filter for θ); the store's settings as the simulation engine's."""
+    velocity filter for θ); the store's settings as the simulation engine's; ``rig``,
+    ``slot``, ``grace``: the rig's queue in the store and its policy
+    (:mod:`elab.engines.rigseat`); ``estop``: the e-stop socket to listen on
+    (:mod:`elab.rig.estop`); ``code_deadline``: s a Python controller may take per
+    step before its answer counts as late."""
 
     address: str = "127.0.0.1:7100"
     sample_timeout: float = 0.1
@@ -106,6 +122,23 @@ class RigSettings:
     flush_interval: float = 0.25
     retry_for: float = 30.0
     max_pending: int = 256 << 20
+    rig: str = "rig"  # the rig's queue in the store
+    slot: float = QueuePolicy.slot
+    grace: float = QueuePolicy.grace
+    estop: str | None = None  # the e-stop socket (elab.rig.estop.estop_address); None: none
+    code_deadline: float = CodeSettings.deadline  # s a Python controller's step may take
+
+    @property
+    def seat(self) -> SeatSettings:
+        return SeatSettings(self.rig, QueuePolicy(self.slot, self.grace))
+
+    @property
+    def code(self) -> CodeSettings:
+        return CodeSettings(deadline=self.code_deadline)
+
+
+class RigStore(RunStore, RigQueueStore, Protocol):
+    """The rig engine's store: the runs it records and the queue it follows."""
 
 
 @dataclass
@@ -115,7 +148,7 @@ class _Active:
     ``exo_k0 ..`` (``exo``: rows ``[r, e, …]``), and whether it was asked to end."""
 
     record: RunRecord
-    law: _Law
+    law: RigLaw
     supervisor: Supervisor
     k: int = 0
     rows: list[list[float]] | None = None
@@ -143,7 +176,7 @@ class RigEngine:
     def __init__(
         self,
         engine_id: str,
-        store: RunStore,
+        store: RigStore,
         events: EngineEvents,
         settings: RigSettings,
         connect: Callable[[], Driver],
@@ -175,20 +208,32 @@ class RigEngine:
         self.identity: RigIdentity | None = None
         self.problem: str | None = "not connected yet"
         self.last_sample = 0.0  # monotonic s
-        self._latency = _Latency()
+        self._latency = Latency()
         self._disabled = 0  # samples in a row the amplifier was off between runs
         self.settle_limits = SettleLimits(still_for=settings.still_for)
         self.settle: Settle | None = None  # after a run, until the rig is ready again
         self._t = 0.0  # s, the rig's clock: samples since connecting times Ts
-        self._theta_dot = _Differentiator(settings.omega_c)
-        self._alpha_dot = _Differentiator(settings.omega_c)
+        self._theta_dot = Differentiator(settings.omega_c)
+        self._alpha_dot = Differentiator(settings.omega_c)
+        self._taking: str | None = None  # the run being added
+        self._ended: list[str] = []  # runs ended, not yet told to the queue
+        self._ended_lock = threading.Lock()
+        self._estop: str | None = None  # who pressed the e-stop, until the loop acts
+        self.seat = SeatKeeper(store, self, settings.seat)
+        self._estops = (
+            EStopListener(settings.estop, self.emergency_stop) if settings.estop else None
+        )
 
     # -- lifecycle -------------------------------------------------------------------
     def start(self) -> list[str]:
         interrupted = self.store.mark_interrupted(self.id, CRASHED)
-        _warm()  # compile the controller step now, not on a live sample (about a second)
+        self._ended.extend(interrupted)  # the queue hears of them at the keeper's first look
+        warm()
         self.recorder.start()
         self._thread.start()
+        if self._estops is not None:
+            self._estops.start()
+        self.seat.start()
         return interrupted
 
     def close(self, reason: str = "server shut down") -> None:
@@ -201,6 +246,9 @@ class RigEngine:
             time.sleep(0.01)
         self._closing.set()
         self._thread.join(5.0)
+        self.seat.close()
+        if self._estops is not None:
+            self._estops.close()
         with self._lock:  # a rig that never answered: its run ends here
             active, self._active, self._pending = self._active or self._pending, None, None
         if active is not None:
@@ -220,11 +268,14 @@ class RigEngine:
             raise Unavailable(f"the rig is not connected: {self.problem}", retry_after=5.0)
         with self._lock:  # before compiling too: a refused run costs the loop's GIL nothing
             self._check_free()
-        run = _compile(order)
+        self._check_seated(order)
+        run = compile_for_rig(order.spec)
         with self._lock:
             self._check_free()
-            self._reserved = True
+            self._reserved, self._taking = True, order.id
+        law: RigLaw | None = None
         try:
+            law = law_for(run, self.settings.code)  # a Python controller's process starts
             now = time.time()
             record = RunRecord(
                 id=order.id,
@@ -244,14 +295,30 @@ class RigEngine:
             )
             self.store.create_run(record)  # not under the lock: the loop takes it
             self.recorder.open(record.id, len(CHANNELS))
-            active = _Active(record, _Law.of(run), Supervisor(self.limits, run.Ts))
+            active = _Active(record, law, Supervisor(self.limits, run.Ts))
+        except BaseException:
+            if law is not None:
+                law.close()
+            raise
         finally:
             with self._lock:
-                self._reserved = False
+                self._reserved, self._taking = False, None
         with self._lock:
             self._pending = active
         self._events.started(self.id, record)
         return record
+
+    def _check_seated(self, order: RunOrder) -> None:
+        """:class:`Conflict` unless the rig's queue has ``order`` on the rig (its driver
+        armed the rig and started it: :mod:`elab.rig_queue`): one driver at a time is the
+        store's decision, never this process's timing."""
+        s = self.settings.seat
+        q = self.store.rig_queue(s.rig, s.policy, time.time())
+        if q.running != order.id:
+            raise Conflict(
+                f"run {order.id} does not hold the rig: join the rig's queue, arm the rig "
+                "when your turn comes, then start the run (docs/rig.md)"
+            )
 
     def _check_free(self) -> None:
         """With the lock held: :class:`Conflict` unless the rig can take a run now."""
@@ -304,10 +371,15 @@ class RigEngine:
             if active is None or active.record.id != run_id or active.stop is not None:
                 raise Conflict(f"run {run_id} has ended: it no longer steps")
             old = active.run
-        if law is not None and is_code(law):
-            raise InvalidInput("controller", "code", "a declarative law on a rig run")
+        if law is not None and (is_code(law) or is_code(old.spec.law)):
+            raise InvalidInput(
+                "controller",
+                params.get("controller"),
+                "a reference change only: a Python controller's run keeps its controller, "
+                "and a declarative one is not swapped for code mid-run",
+            )
         spec = replace(old.spec, law=law or old.spec.law, reference=reference or old.spec.reference)
-        run = _compile_spec(spec)
+        run = compile_for_rig(spec)
         if run.controller.nc != old.controller.nc:
             raise InvalidInput(
                 "controller",
@@ -432,6 +504,8 @@ class RigEngine:
                 self._end(waiting, waiting.stop[0], waiting.stop[1])
                 if waiting.stop[2] is not None:
                     waiting.stop[2].set_result(0)
+            if self._estop is not None:
+                self._emergency(self._estop)
             if self._active is None and self._pending is not None and enabled:
                 self._active, self._pending = self._pending, None
                 self._theta_dot.reset(s.theta)
@@ -445,12 +519,12 @@ class RigEngine:
             if active is None:
                 applied.set_exception(Conflict("the run ended before its change"))
                 continue
-            active.law = _Law.of(run, active.law.xc)  # the controller's state goes on
+            active.law = active.law.changed(run)  # the controller's state goes on
             active.exo = None
             active.supervisor.touch(active.k * run.Ts)
             applied.set_result(active.k)
         if active is None:
-            if not enabled:
+            if not enabled and self._pending is not None:
                 self._enable()
             return self._settling(theta_dot, alpha_dot)
         if active.stop is not None:
@@ -462,7 +536,13 @@ class RigEngine:
         run, k = active.run, active.k
         t = k * run.Ts
         r, e = active.exogenous(k)
-        u_req = self._control(active.law, r, e, s)
+        try:
+            u_req, late = active.law.u(t, r, e, s.theta, s.alpha)
+        except ControllerFailed as exc:
+            self._row(active, [r, 0.0, s.theta, s.alpha, theta_dot, alpha_dot, 0.0])
+            active.k += 1
+            self._finish(active, RunState.FAILED, f"{exc}; 0 V since")
+            return 0.0
         if not math.isfinite(u_req):  # the law's arithmetic overflowed: nothing to apply
             self._row(active, [r, 0.0, s.theta, s.alpha, theta_dot, alpha_dot, 0.0])
             active.k += 1
@@ -474,14 +554,14 @@ class RigEngine:
             return 0.0
         fault = bool(s.status & Status.WATCHDOG_TRIPPED)
         decision = active.supervisor.step(
-            k, t, s.theta, s.alpha, theta_dot, u_req, False, fault=fault
+            k, t, s.theta, s.alpha, theta_dot, u_req, late, fault=fault
         )
         u = decision.u_applied
         latency = (time.monotonic_ns() - s.received_ns) * 1e-9
         self._row(active, [r, u, s.theta, s.alpha, theta_dot, alpha_dot, latency])
         active.k += 1
         if decision.trip is not None:
-            self._finish(active, RunState.FAILED, _tripped(decision.trip))
+            self._finish(active, RunState.FAILED, tripped(decision.trip))
             return 0.0
         if active.k >= run.n_samples:
             self._finish(active, RunState.FINISHED, None)
@@ -518,14 +598,6 @@ class RigEngine:
         self.settle = None if settle.phase is SettlePhase.READY else settle
         return 0.0
 
-    def _control(self, law: _Law, r: float, e: float, s: RigSample) -> float:
-        law.z[0], law.z[1] = s.theta, s.alpha
-        u = control_step(
-            0, r, law.z, e, law.Ac, law.Bc, law.Cc, law.Dc, law.Lw, law.u_lim, law.xc, law.xcn
-        )
-        law.xc[0, :] = law.xcn
-        return float(u)
-
     def _row(self, active: _Active, row: list[float]) -> None:
         if active.rows is None:
             active.rows, active.k0 = [], active.k
@@ -553,8 +625,63 @@ class RigEngine:
         self._end(active, state, reason)
 
     def _end(self, active: _Active, state: RunState, reason: str | None) -> None:
+        active.law.close()
         self.recorder.status(active.record.id, state, reason, None, active.k)
         self._events.changed(self.id, Changed(active.record.id, state, active.k, reason))
+        with self._ended_lock:  # (the caller may hold self._lock)
+            self._ended.append(active.record.id)
+
+    # -- the emergency stop ----------------------------------------------------------
+    def emergency_stop(self, who: str) -> None:
+        """From any thread (the e-stop socket's, a command's): the loop's next answer is
+        0 V with the amplifier disabled, and the run on the rig ends ``stopped``."""
+        with self._lock:
+            self._estop = who
+        log.warning("rig: emergency stop by %s", who)
+
+    def _emergency(self, who: str) -> None:
+        """In the loop, the lock held: disable the amplifier, end the run (if any)."""
+        self._estop = None
+        if self._driver is not None:
+            self._driver.command(RigAction.STOP)
+        reason = f"emergency stop by {who}: 0 V and the amplifier disabled"
+        for run in (self._active, self._pending):
+            if run is not None and run.stop is None:
+                run.stop = (RunState.STOPPED, reason, None)
+
+    # -- what the rig's queue asks (elab.engines.rigseat) ----------------------------
+    def current_run(self) -> str | None:
+        with self._lock:
+            run = self._active or self._pending
+            return None if run is None else run.record.id
+
+    def taking(self) -> str | None:
+        with self._lock:
+            return self._taking
+
+    def ended_runs(self) -> list[str]:
+        with self._ended_lock:
+            ended, self._ended = self._ended, []
+        return ended
+
+    def ready(self) -> bool:
+        with self._lock:
+            idle = self._active is None and self._pending is None and not self._reserved
+        return idle and self.identity is not None and self.settle is None
+
+    def unavailable(self) -> str | None:
+        settle = self.settle
+        if settle is not None and settle.phase is SettlePhase.OUT_OF_SERVICE:
+            return settle.message
+        if self.identity is None:
+            return f"the rig does not answer: {self.problem}"
+        return None
+
+    def stop_for_queue(self, run_id: str, reason: str) -> None:
+        with self._lock:
+            for run in (self._active, self._pending):
+                if run is not None and run.record.id == run_id and run.stop is None:
+                    run.stop = (RunState.STOPPED, reason, None)
 
     def _on_fault(self, health: StoreHealth) -> None:
         self._events.health(self.id, self.health())
@@ -563,121 +690,3 @@ class RigEngine:
                 active = self._active
                 if active is not None and active.stop is None:
                     active.stop = (RunState.FAILED, f"storage failed: {health.error}", None)
-
-
-def _compile(order: RunOrder) -> CompiledRun:
-    if is_code(order.spec.law):
-        raise InvalidInput(
-            "controller",
-            "code",
-            "a declarative controller (state feedback with an estimate, PID, tf/ss): Python "
-            "controllers on the rig are not supported yet",
-        )
-    return _compile_spec(order.spec)
-
-
-def _compile_spec(spec: RunSpec) -> CompiledRun:
-    """The run as the loop steps it: its sensors are the rig's, not simulated ones."""
-    run = compile_run(replace(spec, noise_seed=None, quantize=False))
-    if run.controller.feedback != "output":
-        raise InvalidInput(
-            "controller.estimate",
-            "true state",
-            "velocity_filters or observer: on the rig a controller sees only the measured "
-            "θ and α, never the true state",
-        )
-    return run
-
-
-def _tripped(trip: Trip) -> str:
-    return f"safety trip ({trip.reason}) at sample {trip.k}: {trip.message}; 0 V since"
-
-
-@dataclass
-class _Law:
-    """A run's discrete controller as :func:`control_step` takes it (slot 0 of one)."""
-
-    run: CompiledRun
-    Ac: Array
-    Bc: Array
-    Cc: Array
-    Dc: Array
-    Lw: Array
-    u_lim: Array
-    xc: Array  # (1, nc): the controller's state
-    xcn: Array  # (nc,): its next state
-    z: Array  # (2,): θ and α as measured
-
-    @classmethod
-    def of(cls, run: CompiledRun, xc: Array | None = None) -> _Law:
-        c = run.controller
-        return cls(
-            run,
-            c.Ac[None].copy(),
-            c.Bc[None].copy(),
-            c.Cc[None].copy(),
-            c.Dc[None].copy(),
-            c.Lw[None].copy(),
-            np.array([run.u_lim]),
-            np.zeros((1, c.nc)) if xc is None else xc,
-            np.zeros(c.nc),
-            np.zeros(2),
-        )
-
-
-def _warm() -> None:
-    plant = get_plant("flexible_link")
-    law = _Law.of(_compile_spec(RunSpec(plant, plant.predefined, duration=0.01)))
-    control_step(
-        0, 0.0, law.z, 0.0, law.Ac, law.Bc, law.Cc, law.Dc, law.Lw, law.u_lim, law.xc, law.xcn
-    )
-
-
-class _Differentiator:
-    """θ̇ from θ: the filter ωc s / (s + ωc) discretised by backward Euler."""
-
-    def __init__(self, omega_c: float) -> None:
-        self.omega_c = omega_c
-        self.last: float | None = None
-        self.value = 0.0
-
-    def reset(self, x: float) -> None:
-        self.last, self.value = x, 0.0
-
-    def next(self, x: float, Ts: float) -> float:
-        if self.last is None:
-            self.last = x
-            return 0.0
-        a = 1.0 / (1.0 + self.omega_c * Ts)
-        self.value = a * self.value + (1 - a) * (x - self.last) / Ts
-        self.last = x
-        return self.value
-
-
-class _Latency:
-    """Response latencies over the last 10,000 samples (ns in, µs out)."""
-
-    def __init__(self, keep: int = 10_000) -> None:
-        self._ns = np.zeros(keep, dtype=np.int64)
-        self._n = 0
-        self.late_1ms = 0  # answers later than 1 ms, all time
-        self.samples = 0
-
-    def add(self, ns: int) -> None:
-        self._ns[self._n % self._ns.size] = ns
-        self._n += 1
-        self.samples += 1
-        self.late_1ms += ns > 1_000_000
-
-    def summary(self) -> dict[str, float | int]:
-        n = min(self._n, self._ns.size)
-        if n == 0:
-            return {"samples": 0, "late_1ms": 0}
-        us = self._ns[:n] / 1e3
-        return {
-            "samples": self.samples,
-            "late_1ms": self.late_1ms,
-            "latency_p50_us": float(np.percentile(us, 50)),
-            "latency_p99_us": float(np.percentile(us, 99)),
-            "latency_max_us": float(us.max()),
-        }

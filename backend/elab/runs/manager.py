@@ -46,6 +46,7 @@ from elab.runs.fanout import Codec, RunChannel, Sender, publish_block
 from elab.runs.limits import Limits
 from elab.runs.live import LiveRun, Reader, stored_reader
 from elab.runs.patrol import Patrol
+from elab.runs.rigdesk import RigDesk
 from elab.sim.signals import Signal
 from elab.sim.spec import RunSpec
 from elab.store.base import ParamChange, RunRecord, RunStore, RunSummary
@@ -77,7 +78,13 @@ class RunManager:
     """All runs as this web process sees them; implements ``EngineEvents``."""
 
     def __init__(
-        self, store: RunStore, engines: Engines, codec: Codec, *, limits: Limits | None = None
+        self,
+        store: RunStore,
+        engines: Engines,
+        codec: Codec,
+        *,
+        limits: Limits | None = None,
+        desk: RigDesk | None = None,
     ) -> None:
         if "simulation" not in engines:
             raise ValueError("a run manager needs a simulation engine")
@@ -86,6 +93,7 @@ class RunManager:
         self._by_id = {e.id: e for e in engines.values()}
         self.codec = codec
         self.limits = limits or Limits()
+        self.desk = desk  # the rig's queue (a server with a rig)
         self._runs: dict[str, LiveRun] = {}
         self._channels: dict[str, RunChannel] = {}
         self._sender = Sender()  # one pass over all watchers per tick
@@ -236,7 +244,10 @@ class RunManager:
             if owner is not None:
                 await self._check_quota(owner, spec, nch)
             order = RunOrder(new_run_id(), spec, pace, mode, experiment, request, owner, private)
-            record = await engine.add(order)
+            if mode == "rig" and self.desk is not None:  # the rig's queue seats it first
+                record = await self.desk.seated(who, order, lambda: engine.add(order))
+            else:
+                record = await engine.add(order)
         finally:
             self._starting[owner] -= 1
         return await self.get(record.id)

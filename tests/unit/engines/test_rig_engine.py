@@ -13,18 +13,23 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from elab.controllers.templates import python_source
 from elab.engines.base import Block, Changed, Ended, Health, RunOrder
 from elab.engines.rig import CHANNELS, RigEngine, RigSettings
-from elab.errors import Conflict, InvalidInput
-from elab.laws import OpenLoop, StateFeedback
+from elab.errors import Conflict, InvalidInput, Unavailable
+from elab.laws import CodeController, OpenLoop, StateFeedback
 from elab.lifecycle import RunState
 from elab.plants.flexible_link import PLANT
 from elab.rig.driver import TcpDriver
+from elab.rig.estop import estop_address, send_estop
 from elab.rig.messages import Action
+from elab.rig.supervisor import SafetyLimits
+from elab.rig_queue import Arm, Join, Leave, Phase, Start
 from elab.sim import RunSpec, Square, Step, simulate
 from elab.sim.spec import compile_run
 from elab.store.base import ParamChange, RunRecord
@@ -80,11 +85,21 @@ class Heard:
 
 @pytest.fixture
 def rig() -> Iterator[Running]:
-    with running_emulator("--rig-seed", "7", "--watchdog-samples", "200") as running:
+    # the emulator's clock real-time, as a board's own (starved beside CPU hogs, it went
+    # silent past the loop's 0.1 s)
+    with running_emulator(
+        "--rig-seed", "7", "--watchdog-samples", "200", "--realtime", "20"
+    ) as running:
         yield running
 
 
-def _engine(tmp_path: Path, rig: Running, heard: Heard, **settings: float) -> RigEngine:
+def _engine(
+    tmp_path: Path,
+    rig: Running,
+    heard: Heard,
+    limits: SafetyLimits | None = None,
+    **settings: Any,
+) -> RigEngine:
     store = SQLiteStore(tmp_path / "elab.sqlite3")
     connect: Callable[[], TcpDriver] = rig.driver
     engine = RigEngine(
@@ -95,6 +110,7 @@ def _engine(tmp_path: Path, rig: Running, heard: Heard, **settings: float) -> Ri
         # without CAP_SYS_NICE, with a warning in the log)
         RigSettings(address="", still_for=0.2, realtime=10, **settings),
         connect,
+        limits,
     )
     engine.start()
     _until(lambda: engine.identity is not None, "the engine connects to the rig")
@@ -106,6 +122,27 @@ def _until(ok: Callable[[], bool], what: str, timeout: float = 30.0) -> None:
     while not ok():
         assert time.monotonic() < end, f"not within {timeout} s: {what}"
         time.sleep(0.01)
+
+
+def _drive(engine: RigEngine, order: RunOrder, user: str = "a-student") -> RunRecord:
+    """Add ``order`` as its driver would: in the rig's queue, armed, the run seated (after
+    the last run the rig settles first), then the engine takes it."""
+    _until(lambda: _seat(engine, order.id, user), "the rig seats the run")
+    return engine.add(order)
+
+
+def _seat(engine: RigEngine, run_id: str, user: str) -> bool:
+    store, s, now = engine.store, engine.settings.seat, time.time()
+    q = store.rig_queue(s.rig, s.policy, now)
+    try:
+        if q.place(user) is None:
+            q = store.apply_rig(s.rig, Join(user), s.policy, now).queue
+        if q.seat is not None and q.seat.phase is Phase.SEATED:
+            q = store.apply_rig(s.rig, Arm(user), s.policy, now).queue
+        store.apply_rig(s.rig, Start(user, run_id), s.policy, now)
+    except Conflict:  # settling after the last run
+        return False
+    return True
 
 
 def _order(run_id: str, spec: RunSpec) -> RunOrder:
@@ -121,7 +158,7 @@ def test_the_predefined_lqr_runs_on_the_rig_recorded_and_close_to_its_simulation
     heard = Heard()
     engine = _engine(tmp_path, rig, heard)
     try:
-        record = engine.add(_order("r-1", SQUARE))
+        record = _drive(engine, _order("r-1", SQUARE))
         assert record.channels == CHANNELS and record.n_planned == 2000
         ended = heard.wait_ended("r-1")
         assert (ended.state, ended.n) == (RunState.FINISHED, 2000)
@@ -151,7 +188,7 @@ def test_an_unstable_law_trips_the_angle_limit_and_the_motor_stops(
         # 120°), so the link bends little and the angle limit trips
         unstable = StateFeedback((-5.0, 0.0, 0.0, 0.0), "velocity_filters")
         spec = RunSpec(PLANT, unstable, Step(math.radians(30)), duration=10.0)
-        engine.add(_order("r-2", spec))
+        _drive(engine, _order("r-2", spec))
         ended = heard.wait_ended("r-2")
         assert ended.state is RunState.FAILED
         assert ended.error is not None and "safety trip (angle)" in ended.error, ended.error
@@ -170,7 +207,7 @@ def test_a_rig_that_dies_mid_run_fails_the_run_and_keeps_its_samples(
     heard = Heard()
     engine = _engine(tmp_path, rig, heard)
     try:
-        engine.add(_order("r-3", SQUARE))
+        _drive(engine, _order("r-3", SQUARE))
         _until(lambda: heard.rows >= 200, "200 samples recorded")
         rig.proc.kill()
         ended = heard.wait_ended("r-3")
@@ -190,8 +227,8 @@ def test_one_run_at_a_time_and_only_laws_the_rig_can_run(tmp_path: Path, rig: Ru
     try:
         true_state = StateFeedback(PLANT.predefined.K, "true_state")
         with pytest.raises(InvalidInput, match=r"controller\.estimate"):
-            engine.add(_order("r-4", RunSpec(PLANT, true_state, duration=1.0)))
-        engine.add(_order("r-5", SQUARE))
+            _drive(engine, _order("r-4", RunSpec(PLANT, true_state, duration=1.0)))
+        _drive(engine, _order("r-5", SQUARE))
         with pytest.raises(Conflict, match="one run at a time"):
             engine.add(_order("r-6", SQUARE))
         k = engine.control("r-5", "stop", "stopped by its owner").result(timeout=10)
@@ -201,7 +238,7 @@ def test_one_run_at_a_time_and_only_laws_the_rig_can_run(tmp_path: Path, rig: Ru
             engine.control("r-5", "pause").result(timeout=10)
         # after a run the rig settles (0 V until still) and re-zeroes before the next
         _until(lambda: engine.settle is None, "the rig settles and re-zeroes")
-        engine.add(_order("r-7", SQUARE))
+        _drive(engine, _order("r-7", SQUARE))
         assert heard.wait_ended("r-7").state is RunState.FINISHED
     finally:
         engine.close()
@@ -223,7 +260,7 @@ def test_an_identification_runs_excitation_reaches_the_motor(tmp_path: Path, rig
             excitation_at="input",
             noise_seed=3,
         )
-        engine.add(_order("r-8", spec))
+        _drive(engine, _order("r-8", spec))
         ended = heard.wait_ended("r-8")
         assert (ended.state, ended.n) == (RunState.FINISHED, 1000)
         data = engine.store.read("r-8", 0, 1000)
@@ -260,7 +297,7 @@ def test_a_motor_switched_off_between_runs_is_enabled_before_the_next(
         driver.stop_once = True
         _until(lambda: not driver.stop_once, "the rig told to stop its motor")
         spec = RunSpec(PLANT, PLANT.predefined, Step(math.radians(20)), duration=1.5)
-        engine.add(_order("r-9", spec))
+        _drive(engine, _order("r-9", spec))
         assert heard.wait_ended("r-9").state is RunState.FINISHED
         theta = engine.store.read("r-9", 0, 1500)[:, 2]
         # driven (not a motor left off): the step is tracked within 4°
@@ -276,10 +313,102 @@ def test_a_reference_that_overflows_the_law_ends_the_run_at_0_v(
     engine = _engine(tmp_path, rig, heard)
     try:
         spec = RunSpec(PLANT, PLANT.predefined, Step(1e308), duration=3.0)
-        engine.add(_order("r-10", spec))
+        _drive(engine, _order("r-10", spec))
         ended = heard.wait_ended("r-10")
         assert ended.state is RunState.FAILED, ended
         assert ended.error is not None and "overflow" in ended.error, ended.error
         assert engine.store.read("r-10", 0, ended.n)[-1, 1] == 0.0
+    finally:
+        engine.close()
+
+
+def test_a_python_controller_drives_the_rig_like_its_declarative_twin(
+    tmp_path: Path, rig: Running
+) -> None:
+    heard = Heard()
+    # late answers held rather than tripping, and 0.9 ms to answer: this test's machine
+    # may be loaded (the next test shows the trip; test_rig_law.py the same voltages)
+    engine = _engine(tmp_path, rig, heard, SafetyLimits(n_late=1000), code_deadline=0.9e-3)
+    try:
+        code = CodeController(python_source(PLANT, PLANT.predefined), "lqr.py")
+        spec = RunSpec(PLANT, code, Step(math.radians(20)), duration=2.0)
+        _drive(engine, _order("r-11", spec))
+        ended = heard.wait_ended("r-11")
+        assert (ended.state, ended.n) == (RunState.FINISHED, 2000), ended.error
+        theta = engine.store.read("r-11", 0, 2000)[:, 2]
+        assert abs(math.degrees(theta[-200:].mean()) - 20.0) < 4.0  # tracked as the LQR does
+    finally:
+        engine.close()
+
+
+LOOPS_FOREVER = """
+class Controller:
+    def reset(self, params):
+        self.k = 0
+
+    def step(self, t, y, r):
+        self.k += 1
+        while self.k > 300:
+            pass
+        return 0.5
+"""
+
+
+def test_a_python_controller_that_loops_forever_trips_the_deadline_at_0_v(
+    tmp_path: Path, rig: Running
+) -> None:
+    """The supervisor, not the student's process, is real-time: late answers hold the last
+    voltage, ``n_late`` in a row trip the run, and the rig ends at 0 V."""
+    heard = Heard()
+    engine = _engine(tmp_path, rig, heard)
+    try:
+        spec = RunSpec(PLANT, CodeController(LOOPS_FOREVER, "loops.py"), duration=5.0)
+        _drive(engine, _order("r-12", spec))
+        ended = heard.wait_ended("r-12")
+        assert ended.state is RunState.FAILED, ended
+        assert ended.error is not None and "safety trip (deadline)" in ended.error, ended.error
+        u = engine.store.read("r-12", 0, ended.n)[:, 1]
+        # the trip within n_late samples of the loop (earlier on a loaded machine, whose
+        # late answers trip the same way)
+        assert ended.n <= 300 + 5 + 1 and u[-1] == 0.0
+    finally:
+        engine.close()
+
+
+def test_an_emergency_stop_on_its_own_socket_ends_the_run_at_the_next_sample(
+    tmp_path: Path, rig: Running
+) -> None:
+    heard = Heard()
+    address = estop_address(tmp_path)
+    engine = _engine(tmp_path, rig, heard, estop=address)
+    try:
+        _drive(engine, _order("r-13", SQUARE))
+        _until(lambda: engine.current_run() == "r-13" and engine._active is not None, "running")
+        send_estop(address, "a tester")
+        ended = heard.wait_ended("r-13")
+        assert ended.state is RunState.STOPPED and ended.n < 2000, ended
+        assert ended.error is not None and "emergency stop by a tester" in ended.error
+        # the queue hears it: the seat is the driver's again, the rig settles first
+        s = engine.settings.seat
+        _until(
+            lambda: engine.store.rig_queue(s.rig, s.policy, time.time()).running is None,
+            "the queue ends the run",
+        )
+    finally:
+        engine.close()
+    with pytest.raises(Unavailable, match="no rig engine listens"):
+        send_estop(address, "too late")
+
+
+def test_the_engine_stops_a_run_whose_driver_left_the_queue(tmp_path: Path, rig: Running) -> None:
+    heard = Heard()
+    engine = _engine(tmp_path, rig, heard)
+    try:
+        _drive(engine, _order("r-14", SQUARE), user="a-leaver")
+        s = engine.settings.seat
+        engine.store.apply_rig(s.rig, Leave("a-leaver"), s.policy, time.time())
+        ended = heard.wait_ended("r-14")
+        assert ended.state is RunState.STOPPED and ended.n < 2000, ended
+        assert ended.error is not None and "slot" in ended.error, ended.error
     finally:
         engine.close()

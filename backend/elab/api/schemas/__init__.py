@@ -126,6 +126,7 @@ from elab.api.schemas.plants import (
     StepRequest,
     TransferFunctionInfo,
 )
+from elab.api.schemas.rig import RigExtend, RigPlace, RigQueueInfo
 from elab.api.schemas.runs import (
     ChannelInfo,
     ParamChangeInfo,
@@ -152,6 +153,7 @@ from elab.api.schemas.signals import (
 from elab.api.schemas.stream import (
     ClientMessage,
     CloseCode,
+    EmergencyStop,
     ErrorMessage,
     Frame,
     Hello,
@@ -194,6 +196,7 @@ __all__ = [
     "DemoInfo",
     "DemoPin",
     "DesignOut",
+    "EmergencyStop",
     "EngineInfo",
     "ErrorBody",
     "ErrorDetail",
@@ -262,7 +265,10 @@ __all__ = [
     "ResidualsOut",
     "Resume",
     "ResumeFrom",
+    "RigExtend",
     "RigInfo",
+    "RigPlace",
+    "RigQueueInfo",
     "RootLocusOut",
     "RunCreate",
     "RunData",

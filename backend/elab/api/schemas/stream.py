@@ -103,6 +103,13 @@ class Stop(Model):
     type: Literal["stop"]
 
 
+class EmergencyStop(Model):
+    """The rig's emergency stop (the driver or an instructor), as ``POST /rig/estop``:
+    0 V at the rig's next sample, whichever run this stream watches."""
+
+    type: Literal["estop"]
+
+
 class ResumeFrom(Model):
     """Send every sample from frame ``seq`` on, from the recording."""
 
@@ -111,5 +118,5 @@ class ResumeFrom(Model):
 
 
 ClientMessage = Annotated[
-    SetParams | Pause | Resume | Stop | ResumeFrom, Field(discriminator="type")
+    SetParams | Pause | Resume | Stop | EmergencyStop | ResumeFrom, Field(discriminator="type")
 ]

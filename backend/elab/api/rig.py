@@ -1,0 +1,148 @@
+"""``/rig``: the rig's queue. Join it, see your place and wait, arm the rig when your turn
+comes and start a run in mode ``rig`` (``POST /runs``); press the emergency stop; as an
+instructor, take the rig over, extend the slot or clear the queue. Spectators need
+nothing of this: they watch rig runs like any other."""
+
+from __future__ import annotations
+
+from starlette.requests import HTTPConnection, Request
+from starlette.responses import Response
+
+from elab.api import schemas as s
+from elab.api.auth import identity
+from elab.api.http import endpoint, ok, read_model
+from elab.api.runs import manager, rig_model
+from elab.api.state import lab
+from elab.errors import InvalidInput
+from elab.rig_queue import Phase
+from elab.runs.rigdesk import DeskView, RigDesk
+
+
+def rig_desk(conn: HTTPConnection) -> RigDesk:
+    d = lab(conn).desk
+    if d is None:
+        raise InvalidInput("rig", None, "a server with a rig (this one has none: ELAB_RIG)")
+    return d
+
+
+def queue_info(request: Request, view: DeskView) -> s.RigQueueInfo:
+    q, seat = view.queue, view.queue.seat
+    rig = rig_model(manager(request).status().engines.get("rig"))
+    assert rig is not None  # a desk is made only with a rig engine
+    arm_by = None
+    if seat is not None and view.you.driving and seat.phase is Phase.SEATED:
+        arm_by = min(seat.since + view.policy.grace, seat.until)
+    return s.RigQueueInfo(
+        rig=rig,
+        in_service=not q.out_of_service,
+        out_of_service=q.out_of_service or None,
+        settling=q.settling,
+        driver=view.driver,
+        phase=seat.phase.value if seat is not None else None,
+        run_id=q.running,
+        slot_ends_at=seat.until if seat is not None else None,
+        taken_over=seat is not None and seat.took_over,
+        waiting=max(0, len(q.users) - (1 if seat is not None else 0)),
+        slot_s=view.policy.slot,
+        grace_s=view.policy.grace,
+        you=s.RigPlace(
+            place=view.you.place, wait_s=view.you.wait, driving=view.you.driving, arm_by=arm_by
+        ),
+        now=view.now,
+    )
+
+
+ERRORS = (403, 409, 422, 503)
+
+
+@endpoint(
+    "GET",
+    "/rig",
+    "The rig's queue: who drives, your place and wait",
+    response=s.RigQueueInfo,
+    errors=(422,),
+)
+async def get_rig(request: Request) -> Response:
+    return ok(queue_info(request, await rig_desk(request).view(identity(request))))
+
+
+@endpoint("POST", "/rig/queue", "Join the rig's queue", response=s.RigQueueInfo, errors=ERRORS)
+async def join_queue(request: Request) -> Response:
+    """The head of the queue is seated for a slot of ``slot_s`` s and must arm within
+    ``grace_s`` s or lose the turn; 409 if the caller is queued already."""
+    return ok(queue_info(request, await rig_desk(request).join(identity(request))))
+
+
+@endpoint(
+    "DELETE",
+    "/rig/queue",
+    "Leave the rig's queue (a driver's run stops)",
+    response=s.RigQueueInfo,
+    errors=ERRORS,
+)
+async def leave_queue(request: Request) -> Response:
+    return ok(queue_info(request, await rig_desk(request).leave(identity(request))))
+
+
+@endpoint(
+    "POST",
+    "/rig/arm",
+    "Arm the rig (the driver): a run in mode rig may start",
+    response=s.RigQueueInfo,
+    errors=ERRORS,
+)
+async def arm_rig(request: Request) -> Response:
+    """Then ``POST /runs`` with ``mode: rig`` starts the run (409 while the rig settles
+    after the last one). After each run the driver, still seated, arms again."""
+    return ok(queue_info(request, await rig_desk(request).arm(identity(request))))
+
+
+@endpoint(
+    "POST",
+    "/rig/estop",
+    "Emergency stop (the driver or an instructor)",
+    response=s.RigQueueInfo,
+    errors=ERRORS,
+)
+async def estop_rig(request: Request) -> Response:
+    """0 V and the amplifier disabled at the rig's next sample; the run ends ``stopped``.
+    It goes to the rig engine on a socket of its own, so it works while this server's
+    other paths are busy; ``elab rig-estop`` does the same from a shell."""
+    return ok(queue_info(request, await rig_desk(request).emergency_stop(identity(request))))
+
+
+@endpoint(
+    "POST",
+    "/rig/takeover",
+    "Take the rig over now (instructors)",
+    response=s.RigQueueInfo,
+    errors=ERRORS,
+)
+async def take_over_rig(request: Request) -> Response:
+    """A running run stops; its driver waits first in line; the take-over ends with its
+    slot."""
+    return ok(queue_info(request, await rig_desk(request).take_over(identity(request))))
+
+
+@endpoint(
+    "POST",
+    "/rig/extend",
+    "Extend the driver's slot (instructors)",
+    body=s.RigExtend,
+    response=s.RigQueueInfo,
+    errors=(*ERRORS, 413, 415),
+)
+async def extend_slot(request: Request) -> Response:
+    req = await read_model(request, s.RigExtend)
+    return ok(queue_info(request, await rig_desk(request).extend(identity(request), req.seconds)))
+
+
+@endpoint(
+    "POST",
+    "/rig/clear",
+    "Clear the waiting users (instructors)",
+    response=s.RigQueueInfo,
+    errors=ERRORS,
+)
+async def clear_queue(request: Request) -> Response:
+    return ok(queue_info(request, await rig_desk(request).clear(identity(request))))
