@@ -95,6 +95,11 @@ def test_a_rig_run_streams_live_and_records_every_sample(srv: Server) -> None:
     assert modes["flexible_link"] == ["simulation", "rig"]
     assert modes["belt_conveyor"] == ["simulation"]  # the rig is the flexible link's
     run = start(srv)
+    # the run records the rig, its calibration, the limits and the controller's hash
+    facts = run["request"]["rig"]
+    assert facts["emulated"] and facts["rig_id"] == rig["rig_id"]
+    assert facts["calibration"]["counts_per_rev"] == 4096 and facts["safety"]["n_late"] >= 1
+    assert len(facts["controller_sha256"]) == 64
     assert run["mode"] == "rig" and [c["name"] for c in run["channels"]][:4] == [
         "r",
         "u",

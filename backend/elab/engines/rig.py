@@ -24,12 +24,14 @@ happens under the lock the loop takes every sample.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import logging
 import os
 import time
 from collections.abc import Callable
 from concurrent.futures import Future
-from dataclasses import replace
+from dataclasses import asdict, replace
 from typing import Any, Protocol
 
 from elab.engines.base import (
@@ -50,7 +52,7 @@ from elab.engines.riglaw import (
 from elab.engines.rigloop import CHANNELS, ActiveRun, HostLoop, RigSettings
 from elab.engines.rigseat import SeatKeeper
 from elab.errors import Conflict, InvalidInput, Unavailable
-from elab.laws import ControlLaw, is_code
+from elab.laws import CodeController, ControlLaw, is_code
 from elab.lifecycle import RunState
 from elab.rig.driver import Driver
 from elab.rig.estop import EStopListener
@@ -157,7 +159,7 @@ class RigEngine(HostLoop):
                 plant=order.spec.plant.id,
                 mode=order.mode,
                 experiment=order.experiment,
-                spec=order.request,
+                spec={**order.request, "rig": self._facts(order)},
                 status=RunState.RUNNING.value,
                 Ts=run.Ts,
                 channels=CHANNELS,
@@ -182,6 +184,33 @@ class RigEngine(HostLoop):
             self._pending = active
         self._events.started(self.id, record)
         return record
+
+    def _facts(self, order: RunOrder) -> dict[str, Any]:
+        """What a rig run records beside its request: the rig (identity, firmware,
+        calibration), the safety limits it ran under and its controller's SHA-256 (the
+        Python source, or the declarative law as requested), so that a run can be traced
+        to the exact rig and controller."""
+        rig = self.identity
+        assert rig is not None  # add() checked
+        match order.spec.law:
+            case CodeController(source=source):
+                text = source
+            case _:
+                text = json.dumps(order.request.get("controller"), sort_keys=True)
+        return {
+            "rig_id": rig.rig_id,
+            "firmware": rig.firmware,
+            "emulated": rig.emulated,
+            "calibration": {
+                "counts_per_rev": rig.counts_per_rev,
+                "gauge_rad_per_count": rig.gauge_rad_per_count,
+                "gauge_offset": rig.gauge_offset,
+                "Ts": rig.Ts,
+                "watchdog_samples": rig.watchdog_samples,
+            },
+            "safety": asdict(self.limits),
+            "controller_sha256": hashlib.sha256(text.encode()).hexdigest(),
+        }
 
     def _check_seated(self, order: RunOrder) -> None:
         """:class:`Conflict` unless the rig's queue has ``order`` on the rig (its driver
