@@ -11,19 +11,19 @@ from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response
 
 from elab.access import Identity, display_name, may_control, may_view, require_control
-from elab.api import changes, controllers, convert
+from elab.api import controllers, convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_int, read_model
 from elab.api.state import lab
 from elab.engines.base import Action, EngineStatus, StoreHealth
-from elab.errors import Conflict, InvalidInput
+from elab.errors import InvalidInput
 from elab.laws import is_code
-from elab.lifecycle import RunState
 from elab.plants import PLANTS, get_plant
+from elab.runs.changes import Change
 from elab.runs.fanout import frame_samples
 from elab.runs.manager import ManagerStatus, RunManager
-from elab.store.base import RunRecord, RunSummary
+from elab.store.base import JsonObject, RunRecord, RunSummary
 
 RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
 
@@ -403,65 +403,45 @@ async def set_params(request: Request) -> Response:
 
 
 async def apply_params(
-    conn: HTTPConnection, run_id: str, change: Any, who: Identity
+    conn: HTTPConnection, run_id: str, update: s.ParamsUpdate | s.SetParams, who: Identity
 ) -> s.ParamsApplied:
-    """Shared by REST and the websocket's ``set_params``: ``change`` has a controller (or
-    an uploaded one's ``controller_id``) and/or a signal."""
-    controller, cid, signal = change.controller, change.controller_id, change.signal
+    """Shared by REST and the websocket's ``set_params``: the update as a typed change
+    (:class:`~elab.runs.changes.Change`), decided and applied by the run manager."""
+    m = manager(conn)
+    record = await m.get(run_id, who)
+    require_control(who, record.owner, f"run {run_id}", "change")  # before its controller
+    applied = await m.set_params(run_id, await _change(conn, update, record.plant), who)
+    return s.ParamsApplied(
+        k=applied.k,
+        t=applied.k * record.Ts,
+        changed=[
+            s.ParamDiff(field=d.field, before=d.before, after=d.after) for d in applied.changed
+        ],
+    )
+
+
+async def _change(
+    conn: HTTPConnection, update: s.ParamsUpdate | s.SetParams, plant_id: str
+) -> Change:
+    """``update`` (a controller, or an uploaded one's ``controller_id``, and/or a signal) as
+    a change of the plant's run, with what it asks as JSON."""
+    controller, cid, signal = update.controller, update.controller_id, update.signal
     if controller is None and cid is None and signal is None:
         raise InvalidInput("body", {}, "controller, controller_id and/or signal")
     if controller is not None and cid is not None:
         raise InvalidInput("controller_id", cid, "either controller or controller_id, not both")
-    m = manager(conn)
-    record = await m.get(run_id, who)
-    require_control(who, record.owner, f"run {run_id}", "change")  # before its controller
-    plant = get_plant(record.plant)
+    plant = get_plant(plant_id)
+    asked: JsonObject = {}
     law = None
-    params: dict[str, Any] = {}
     if cid is not None:
         law = await controllers.law_of(conn, cid, plant.id)
-        if is_code(law):
-            raise InvalidInput(
-                "controller_id",
-                cid,
-                "a declarative controller: a Python controller runs from the start of a "
-                "run (POST /runs with its controller_id), not swapped into a live one",
-            )
-        params["controller"] = convert.law_model(law).model_dump(mode="json")
-        params["controller_id"] = cid
+        if not is_code(law):  # (code has no such form: the change refuses it)
+            asked = {"controller": convert.law_model(law).model_dump(mode="json")}
+        asked["controller_id"] = cid
     elif controller is not None:
         law = convert.law(controller, plant)
-        params["controller"] = controller.model_dump(mode="json")
+        asked["controller"] = controller.model_dump(mode="json")
     if signal is not None:
-        params["signal"] = signal.model_dump(mode="json")
-    recorded = await m.param_changes(run_id)
-    now = changes.running(record, recorded, plant)
-    changed: dict[str, list[s.ParamDiff]] = {
-        part: changes.diff(part, now[part], changes.resolved(params[part], plant))
-        for part in changes.PARTS
-        if part in params
-    }
-    # a run started from an upload may step a Python controller its request does not show:
-    # the engine decides about a new law for it (and refuses one for code)
-    unknown = record.spec.get("controller_id") is not None and not any(
-        "controller" in c.params for c in recorded
-    )
-    if not changed.get("controller") and not unknown:
-        law = None
-        params.pop("controller", None)
-        params.pop("controller_id", None)
-    if not changed.get("signal"):
-        signal = None
-        params.pop("signal", None)
-    if not params:  # the same answer as a change: an ended run no longer steps
-        if not RunState(record.status).live:
-            raise Conflict(f"run {run_id} has ended ({record.status}): it no longer steps")
-        return s.ParamsApplied(k=record.n_stored, t=record.n_stored * record.Ts, changed=[])
-    k = await m.set_params(
-        run_id,
-        law=law,
-        reference=convert.signal(signal) if signal is not None else None,
-        params=params,
-        who=who,
-    )
-    return s.ParamsApplied(k=k, t=k * record.Ts, changed=[d for ds in changed.values() for d in ds])
+        asked["signal"] = signal.model_dump(mode="json")
+    reference = convert.signal(signal) if signal is not None else None
+    return Change(law, reference, cid, asked)

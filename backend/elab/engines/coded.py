@@ -13,8 +13,7 @@ the server (:class:`~elab.engines.stepper.Stepper`) and offline (``elab simulate
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,18 +55,33 @@ class CodeSettings:
     start: float = 5.0
 
 
-def controller_params(run: CompiledRun) -> dict[str, Any]:
+@dataclass(frozen=True)
+class ResetParams:
+    """What a code controller's ``reset(params)`` is given about its run, as a dict of these
+    fields (docs/controllers.md): ``Ts`` in s, ``u_max`` in V (``None``: no limit), the
+    outputs' names and units, ``y_op`` the outputs at the operating point."""
+
+    plant: str
+    Ts: float
+    u_max: float | None
+    outputs: list[str]
+    units: list[str]
+    y_op: list[float]
+    reference_output: int
+
+
+def controller_params(run: CompiledRun) -> ResetParams:
     """What a code controller's ``reset(params)`` is given about its run."""
     p = run.spec.plant
-    return {
-        "plant": p.id,
-        "Ts": run.Ts,
-        "u_max": run.u_lim if math.isfinite(run.u_lim) else None,
-        "outputs": [o.name for o in p.outputs],
-        "units": [o.unit for o in p.outputs],
-        "y_op": (p.C @ p.operating_point).tolist(),
-        "reference_output": p.reference_output,
-    }
+    return ResetParams(
+        plant=p.id,
+        Ts=run.Ts,
+        u_max=run.u_lim if math.isfinite(run.u_lim) else None,
+        outputs=[o.name for o in p.outputs],
+        units=[o.unit for o in p.outputs],
+        y_op=(p.C @ p.operating_point).tolist(),
+        reference_output=p.reference_output,
+    )
 
 
 class CodedRun:
@@ -96,7 +110,7 @@ class CodedRun:
         self.sandbox = Sandboxed(
             law.source,
             ny=p.ny,
-            params=controller_params(run),
+            params=asdict(controller_params(run)),
             deadline=settings.deadline,
             max_misses=settings.max_misses,
             filename=law.name,

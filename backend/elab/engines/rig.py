@@ -30,7 +30,6 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,6 +40,7 @@ from elab.engines.base import (
     Changed,
     EngineEvents,
     Health,
+    NewParams,
     RigLink,
     RunOrder,
     StoreHealth,
@@ -48,7 +48,7 @@ from elab.engines.base import (
 from elab.engines.recorder import Recorder
 from elab.engines.ticks import realtime_thread
 from elab.errors import Conflict, ElabError, InvalidInput, Unavailable
-from elab.laws import ControlLaw, is_code
+from elab.laws import is_code, law_kind
 from elab.lifecycle import RunState
 from elab.plants import get_plant
 from elab.rig.driver import Driver, RigDisconnected, RigSample, RigTimeout
@@ -64,7 +64,6 @@ from elab.rig.settle import (
 )
 from elab.rig.supervisor import SafetyLimits, Supervisor, Trip
 from elab.sim.kernel import control_step
-from elab.sim.signals import Signal
 from elab.sim.spec import CompiledRun, RunSpec, compile_run
 from elab.store.base import ParamChange, RunRecord, RunStore
 
@@ -291,14 +290,8 @@ class RigEngine:
             active.stop = (RunState.STOPPED, reason, fut)
         return fut
 
-    def replace(
-        self,
-        run_id: str,
-        *,
-        law: ControlLaw | None,
-        reference: Signal | None,
-        params: dict[str, Any],
-    ) -> int:
+    def replace(self, run_id: str, new: NewParams) -> int:
+        law, reference = new.law, new.reference
         with self._lock:
             active = self._active or self._pending
             if active is None or active.record.id != run_id or active.stop is not None:
@@ -311,7 +304,7 @@ class RigEngine:
         if run.controller.nc != old.controller.nc:
             raise InvalidInput(
                 "controller",
-                params.get("controller"),
+                law_kind(law) if law is not None else None,
                 f"a {type(old.spec.law).__name__} law like the run's (its controller state "
                 "size cannot change mid-run); start a new run instead",
             )
@@ -324,7 +317,7 @@ class RigEngine:
             raise Unavailable(
                 "the rig sent no sample for 5 s: the change was not applied"
             ) from None
-        change = ParamChange(k=k, params=params, at=time.time())
+        change = ParamChange(k=k, params=new.asked, at=time.time())
         self.recorder.param(run_id, change)
         self._events.params(self.id, run_id, change)
         return k

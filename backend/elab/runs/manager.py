@@ -40,15 +40,14 @@ from elab.engines.base import (
     RunOrder,
 )
 from elab.errors import Conflict, ElabError, InvalidInput, NotFound, Unavailable
-from elab.laws import ControlLaw
 from elab.lifecycle import RunState
+from elab.runs.changes import Applied, Change, RunParams, decide
 from elab.runs.fanout import Codec, RunChannel, Sender, publish_block
 from elab.runs.limits import Limits
 from elab.runs.live import LiveRun, Reader, stored_reader
 from elab.runs.patrol import Patrol
-from elab.sim.signals import Signal
 from elab.sim.spec import RunSpec
-from elab.store.base import ParamChange, RunRecord, RunStore, RunSummary
+from elab.store.base import JsonObject, ParamChange, RunRecord, RunStore, RunSummary
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +57,10 @@ END_WAIT = 10.0  # s: how long a stop waits for the run's end to be stored befor
 
 def new_run_id() -> str:
     return f"r-{secrets.token_hex(6)}"
+
+
+def _no_longer_steps(run_id: str, status: str) -> Conflict:
+    return Conflict(f"run {run_id} has ended ({status}): it no longer steps")
 
 
 #: The engines of a server by the mode of the runs they step (``"simulation"``, ``"rig"``).
@@ -90,6 +93,7 @@ class RunManager:
         self._channels: dict[str, RunChannel] = {}
         self._sender = Sender()  # one pass over all watchers per tick
         self._starting: Counter[str | None] = Counter()  # runs being started, by owner
+        self._ordered: dict[str, RunOrder] = {}  # runs being started, until they start
         self._downloads: Counter[str] = Counter()  # downloads under way, by run
         self._deleted: set[str] = set()  # deleted while downloaded: removed after the last
         self._tasks: set[asyncio.Task[None]] = set()
@@ -220,7 +224,7 @@ class RunManager:
         pace: Pace,
         mode: str,
         experiment: str,
-        request: dict[str, Any],
+        request: JsonObject,
         who: Identity,
         private: bool = False,
     ) -> RunRecord:
@@ -236,10 +240,18 @@ class RunManager:
             if owner is not None:
                 await self._check_quota(owner, spec, nch)
             order = RunOrder(new_run_id(), spec, pace, mode, experiment, request, owner, private)
-            record = await engine.add(order)
+            record = await self._add(engine, order)
         finally:
             self._starting[owner] -= 1
         return await self.get(record.id)
+
+    async def _add(self, engine: Engine, order: RunOrder) -> RunRecord:
+        """Start ``order`` on ``engine``; its engine's ``started`` finds it here."""
+        self._ordered[order.id] = order
+        try:
+            return await engine.add(order)
+        finally:
+            self._ordered.pop(order.id, None)
 
     async def _check_quota(self, owner: str, spec: RunSpec, nch: int) -> None:
         """The runs ``owner`` keeps, with this one, within the per-identity budgets (live
@@ -338,21 +350,24 @@ class RunManager:
                 ) from None
             raise
 
-    async def set_params(
-        self,
-        run_id: str,
-        *,
-        law: ControlLaw | None,
-        reference: Signal | None,
-        params: dict[str, Any],
-        who: Identity,
-    ) -> int:
-        """Apply a new law and/or reference from the next sample; returns that sample."""
+    async def set_params(self, run_id: str, change: Change, who: Identity) -> Applied:
+        """Apply the parts of ``change`` that alter what the run uses, from the next sample,
+        as ``who`` (:func:`~elab.runs.changes.decide`); when none does, nothing is applied
+        or recorded. :class:`Conflict` for a run that has ended."""
         record = await self.get(run_id, who)
         require_control(who, record.owner, f"run {run_id}", "change")
+        run = self._runs.get(run_id)
+        if run is None:
+            raise _no_longer_steps(run_id, record.status)
+        decision = decide(run.params, change)
+        if decision.new is None:  # the same answer as a change: an ended run no longer steps
+            if not run.state.live:
+                raise _no_longer_steps(run_id, record.status)
+            return Applied(record.n_stored)
         await self._require_live(run_id)
-        engine = self._engine_of(run_id)
-        return await engine.replace(run_id, law=law, reference=reference, params=params)
+        k = await self._engine_of(run_id).replace(run_id, decision.new)
+        run.params = run.params.after(decision.new)
+        return Applied(k, decision.changed)
 
     async def _require_live(self, run_id: str) -> None:
         run = self._runs.get(run_id)
@@ -360,7 +375,7 @@ class RunManager:
             await self._settle(run)
         if run is None or not run.state.live:
             record = await self.get(run_id)  # NotFound for unknown ids
-            raise Conflict(f"run {run_id} has ended ({record.status}): it no longer steps")
+            raise _no_longer_steps(run_id, record.status)
 
     def channel(self, record: RunRecord) -> RunChannel:
         """The live channel of a run, or a replay channel over its recording."""
@@ -395,7 +410,9 @@ class RunManager:
         names = tuple(n for n, _ in record.channels)
         ch = RunChannel(names, record.Ts, self._reader(record.id), self.codec, sender=self._sender)
         self._channels[record.id] = ch
-        self._runs[record.id] = LiveRun(record, engine, ch)
+        order = self._ordered[record.id]  # every run starts from this manager's order
+        params = RunParams(order.spec.law, order.spec.reference)
+        self._runs[record.id] = LiveRun(record, engine, ch, order, params)
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
         runs = self._runs

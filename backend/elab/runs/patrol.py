@@ -56,7 +56,7 @@ class Patrol:
 
     def _look_after(self, run: LiveRun, now: float) -> None:
         owner = run.record.owner
-        if not run.state.live or run.ending or run.record.spec.get("pace") == "fast":
+        if not run.state.live or run.ending or run.order.pace == "fast":
             return
         if owner and any(w.who == owner for w in run.channel.watchers):
             run.seen = now
