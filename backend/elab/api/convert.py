@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import secrets
+from dataclasses import dataclass
 from typing import Any, assert_never
 
 from elab.api import schemas as s
@@ -14,6 +15,7 @@ from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, 
 from elab.plants.base import Plant
 from elab.sim import signals as sig
 from elab.sim.spec import RunSpec
+from elab.store.base import JsonObject, RunRecord
 
 
 def law(model: s.Controller, plant: Plant) -> ControlLaw:
@@ -149,6 +151,38 @@ def run_spec(req: s.RunCreate, plant: Plant, law_: ControlLaw | None = None) -> 
         noise_seed=req.seed,
         quantize=bool(req.quantize),
         x0=tuple(req.x0) if req.x0 is not None else None,
+    )
+
+
+@dataclass(frozen=True)
+class Requested:
+    """What a run's stored request says about how it ran, read in this one place and
+    leniently (a run recorded by an earlier version may lack any of it): its controller
+    and signal as asked (``None``: the plant's), the noise's ``seed`` (``None``: no
+    noise), whether outputs were quantised, and the frequency (Hz) of a sine that
+    excited it (its excitation's, else its signal's)."""
+
+    controller: JsonObject | None
+    signal: JsonObject | None
+    seed: int | None
+    quantize: bool
+    sine_hz: float | None
+
+
+def requested(record: RunRecord) -> Requested:
+    spec = record.spec
+    noise = spec.get("noise", spec.get("seed") is not None)
+    sines = [
+        float(sig["frequency"])
+        for sig in (spec.get("excitation"), spec.get("signal"))
+        if isinstance(sig, dict) and sig.get("kind") == "sine"
+    ]
+    return Requested(
+        controller=spec.get("controller"),
+        signal=spec.get("signal"),
+        seed=spec.get("seed") if noise else None,
+        quantize=bool(spec.get("quantize")),
+        sine_hz=sines[0] if sines else None,
     )
 
 

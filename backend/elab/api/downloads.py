@@ -12,6 +12,7 @@ from starlette.requests import Request
 from starlette.responses import Response, StreamingResponse
 
 from elab.access import display_name
+from elab.api import convert
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, query, query_float
 from elab.api.runs import RUN_ID, manager
@@ -102,7 +103,7 @@ async def _while_downloading(
 
 
 def _header(record: RunRecord) -> dict[str, str]:
-    spec = record.spec
+    asked = convert.requested(record)
     header = {
         "run": record.id,
         "plant": record.plant,
@@ -111,13 +112,9 @@ def _header(record: RunRecord) -> dict[str, str]:
         "status": record.status,
         "owner": display_name(record.owner),
         "reason": record.error or "",
-        "controller": _compact(spec.get("controller")),
-        "signal": _compact(spec.get("signal")),
-        **export.sensors_header(
-            get_plant(record.plant),
-            spec.get("seed") if spec.get("noise", spec.get("seed") is not None) else None,
-            bool(spec.get("quantize")),
-        ),
+        "controller": _compact(asked.controller),
+        "signal": _compact(asked.signal),
+        **export.sensors_header(get_plant(record.plant), asked.seed, asked.quantize),
         "generator": "elab serve",
     }
     if record.error:  # who stopped it and why, why it failed or was interrupted
