@@ -27,6 +27,7 @@ from elab.api import convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, read_body, read_model, within_budget
+from elab.api.paths import PLANT_FILTER, PLANT_ID, plant_filter, plant_of
 from elab.api.state import lab
 from elab.engines import coded
 from elab.engines.coded import CodeSettings
@@ -61,7 +62,7 @@ def store(conn: HTTPConnection) -> ControllerStore:
     response="file",
     files=tuple(dict.fromkeys(MEDIA.values())),
     params=(
-        Param("plant_id", "path", "plant id", required=True),
+        PLANT_ID,
         Param(
             "format",
             "query",
@@ -72,7 +73,7 @@ def store(conn: HTTPConnection) -> ControllerStore:
     errors=(404, 422),
 )
 async def controller_template(request: Request) -> Response:
-    plant = get_plant(request.path_params["plant_id"])
+    plant = plant_of(request)
     fmt = query(request, "format")
     fmt = "toml" if fmt is None else fmt
     data = ctl.template(plant, fmt)
@@ -233,17 +234,11 @@ def _read_and_check(
     "/controllers",
     "The caller's uploaded controllers, newest first (an instructor's: everyone's)",
     response=s.UploadedControllerList,
-    params=(
-        Param(
-            "plant", "query", "only those of this plant", {"type": "string", "enum": list(PLANTS)}
-        ),
-    ),
+    params=(PLANT_FILTER,),
     errors=(422,),
 )
 async def list_controllers(request: Request) -> Response:
-    plant = query(request, "plant")
-    if plant is not None and plant not in PLANTS:
-        raise InvalidInput("plant", plant, "one of " + ", ".join(PLANTS))
+    plant = plant_filter(request)
     who = identity(request)
     owner = None if who.instructor else who.id
     found = await asyncio.to_thread(store(request).list_controllers, owner, plant)

@@ -25,8 +25,9 @@ from elab import controllers as ctl
 from elab.api import convert
 from elab.api import schemas as s
 from elab.api.controllers import MEDIA
-from elab.api.http import Param, computed, endpoint, ok, read_model
+from elab.api.http import computed, endpoint, ok, read_model
 from elab.api.models import MODEL_ID, core_model, not_runnable, reference_index, stored
+from elab.api.paths import PLANT_ID, plant_and_body
 from elab.design import loop, observed
 from elab.design.closed_loop import closed_loop, loop_transfer
 from elab.design.locus import RootLocus, root_locus
@@ -34,14 +35,11 @@ from elab.design.model import Model, in_domain
 from elab.design.response import Margins, default_horizon, step_response
 from elab.errors import InvalidInput
 from elab.laws import PID, ControlLaw, LTIController, has_feedback
-from elab.plants import PLANTS, Plant, get_plant
+from elab.plants import Plant, get_plant
 from elab.store.base import StoredModel
 
 M = TypeVar("M", bound=s.Model)
 BRYSON_SHARE = 0.8  # Bryson's rule: the largest acceptable u, a share of the actuator's limit
-PLANT_ID = Param(
-    "plant_id", "path", "plant id", {"type": "string", "enum": list(PLANTS)}, required=True
-)
 
 
 @endpoint(
@@ -200,8 +198,7 @@ async def plant_loop(request: Request) -> Response:
     verdict, the root locus in the loop gain, the margins at the plant input, and the peak
     |u| of a step of r by ``amplitude`` (default: the plant's default reference
     amplitude) against the actuator limit."""
-    plant = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.LoopRequest)
+    plant, req = await plant_and_body(request, s.LoopRequest)
     law = convert.law(req.controller, plant)
     amplitude = _amplitude(req.amplitude, plant)
     return ok(await asyncio.to_thread(computed, _plant_loop, plant, law, amplitude))
@@ -244,8 +241,7 @@ async def controller_file(request: Request) -> Response:
     or a design on a model exports. The file is read back before it is sent: 422 if it
     would not read as the same law (a Python file exists for state feedback on the
     plant's velocity filters and for PID only)."""
-    plant = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.ControllerFileRequest)
+    plant, req = await plant_and_body(request, s.ControllerFileRequest)
     law = convert.law(req.controller, plant)
     data = await asyncio.to_thread(computed, _file, plant, law, req.format, req.name)
     stem = "".join(

@@ -28,7 +28,7 @@ from starlette.requests import HTTPConnection, Request
 from starlette.responses import JSONResponse, Response
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from elab.api.schemas.errors import ErrorBody, ErrorDetail, FieldError
+from elab.api.schemas.errors import ErrorBody, ErrorCode, ErrorDetail, FieldError
 from elab.api.state import lab
 from elab.errors import (
     Conflict,
@@ -288,23 +288,23 @@ def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
             field=exc.field,
             errors=[FieldError(field=exc.field, message=str(exc))],
         )
-    if isinstance(exc, NotFound):
-        return 404, ErrorDetail(code="not_found", message=str(exc))
-    if isinstance(exc, Conflict):
-        return 409, ErrorDetail(code="conflict", message=str(exc))
-    if isinstance(exc, Forbidden):
-        return 403, ErrorDetail(code="forbidden", message=str(exc))
-    if isinstance(exc, Unauthorized):
-        return 401, ErrorDetail(code="unauthorized", message=str(exc))
-    if isinstance(exc, TooMany):
-        return 429, ErrorDetail(code="too_many", message=str(exc))
-    if isinstance(exc, TooLarge):
-        return 413, ErrorDetail(code="too_large", message=str(exc))
-    if isinstance(exc, SlowBody):
-        return 408, ErrorDetail(code="timeout", message=str(exc))
-    if isinstance(exc, Unavailable):
-        return 503, ErrorDetail(code="unavailable", message=str(exc))
+    for kind, status, code in _STATUS:
+        if isinstance(exc, kind):
+            return status, ErrorDetail(code=code, message=str(exc))
     raise exc
+
+
+#: the other errors' status codes and codes, the first that matches
+_STATUS: tuple[tuple[type[ElabError], int, ErrorCode], ...] = (
+    (NotFound, 404, "not_found"),
+    (Conflict, 409, "conflict"),
+    (Forbidden, 403, "forbidden"),
+    (Unauthorized, 401, "unauthorized"),
+    (TooMany, 429, "too_many"),
+    (TooLarge, 413, "too_large"),
+    (SlowBody, 408, "timeout"),
+    (Unavailable, 503, "unavailable"),
+)
 
 
 def _loc(loc: tuple[int | str, ...]) -> str:

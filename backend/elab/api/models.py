@@ -34,6 +34,7 @@ from elab.api.http import (
     read_model,
     within_budget,
 )
+from elab.api.paths import PLANT_FILTER, plant_filter
 from elab.api.state import lab
 from elab.design import loop
 from elab.design.model import Model
@@ -127,17 +128,11 @@ def _document(req: s.ModelCreate) -> dict[str, Any]:
     "/models",
     "The caller's identified models, newest first (an instructor's: everyone's)",
     response=s.IdentifiedModelList,
-    params=(
-        Param(
-            "plant", "query", "only those of this plant", {"type": "string", "enum": list(PLANTS)}
-        ),
-    ),
+    params=(PLANT_FILTER,),
     errors=(422,),
 )
 async def list_models(request: Request) -> Response:
-    plant = query(request, "plant")
-    if plant is not None and plant not in PLANTS:
-        raise InvalidInput("plant", plant, "one of " + ", ".join(PLANTS))
+    plant = plant_filter(request)
     who = identity(request)
     found = await asyncio.to_thread(
         store(request).list_models, None if who.instructor else who.id, plant

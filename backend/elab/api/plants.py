@@ -13,19 +13,13 @@ from starlette.responses import Response
 from elab import design
 from elab.api import convert
 from elab.api import schemas as s
-from elab.api.http import Param, computed, endpoint, ok, query, read_model
+from elab.api.http import Param, computed, endpoint, ok, query
+from elab.api.paths import PLANT_ID, plant_and_body, plant_of
 from elab.api.state import lab
 from elab.errors import InvalidInput, NotFound
 from elab.laws import ControlLaw, OpenLoop, has_feedback
-from elab.plants import PLANTS, Channel, Plant, get_plant
+from elab.plants import PLANTS, Channel, Plant
 
-PLANT_ID = Param(
-    "plant_id",
-    "path",
-    "plant id: " + ", ".join(PLANTS),
-    {"type": "string", "enum": list(PLANTS)},
-    required=True,
-)
 #: every output name of any plant (which ones a plant has: GET /plants/{plant_id})
 OUTPUTS = sorted({o.name for p in PLANTS.values() for o in p.outputs})
 
@@ -56,7 +50,7 @@ async def list_plants(request: Request) -> Response:
     errors=(404,),
 )
 async def get_plant_detail(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
+    p = plant_of(request)
 
     def ch(cs: tuple[Channel, ...]) -> list[s.PlantChannel]:
         return [s.PlantChannel(name=c.name, unit=c.unit, label=c.label) for c in cs]
@@ -109,7 +103,7 @@ def _rank(r: design.RankReport, n: int) -> s.RankInfo:
     errors=(404,),
 )
 async def analysis(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
+    p = plant_of(request)
     a = await asyncio.to_thread(design.analyze, p)
     return ok(
         s.AnalysisInfo(
@@ -150,7 +144,7 @@ async def analysis(request: Request) -> Response:
     ),
 )
 async def bode(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
+    p = plant_of(request)
     name = query(request, "output")
     names = [o.name for o in p.outputs]
     if name is not None and name not in names:
@@ -184,8 +178,7 @@ async def bode(request: Request) -> Response:
     params=(PLANT_ID,),
 )
 async def step(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.StepRequest)
+    p, req = await plant_and_body(request, s.StepRequest)
     law = OpenLoop() if req.controller is None else convert.law(req.controller, p)
     return ok(await asyncio.to_thread(computed, _step, p, law, req))
 
@@ -255,19 +248,11 @@ def _finite(v: np.ndarray) -> list[float]:
     params=(PLANT_ID,),
 )
 async def design_lqr(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.LQRRequest)
+    p, req = await plant_and_body(request, s.LQRRequest)
     res = await asyncio.to_thread(
         computed, design.design_lqr, p, req.Q, req.R, field="Q", value=req.Q
     )
-    return ok(
-        s.DesignOut(
-            plant=p.id,
-            method="lqr",
-            K=np.ravel(res.K).tolist(),
-            closed_loop_poles=convert.complex_list(res.poles),
-        )
-    )
+    return ok(_design_out(p, "lqr", res))
 
 
 @endpoint(
@@ -279,17 +264,20 @@ async def design_lqr(request: Request) -> Response:
     params=(PLANT_ID,),
 )
 async def design_place(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.PlaceRequest)
+    p, req = await plant_and_body(request, s.PlaceRequest)
     poles = [complex(z.re, z.im) for z in req.poles]
     res = await asyncio.to_thread(
         computed, design.design_place, p, poles, field="poles", value=req.poles
     )
-    return ok(
-        s.DesignOut(
-            plant=p.id,
-            method="place",
-            K=np.ravel(res.K).tolist(),
-            closed_loop_poles=convert.complex_list(res.poles),
-        )
+    return ok(_design_out(p, "place", res))
+
+
+def _design_out(
+    p: Plant, method: Literal["lqr", "place"], res: design.LQR | design.Placement
+) -> s.DesignOut:
+    return s.DesignOut(
+        plant=p.id,
+        method=method,
+        K=np.ravel(res.K).tolist(),
+        closed_loop_poles=convert.complex_list(res.poles),
     )

@@ -15,11 +15,12 @@ from elab.api import controllers, convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_int, read_model
+from elab.api.paths import PLANT_FILTER, plant_filter
 from elab.api.state import lab
 from elab.engines.base import Action, EngineStatus, StoreHealth
 from elab.errors import InvalidInput
 from elab.laws import is_code
-from elab.plants import PLANTS, get_plant
+from elab.plants import get_plant
 from elab.runs.changes import Change
 from elab.runs.fanout import frame_samples
 from elab.runs.manager import ManagerStatus, RunManager
@@ -140,9 +141,7 @@ async def create_run(request: Request) -> Response:
     response=s.RunList,
     errors=(422,),
     params=(
-        Param(
-            "plant", "query", "only runs of this plant", {"type": "string", "enum": list(PLANTS)}
-        ),
+        PLANT_FILTER,
         Param("owner", "query", "me: only the caller's runs", {"type": "string", "enum": ["me"]}),
         Param(
             "live",
@@ -166,9 +165,7 @@ async def create_run(request: Request) -> Response:
 )
 async def list_runs(request: Request) -> Response:
     m = manager(request)
-    plant = query(request, "plant")
-    if plant is not None and plant not in PLANTS:
-        raise InvalidInput("plant", plant, "one of " + ", ".join(PLANTS))
+    plant = plant_filter(request)
     owner = query(request, "owner")
     if owner not in (None, "me"):
         raise InvalidInput("owner", owner, "me (or leave it out for every run you may see)")
@@ -328,13 +325,6 @@ async def get_run(request: Request) -> Response:
     return ok(await run_info(request, record))
 
 
-async def _control(request: Request, action: Action) -> Response:
-    record = await manager(request).control(
-        request.path_params["run_id"], action, identity(request)
-    )
-    return ok(await run_info(request, record))
-
-
 @endpoint(
     "DELETE",
     "/runs/{run_id}",
@@ -348,40 +338,21 @@ async def delete_run(request: Request) -> Response:
     return Response(status_code=204)
 
 
-@endpoint(
-    "POST",
-    "/runs/{run_id}/stop",
-    "Stop a run; its samples so far stay recorded",
-    response=s.RunInfo,
-    params=(RUN_ID,),
-    errors=(403, 404, 409, 503),
-)
-async def stop_run(request: Request) -> Response:
-    return await _control(request, "stop")
+def _control_endpoint(action: Action, summary: str) -> None:
+    """``POST /runs/{run_id}/<action>`` (operation ``<action>_run``), answered with the run."""
+
+    async def control(request: Request) -> Response:
+        run_id, who = request.path_params["run_id"], identity(request)
+        return ok(await run_info(request, await manager(request).control(run_id, action, who)))
+
+    control.__name__ = control.__qualname__ = f"{action}_run"
+    path, errors = f"/runs/{{run_id}}/{action}", (403, 404, 409, 503)
+    endpoint("POST", path, summary, response=s.RunInfo, params=(RUN_ID,), errors=errors)(control)
 
 
-@endpoint(
-    "POST",
-    "/runs/{run_id}/pause",
-    "Pause a run (its clock stops)",
-    response=s.RunInfo,
-    params=(RUN_ID,),
-    errors=(403, 404, 409, 503),
-)
-async def pause_run(request: Request) -> Response:
-    return await _control(request, "pause")
-
-
-@endpoint(
-    "POST",
-    "/runs/{run_id}/resume",
-    "Resume a paused run",
-    response=s.RunInfo,
-    params=(RUN_ID,),
-    errors=(403, 404, 409, 503),
-)
-async def resume_run(request: Request) -> Response:
-    return await _control(request, "resume")
+_control_endpoint("stop", "Stop a run; its samples so far stay recorded")
+_control_endpoint("pause", "Pause a run (its clock stops)")
+_control_endpoint("resume", "Resume a paused run")
 
 
 @endpoint(
