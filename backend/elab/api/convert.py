@@ -9,6 +9,9 @@ import secrets
 from dataclasses import dataclass
 from typing import Any, assert_never
 
+import numpy as np
+from numpy.typing import NDArray
+
 from elab.api import schemas as s
 from elab.errors import InvalidInput
 from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, StateFeedback
@@ -192,6 +195,14 @@ def complex_list(values: Any) -> list[s.Complex]:
 
 def finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
+
+
+def finite_response(v: NDArray[np.float64]) -> list[float]:
+    """A computed response's values; :class:`InvalidInput` naming the horizon ``T`` where
+    it overflowed (an unstable loop)."""
+    if not np.all(np.isfinite(v)):
+        raise InvalidInput("T", None, "a shorter horizon: the response overflows (unstable loop)")
+    return v.tolist()  # type: ignore[no-any-return]
 
 
 def _tuple(v: list[float] | None) -> tuple[float, ...] | None:

@@ -13,7 +13,6 @@
 from __future__ import annotations
 
 import asyncio
-import math
 from typing import Any, TypeVar
 
 import control as ct
@@ -101,8 +100,8 @@ def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
             plant=plant.id,
             loop="closed",
             t=r.t.tolist(),
-            outputs={n: _finite(r.y[i]) for i, n in enumerate(names)},
-            u=_finite(r.u),
+            outputs={n: convert.finite_response(r.y[i]) for i, n in enumerate(names)},
+            u=convert.finite_response(r.u),
             info=None
             if a.info is None
             else s.StepInfoOut(**{k: convert.finite_or_none(v) for k, v in vars(a.info).items()}),
@@ -145,12 +144,6 @@ def _z(p: s.Complex) -> complex:
     return complex(p.re, p.im)
 
 
-def _finite(v: np.ndarray) -> list[float]:
-    if not np.all(np.isfinite(v)):
-        raise InvalidInput("T", None, "a shorter horizon: the response overflows (unstable loop)")
-    return v.tolist()  # type: ignore[no-any-return]
-
-
 def _loop_out(
     plant: Plant, lp: loop.Loop, locus: RootLocus, m: Margins, peak: float | None, amplitude: float
 ) -> dict[str, Any]:
@@ -168,8 +161,8 @@ def _loop_out(
         "root_locus": s.RootLocusOut(
             domain="s" if lp.closed.isctime() else "z",
             gains=locus.gains.tolist(),
-            re=[[_or_none(x) for x in row] for row in locus.branches.real],
-            im=[[_or_none(x) for x in row] for row in locus.branches.imag],
+            re=[[convert.finite_or_none(x) for x in row] for row in locus.branches.real],
+            im=[[convert.finite_or_none(x) for x in row] for row in locus.branches.imag],
             poles=convert.complex_list(locus.poles),
             zeros=convert.complex_list(locus.zeros),
         ),
@@ -178,10 +171,6 @@ def _loop_out(
         "u_max": plant.u_max,
         "saturates": peak is not None and peak > plant.u_max,
     }
-
-
-def _or_none(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
 
 
 @endpoint(

@@ -16,7 +16,7 @@ from elab.api import schemas as s
 from elab.api.http import Param, computed, endpoint, ok, query
 from elab.api.paths import PLANT_ID, plant_and_body, plant_of
 from elab.api.state import lab
-from elab.errors import InvalidInput, NotFound
+from elab.errors import NotFound
 from elab.laws import ControlLaw, OpenLoop, has_feedback
 from elab.plants import PLANTS, Channel, Plant
 
@@ -204,8 +204,8 @@ def _step(p: Plant, law: ControlLaw, req: s.StepRequest) -> s.StepOut:
         plant=p.id,
         loop=loop,
         t=r.t[:end].tolist(),
-        outputs={o.name: _finite(r.y[i, :end]) for i, o in enumerate(p.outputs)},
-        u=_finite(r.u[:end]),
+        outputs={o.name: convert.finite_response(r.y[i, :end]) for i, o in enumerate(p.outputs)},
+        u=convert.finite_response(r.u[:end]),
         info=info,
         poles=convert.complex_list(stab.eigenvalues),
         verdict=stab.verdict,
@@ -231,12 +231,6 @@ def _leaves_range(p: Plant, y: np.ndarray) -> tuple[int, int, float, float] | No
         return None
     k, i, lo, hi = min(exits)
     return i, k, lo, hi
-
-
-def _finite(v: np.ndarray) -> list[float]:
-    if not np.all(np.isfinite(v)):
-        raise InvalidInput("T", None, "a shorter horizon: the response overflows (unstable loop)")
-    return v.tolist()  # type: ignore[no-any-return]
 
 
 @endpoint(

@@ -23,7 +23,7 @@ from elab.controllers.sandbox import ControllerFailed, Sandboxed, StepTimes
 from elab.errors import InvalidInput
 from elab.laws import CodeController, ControlLaw
 from elab.plants import Plant
-from elab.sim.engine import first_divergence
+from elab.sim.engine import diverged, first_divergence
 from elab.sim.kernel import actuate, sense
 from elab.sim.signals import Square, Step
 from elab.sim.spec import CompiledRun, RunSpec, compile_run
@@ -197,7 +197,7 @@ def run_through(run: CompiledRun, settings: CodeSettings | None = None) -> Outco
             i = first_divergence(data[:, 1:])
             if i is not None:
                 data = data[:i]
-                failed = f"diverged at t = {(k0 + i) * run.Ts:.4g} s: the closed loop is unstable"
+                failed = diverged((k0 + i) * run.Ts)
             parts.append(data)
     finally:
         coded.close()
