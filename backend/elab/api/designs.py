@@ -25,8 +25,8 @@ from elab.api import convert
 from elab.api import schemas as s
 from elab.api.controllers import MEDIA
 from elab.api.http import computed, endpoint, ok, read_model
-from elab.api.models import MODEL_ID, core_model, not_runnable, reference_index, stored
-from elab.api.paths import PLANT_ID, plant_and_body
+from elab.api.models import core_model, not_runnable, reference_index, stored
+from elab.api.paths import plant_and_body
 from elab.design import loop, observed
 from elab.design.closed_loop import closed_loop, loop_transfer
 from elab.design.locus import RootLocus, root_locus
@@ -41,16 +41,11 @@ M = TypeVar("M", bound=s.Model)
 BRYSON_SHARE = 0.8  # Bryson's rule: the largest acceptable u, a share of the actuator's limit
 
 
-@endpoint(
-    "POST",
-    "/models/{model_id}/design",
-    "Design a controller on an identified model: its loop's step, root locus and margins",
-    body=s.ModelDesignRequest,
-    response=s.ModelDesignOut,
-    params=(MODEL_ID,),
-)
+@endpoint("POST", "/models/{model_id}/design", body=s.ModelDesignRequest, response=s.ModelDesignOut)
 async def design_on_model(request: Request) -> Response:
-    """``method``: ``lqr`` (Q or an output weight, R; discrete time: dlqr), ``place``
+    """Design a controller on an identified model: its loop's step, root locus and margins
+
+    ``method``: ``lqr`` (Q or an output weight, R; discrete time: dlqr), ``place``
     (closed-loop poles in z or s), ``gain`` (K typed by hand) — each state feedback on a
     full-order observer's estimate, u = Nr r − K x̂ — or ``pid`` on the error of the
     reference output. ``domain`` discrete designs on the model as identified; continuous on
@@ -173,16 +168,11 @@ def _loop_out(
     }
 
 
-@endpoint(
-    "POST",
-    "/plants/{plant_id}/loop",
-    "A controller's loop on the plant's model: poles, verdict, root locus, margins, peak u",
-    body=s.LoopRequest,
-    response=s.LoopOut,
-    params=(PLANT_ID,),
-)
+@endpoint("POST", "/plants/{plant_id}/loop", body=s.LoopRequest, response=s.LoopOut)
 async def plant_loop(request: Request) -> Response:
-    """The loop as a run closes it (the law's own state estimate; a discrete LTI law on
+    """A controller's loop on the plant's model: poles, verdict, root locus, margins, peak u
+
+    The loop as a run closes it (the law's own state estimate; a discrete LTI law on
     the plant's zero-order-hold model at its ``dt``), linear: closed-loop poles and
     verdict, the root locus in the loop gain, the margins at the plant input, and the peak
     |u| of a step of r by ``amplitude`` (default: the plant's default reference
@@ -219,14 +209,14 @@ def _plant_loop(plant: Plant, law: ControlLaw, amplitude: float) -> s.LoopOut:
 @endpoint(
     "POST",
     "/plants/{plant_id}/controller-file",
-    "A controller as a file (TOML, JSON, .mat, .npz, Python) that uploads as the same law",
     body=s.ControllerFileRequest,
     response="file",
     files=tuple(dict.fromkeys(MEDIA.values())),
-    params=(PLANT_ID,),
 )
 async def controller_file(request: Request) -> Response:
-    """The law in the controller file format (docs/controllers.md): what a designed gain
+    """A controller as a file (TOML, JSON, .mat, .npz, Python) that uploads as the same law
+
+    The law in the controller file format (docs/controllers.md): what a designed gain
     or a design on a model exports. The file is read back before it is sent: 422 if it
     would not read as the same law (a Python file exists for state feedback on the
     plant's velocity filters and for PID only)."""

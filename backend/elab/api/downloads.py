@@ -15,7 +15,7 @@ from elab.access import display_name
 from elab.api import convert
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, query, query_float
-from elab.api.runs import RUN_ID, manager
+from elab.api.runs import manager
 from elab.errors import InvalidInput
 from elab.plants import get_plant
 from elab.runs import export
@@ -32,10 +32,8 @@ FORMATS = {
 @endpoint(
     "GET",
     "/runs/{run_id}/data",
-    "The complete recording as CSV, JSON or MATLAB .mat",
     response="file",
     params=(
-        RUN_ID,
         Param(
             "format",
             "query",
@@ -48,7 +46,9 @@ FORMATS = {
     ),
 )
 async def get_data(request: Request) -> Response:
-    """CSV starts with ``# key: value`` lines (plant, controller, signal, sample time, units,
+    """The complete recording as CSV, JSON or MATLAB .mat
+
+    CSV starts with ``# key: value`` lines (plant, controller, signal, sample time, units,
     parameter changes); numbers are the shortest decimals that read back exactly. The file
     is streamed as it is written, part by part (a download of any length holds one part of
     the recording in memory), and stops when the client goes away. A live run downloads

@@ -97,7 +97,8 @@ class BodyTimeout:
 
 @dataclass(frozen=True)
 class Param:
-    """A path or query parameter, for the OpenAPI document."""
+    """A path or query parameter, for the OpenAPI document (a path's own are declared once,
+    in :mod:`elab.api.paths`)."""
 
     name: str
     where: str  # "path" | "query"
@@ -112,10 +113,11 @@ class Endpoint:
     path: str
     summary: str
     handler: Handler
+    description: str | None = None
     body: type[BaseModel] | None = None
     response: Any = None
     status: int = 200
-    params: tuple[Param, ...] = ()
+    params: tuple[Param, ...] = ()  # query parameters (a path's own follow from the path)
     errors: tuple[int, ...] = (404, 422)
     media: str = "application/json"
     stream: type[BaseModel] | None = None  # answered as NDJSON lines of this model on request
@@ -130,11 +132,21 @@ class Endpoint:
 ENDPOINTS: list[Endpoint] = []
 
 
-def endpoint(method: str, path: str, summary: str, **meta: Any) -> Callable[[Handler], Handler]:
-    """Register ``handler`` under ``/api/v1`` + ``path`` (the docstring is its description)."""
+def endpoint(
+    method: str, path: str, summary: str | None = None, **meta: Any
+) -> Callable[[Handler], Handler]:
+    """Register ``handler`` under ``/api/v1`` + ``path``. Its docstring says what it does:
+    the first paragraph is the summary, the rest the description (a generated handler,
+    without one, is given its ``summary``)."""
 
     def register(handler: Handler) -> Handler:
-        ENDPOINTS.append(Endpoint(method, path, summary, handler, **meta))
+        words, description = summary, " ".join((handler.__doc__ or "").split()) or None
+        if words is None:
+            first, _, rest = (handler.__doc__ or "").strip().partition("\n\n")
+            words, description = " ".join(first.split()), " ".join(rest.split()) or None
+        if not words:
+            raise TypeError(f"endpoint {method} {path}: its handler has no docstring to sum it up")
+        ENDPOINTS.append(Endpoint(method, path, words, handler, description, **meta))
         return handler
 
     return register

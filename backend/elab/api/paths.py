@@ -1,8 +1,9 @@
-"""Parameters several resources share, declared and read once: a plant's id in the path
-(``{plant_id}``) and the ``plant`` filter of a list."""
+"""Parameters declared and read once: each path parameter (``{run_id}`` …: an endpoint's
+follow from its path), and the ``plant`` filter of a list."""
 
 from __future__ import annotations
 
+import re
 from typing import TypeVar
 
 from starlette.requests import HTTPConnection, Request
@@ -20,9 +21,21 @@ PLANT_ID = Param(
     {"type": "string", "enum": list(PLANTS)},
     required=True,
 )
+RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
+MODEL_ID = Param("model_id", "path", "model id (from POST /models)", required=True)
+CONTROLLER_ID = Param(
+    "controller_id", "path", "controller id (from POST /controllers)", required=True
+)
+TOKEN_ID = Param("token_id", "path", "token id (from POST /tokens)", required=True)
+PATH_PARAMS = {p.name: p for p in (PLANT_ID, RUN_ID, MODEL_ID, CONTROLLER_ID, TOKEN_ID)}
 PLANT_FILTER = Param(
     "plant", "query", "only those of this plant", {"type": "string", "enum": list(PLANTS)}
 )
+
+
+def path_params(path: str) -> tuple[Param, ...]:
+    """The parameters of ``path`` (``/runs/{run_id}/data``: ``run_id``), in order."""
+    return tuple(PATH_PARAMS[name] for name in re.findall(r"{(\w+)}", path))
 
 
 def plant_of(request: Request) -> Plant:

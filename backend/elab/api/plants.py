@@ -14,7 +14,7 @@ from elab import design
 from elab.api import convert
 from elab.api import schemas as s
 from elab.api.http import Param, computed, endpoint, ok, query
-from elab.api.paths import PLANT_ID, plant_and_body, plant_of
+from elab.api.paths import plant_and_body, plant_of
 from elab.api.state import lab
 from elab.errors import NotFound
 from elab.laws import ControlLaw, OpenLoop, has_feedback
@@ -36,20 +36,15 @@ def _summary(p: Plant, request: Request) -> s.PlantSummary:
     )
 
 
-@endpoint("GET", "/plants", "List the plants", response=list[s.PlantSummary], errors=())
+@endpoint("GET", "/plants", response=list[s.PlantSummary], errors=())
 async def list_plants(request: Request) -> Response:
+    """List the plants"""
     return ok([_summary(p, request) for p in PLANTS.values()])
 
 
-@endpoint(
-    "GET",
-    "/plants/{plant_id}",
-    "A plant: model, units, limits, defaults, description",
-    response=s.PlantDetail,
-    params=(PLANT_ID,),
-    errors=(404,),
-)
+@endpoint("GET", "/plants/{plant_id}", response=s.PlantDetail, errors=(404,))
 async def get_plant_detail(request: Request) -> Response:
+    """A plant: model, units, limits, defaults, description"""
     p = plant_of(request)
 
     def ch(cs: tuple[Channel, ...]) -> list[s.PlantChannel]:
@@ -94,15 +89,9 @@ def _rank(r: design.RankReport, n: int) -> s.RankInfo:
     )
 
 
-@endpoint(
-    "GET",
-    "/plants/{plant_id}/analysis",
-    "Eigenvalues, stability verdict, controllability, observability, transfer functions",
-    response=s.AnalysisInfo,
-    params=(PLANT_ID,),
-    errors=(404,),
-)
+@endpoint("GET", "/plants/{plant_id}/analysis", response=s.AnalysisInfo, errors=(404,))
 async def analysis(request: Request) -> Response:
+    """Eigenvalues, stability verdict, controllability, observability, transfer functions"""
     p = plant_of(request)
     a = await asyncio.to_thread(design.analyze, p)
     return ok(
@@ -131,10 +120,8 @@ async def analysis(request: Request) -> Response:
 @endpoint(
     "GET",
     "/plants/{plant_id}/bode",
-    "Open-loop Bode diagram of each output (or one)",
     response=s.BodeList,
     params=(
-        PLANT_ID,
         Param(
             "output",
             "query",
@@ -144,6 +131,7 @@ async def analysis(request: Request) -> Response:
     ),
 )
 async def bode(request: Request) -> Response:
+    """Open-loop Bode diagram of each output (or one)"""
     p = plant_of(request)
     name = query(request, "output")
     names = [o.name for o in p.outputs]
@@ -169,15 +157,9 @@ async def bode(request: Request) -> Response:
     )
 
 
-@endpoint(
-    "POST",
-    "/plants/{plant_id}/step",
-    "Step response: open loop, or closed loop with a controller (linear, continuous)",
-    body=s.StepRequest,
-    response=s.StepOut,
-    params=(PLANT_ID,),
-)
+@endpoint("POST", "/plants/{plant_id}/step", body=s.StepRequest, response=s.StepOut)
 async def step(request: Request) -> Response:
+    """Step response: open loop, or closed loop with a controller (linear, continuous)"""
     p, req = await plant_and_body(request, s.StepRequest)
     law = OpenLoop() if req.controller is None else convert.law(req.controller, p)
     return ok(await asyncio.to_thread(computed, _step, p, law, req))
@@ -233,15 +215,9 @@ def _leaves_range(p: Plant, y: np.ndarray) -> tuple[int, int, float, float] | No
     return i, k, lo, hi
 
 
-@endpoint(
-    "POST",
-    "/plants/{plant_id}/design/lqr",
-    "LQR state feedback from Q and R",
-    body=s.LQRRequest,
-    response=s.DesignOut,
-    params=(PLANT_ID,),
-)
+@endpoint("POST", "/plants/{plant_id}/design/lqr", body=s.LQRRequest, response=s.DesignOut)
 async def design_lqr(request: Request) -> Response:
+    """LQR state feedback from Q and R"""
     p, req = await plant_and_body(request, s.LQRRequest)
     res = await asyncio.to_thread(
         computed, design.design_lqr, p, req.Q, req.R, field="Q", value=req.Q
@@ -249,15 +225,9 @@ async def design_lqr(request: Request) -> Response:
     return ok(_design_out(p, "lqr", res))
 
 
-@endpoint(
-    "POST",
-    "/plants/{plant_id}/design/place",
-    "Pole placement: K from closed-loop poles",
-    body=s.PlaceRequest,
-    response=s.DesignOut,
-    params=(PLANT_ID,),
-)
+@endpoint("POST", "/plants/{plant_id}/design/place", body=s.PlaceRequest, response=s.DesignOut)
 async def design_place(request: Request) -> Response:
+    """Pole placement: K from closed-loop poles"""
     p, req = await plant_and_body(request, s.PlaceRequest)
     poles = [complex(z.re, z.im) for z in req.poles]
     res = await asyncio.to_thread(

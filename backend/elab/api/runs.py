@@ -26,8 +26,6 @@ from elab.runs.fanout import frame_samples
 from elab.runs.manager import ManagerStatus, RunManager
 from elab.store.base import JsonObject, RunRecord, RunSummary
 
-RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
-
 
 def manager(request: HTTPConnection) -> RunManager:
     return lab(request).manager
@@ -137,7 +135,6 @@ async def create_run(request: Request) -> Response:
 @endpoint(
     "GET",
     "/runs",
-    "List runs, newest first (others' private runs only for instructors)",
     response=s.RunList,
     errors=(422,),
     params=(
@@ -164,6 +161,7 @@ async def create_run(request: Request) -> Response:
     ),
 )
 async def list_runs(request: Request) -> Response:
+    """List runs, newest first (others' private runs only for instructors)"""
     m = manager(request)
     plant = plant_filter(request)
     owner = query(request, "owner")
@@ -197,15 +195,11 @@ async def list_runs(request: Request) -> Response:
     )
 
 
-@endpoint(
-    "GET",
-    "/server",
-    "The server: live runs, watchers, the engine, the store, and how closely the engine keeps time",
-    response=s.ServerStatus,
-    errors=(),
-)
+@endpoint("GET", "/server", response=s.ServerStatus, errors=())
 async def server_status(request: Request) -> Response:
-    """For operators and benchmarks: is the engine up and keeping up? Its ticks' lateness
+    """The server: live runs, watchers, the engine, the store, and how closely the engine keeps time
+
+    For operators and benchmarks: is the engine up and keeping up? Its ticks' lateness
     over the last minute and the trend of that lateness (the drift of the runs' clocks);
     whether its writes to the store work."""
     jobs, uploads = lab(request).jobs, lab(request).uploads
@@ -218,15 +212,11 @@ async def server_status(request: Request) -> Response:
     )
 
 
-@endpoint(
-    "GET",
-    "/health",
-    "200 when the server can take runs, else 503 and why",
-    response=s.HealthInfo,
-    errors=(503,),
-)
+@endpoint("GET", "/health", response=s.HealthInfo, errors=(503,))
 async def health(request: Request) -> Response:
-    """For a load balancer or a supervisor: the engine is up and ticking and its store
+    """200 when the server can take runs, else 503 and why
+
+    For a load balancer or a supervisor: the engine is up and ticking and its store
     writes work."""
     engines = manager(request).status().engines
     st = engines["simulation"]
@@ -312,28 +302,16 @@ def _rig_model(st: EngineStatus | None) -> s.RigInfo | None:
 _LATENCY = ("latency_p50_us", "latency_p99_us", "latency_max_us")
 
 
-@endpoint(
-    "GET",
-    "/runs/{run_id}",
-    "A run: state, progress, channels, parameter changes",
-    response=s.RunInfo,
-    params=(RUN_ID,),
-    errors=(404,),
-)
+@endpoint("GET", "/runs/{run_id}", response=s.RunInfo, errors=(404,))
 async def get_run(request: Request) -> Response:
+    """A run: state, progress, channels, parameter changes"""
     record = await manager(request).get(request.path_params["run_id"], identity(request))
     return ok(await run_info(request, record))
 
 
-@endpoint(
-    "DELETE",
-    "/runs/{run_id}",
-    "Delete an ended run and its recording (its owner or an instructor)",
-    params=(RUN_ID,),
-    status=204,
-    errors=(403, 404, 409, 503),
-)
+@endpoint("DELETE", "/runs/{run_id}", status=204, errors=(403, 404, 409, 503))
 async def delete_run(request: Request) -> Response:
+    """Delete an ended run and its recording (its owner or an instructor)"""
     await manager(request).delete(request.path_params["run_id"], identity(request))
     return Response(status_code=204)
 
@@ -347,7 +325,7 @@ def _control_endpoint(action: Action, summary: str) -> None:
 
     control.__name__ = control.__qualname__ = f"{action}_run"
     path, errors = f"/runs/{{run_id}}/{action}", (403, 404, 409, 503)
-    endpoint("POST", path, summary, response=s.RunInfo, params=(RUN_ID,), errors=errors)(control)
+    endpoint("POST", path, summary, response=s.RunInfo, errors=errors)(control)
 
 
 _control_endpoint("stop", "Stop a run; its samples so far stay recorded")
@@ -358,14 +336,14 @@ _control_endpoint("resume", "Resume a paused run")
 @endpoint(
     "POST",
     "/runs/{run_id}/params",
-    "Change the controller gains and/or the reference of a live run",
     body=s.ParamsUpdate,
     response=s.ParamsApplied,
-    params=(RUN_ID,),
     errors=(403, 404, 409, 413, 415, 422, 503),
 )
 async def set_params(request: Request) -> Response:
-    """Applied from the next sample; the change and its sample index are recorded, and the
+    """Change the controller gains and/or the reference of a live run
+
+    Applied from the next sample; the change and its sample index are recorded, and the
     answer lists every value it altered (``changed``). A part equal to what the run uses
     (gains or reference) is left out of the change; when nothing differs, nothing is
     applied or recorded."""
