@@ -356,6 +356,11 @@ async def apply_params(
 ) -> s.ParamsApplied:
     """Shared by REST and the websocket's ``set_params``: the update as a typed change
     (:class:`~elab.runs.changes.Change`), decided and applied by the run manager."""
+    controller, cid, signal = update.controller, update.controller_id, update.signal
+    if controller is None and cid is None and signal is None:
+        raise InvalidInput("body", {}, "controller, controller_id and/or signal")
+    if controller is not None and cid is not None:
+        raise InvalidInput("controller_id", cid, "either controller or controller_id, not both")
     m = manager(conn)
     record = await m.get(run_id, who)
     require_control(who, record.owner, f"run {run_id}", "change")  # before its controller
@@ -375,10 +380,6 @@ async def _change(
     """``update`` (a controller, or an uploaded one's ``controller_id``, and/or a signal) as
     a change of the plant's run, with what it asks as JSON."""
     controller, cid, signal = update.controller, update.controller_id, update.signal
-    if controller is None and cid is None and signal is None:
-        raise InvalidInput("body", {}, "controller, controller_id and/or signal")
-    if controller is not None and cid is not None:
-        raise InvalidInput("controller_id", cid, "either controller or controller_id, not both")
     plant = get_plant(plant_id)
     asked: JsonObject = {}
     law = None
