@@ -41,7 +41,9 @@ class RunParams:
     reference: Signal
 
     def after(self, new: NewParams) -> RunParams:
-        return RunParams(new.law or self.law, new.reference or self.reference)
+        """What it uses once ``new`` is applied (a part ``None`` there stays)."""
+        law = self.law if new.law is None else new.law
+        return RunParams(law, self.reference if new.reference is None else new.reference)
 
 
 @dataclass(frozen=True)
