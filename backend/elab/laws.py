@@ -114,6 +114,24 @@ class CodeController:
 ControlLaw = StateFeedback | PID | LTIController | OpenLoop | CodeController
 
 
+def law_kind(law: ControlLaw) -> str:
+    """The law's name in requests and controller files: ``state_feedback``, ``pid``,
+    ``lti``, ``open_loop``; ``python`` for code."""
+    match law:
+        case StateFeedback():
+            return "state_feedback"
+        case PID():
+            return "pid"
+        case LTIController():
+            return "lti"
+        case OpenLoop():
+            return "open_loop"
+        case CodeController():
+            return "python"
+        case _:
+            assert_never(law)
+
+
 def is_code(law: ControlLaw) -> bool:
     """Whether the law is a student's Python code (stepped in a sandbox, sample by sample)."""
     match law:

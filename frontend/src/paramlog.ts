@@ -2,7 +2,7 @@
 // what a change set (the new controller and/or reference, whole); what it altered follows
 // from the settings the run had just before: its request, then each earlier change. The
 // difference is taken as the server's own answer to the change takes it
-// (backend/elab/api/changes.py) and said in words by changes.ts.
+// (backend/elab/runs/changes.py) and said in words by changes.ts.
 import { describeChanges } from "./changes";
 import type { ParamDiff, PlantDetail } from "./protocol.gen";
 

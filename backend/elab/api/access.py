@@ -23,7 +23,7 @@ from elab.api.auth import (
     me_fields,
     session_cookie_value,
 )
-from elab.api.http import Param, endpoint, ok, read_model, within_budget
+from elab.api.http import endpoint, ok, read_model, within_budget
 from elab.api.runs import manager, run_summary
 from elab.api.state import lab
 from elab.errors import Forbidden, NotFound
@@ -36,23 +36,20 @@ def authority(request: Request) -> Authority:
     return lab(request).authority
 
 
-@endpoint("GET", "/me", "Who the server takes the caller for", response=s.Me, errors=())
+@endpoint("GET", "/me", response=s.Me, errors=())
 async def me(request: Request) -> Response:
-    """A browser's first request gives it an anonymous identity (a signed cookie); an
+    """Who the server takes the caller for
+
+    A browser's first request gives it an anonymous identity (a signed cookie); an
     instructor signed in, or an API token, is that identity instead."""
     return ok(s.Me(**me_fields(identity(request), authority(request))))
 
 
-@endpoint(
-    "POST",
-    "/session",
-    "Sign in as an instructor (sets the session cookie)",
-    body=s.SignIn,
-    response=s.Me,
-    errors=(401, 413, 415, 422, 429, 503),
-)
+@endpoint("POST", "/session", body=s.SignIn, response=s.Me, errors=(401, 413, 415, 422, 429, 503))
 async def sign_in(request: Request) -> Response:
-    """Accounts are configured by the operator (``ELAB_INSTRUCTORS``). Five failed
+    """Sign in as an instructor (sets the session cookie)
+
+    Accounts are configured by the operator (``ELAB_INSTRUCTORS``). Five failed
     attempts a minute from one address, then 429."""
     req = await read_model(request, s.SignIn)
     auth = authority(request)
@@ -65,15 +62,11 @@ async def sign_in(request: Request) -> Response:
     return response
 
 
-@endpoint(
-    "DELETE",
-    "/session",
-    "Sign out (back to the browser's anonymous identity)",
-    response=s.Me,
-    errors=(503,),
-)
+@endpoint("DELETE", "/session", response=s.Me, errors=(503,))
 async def sign_out(request: Request) -> Response:
-    """The session ends on the server: its cookie, even kept, no longer signs in."""
+    """Sign out (back to the browser's anonymous identity)
+
+    The session ends on the server: its cookie, even kept, no longer signs in."""
     auth = authority(request)
     cookies = cookies_of(request.scope)
     await asyncio.to_thread(auth.sign_out, cookies.get(SESSION_COOKIE))
@@ -90,14 +83,9 @@ def _token_owner(request: Request) -> Identity:
     return who
 
 
-@endpoint(
-    "GET",
-    "/tokens",
-    "The caller's API tokens (not the tokens themselves)",
-    response=list[s.TokenInfo],
-    errors=(),
-)
+@endpoint("GET", "/tokens", response=list[s.TokenInfo], errors=())
 async def list_tokens(request: Request) -> Response:
+    """The caller's API tokens (not the tokens themselves)"""
     who = identity(request)
     tokens = await asyncio.to_thread(authority(request).store.tokens, who.id) if who.id else []
     return ok(
@@ -111,7 +99,6 @@ async def list_tokens(request: Request) -> Response:
 @endpoint(
     "POST",
     "/tokens",
-    "Make an API token that acts as the caller (for scripts and autograders)",
     body=s.TokenCreate,
     response=s.TokenCreated,
     status=201,
@@ -119,7 +106,9 @@ async def list_tokens(request: Request) -> Response:
     links=(("revoke_token", "token_id"),),
 )
 async def create_token(request: Request) -> Response:
-    """The token is in this answer only; the server keeps its SHA-256. At most
+    """Make an API token that acts as the caller (for scripts and autograders)
+
+    The token is in this answer only; the server keeps its SHA-256. At most
     ``ELAB_MAX_TOKENS_PER_IDENTITY`` (20) per identity. Without credentials the caller is a
     new anonymous identity, which the token then carries: a script's way to one."""
     req = await read_model(request, s.TokenCreate)
@@ -138,15 +127,9 @@ async def create_token(request: Request) -> Response:
     )
 
 
-@endpoint(
-    "DELETE",
-    "/tokens/{token_id}",
-    "Revoke one of the caller's API tokens",
-    params=(Param("token_id", "path", "token id (from POST /tokens)", required=True),),
-    status=204,
-    errors=(404, 503),
-)
+@endpoint("DELETE", "/tokens/{token_id}", status=204, errors=(404, 503))
 async def revoke_token(request: Request) -> Response:
+    """Revoke one of the caller's API tokens"""
     who = identity(request)
     token_id = request.path_params["token_id"]
     if not who.id:
@@ -156,10 +139,9 @@ async def revoke_token(request: Request) -> Response:
 
 
 # -- the class demo ------------------------------------------------------------------
-@endpoint(
-    "GET", "/demo", "The run an instructor pinned as the class demo", response=s.DemoInfo, errors=()
-)
+@endpoint("GET", "/demo", response=s.DemoInfo, errors=())
 async def get_demo(request: Request) -> Response:
+    """The run an instructor pinned as the class demo"""
     pin = await asyncio.to_thread(authority(request).store.pin, DEMO)
     if pin is None:
         return ok(s.DemoInfo(run=None))
@@ -184,14 +166,10 @@ def _instructor(request: Request, action: str) -> Identity:
 
 
 @endpoint(
-    "PUT",
-    "/demo",
-    "Pin a run as the class demo (instructors)",
-    body=s.DemoPin,
-    response=s.DemoInfo,
-    errors=(403, 404, 413, 415, 422, 503),
+    "PUT", "/demo", body=s.DemoPin, response=s.DemoInfo, errors=(403, 404, 413, 415, 422, 503)
 )
 async def pin_demo(request: Request) -> Response:
+    """Pin a run as the class demo (instructors)"""
     req = await read_model(request, s.DemoPin)
     who = _instructor(request, "pin")
     record = await manager(request).get(req.run_id, who)
@@ -201,8 +179,9 @@ async def pin_demo(request: Request) -> Response:
     return await get_demo(request)
 
 
-@endpoint("DELETE", "/demo", "Unpin the class demo (instructors)", status=204, errors=(403, 503))
+@endpoint("DELETE", "/demo", status=204, errors=(403, 503))
 async def unpin_demo(request: Request) -> Response:
+    """Unpin the class demo (instructors)"""
     _instructor(request, "unpin")
     await asyncio.to_thread(authority(request).store.clear_pin, DEMO)
     return Response(status_code=204)

@@ -27,6 +27,7 @@ from elab.api import convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, read_body, read_model, within_budget
+from elab.api.paths import PLANT_FILTER, plant_filter, plant_of
 from elab.api.state import lab
 from elab.engines import coded
 from elab.engines.coded import CodeSettings
@@ -38,9 +39,6 @@ from elab.store.base import ControllerStore, StoredController
 # what a trial worker imports before it takes a check (elab.jobs)
 JOB_MODULES = ("elab.api.controllers", "elab.engines.coded", "elab.controllers.report")
 
-CONTROLLER_ID = Param(
-    "controller_id", "path", "controller id (from POST /controllers)", required=True
-)
 MEDIA = {
     "toml": "application/toml",
     "json": "application/json",
@@ -57,11 +55,9 @@ def store(conn: HTTPConnection) -> ControllerStore:
 @endpoint(
     "GET",
     "/plants/{plant_id}/controller-template",
-    "A controller file to edit: the plant's predefined controller, every field explained",
     response="file",
     files=tuple(dict.fromkeys(MEDIA.values())),
     params=(
-        Param("plant_id", "path", "plant id", required=True),
         Param(
             "format",
             "query",
@@ -72,7 +68,8 @@ def store(conn: HTTPConnection) -> ControllerStore:
     errors=(404, 422),
 )
 async def controller_template(request: Request) -> Response:
-    plant = get_plant(request.path_params["plant_id"])
+    """A controller file to edit: the plant's predefined controller, every field explained"""
+    plant = plant_of(request)
     fmt = query(request, "format")
     fmt = "toml" if fmt is None else fmt
     data = ctl.template(plant, fmt)
@@ -103,7 +100,6 @@ FORM = {
 @endpoint(
     "POST",
     "/controllers",
-    "Upload a controller file: read, checked on the plant's model, kept with its report",
     body=s.ControllerUpload,
     form=FORM,
     response=s.UploadedController,
@@ -112,7 +108,9 @@ FORM = {
     links=(("get_controller", "controller_id"), ("delete_controller", "controller_id")),
 )
 async def upload_controller(request: Request) -> Response:
-    """The file is at most 64 KiB (base64 for .mat and .npz). The answer has the law read
+    """Upload a controller file: read, checked on the plant's model, kept with its report
+
+    The file is at most 64 KiB (base64 for .mat and .npz). The answer has the law read
     from it and its report: closed-loop poles, margins, peak control voltage, problems
     (which keep it off the real rig) and warnings. A Python controller (``py``) is checked
     by trial runs on the model in its sandbox (a step and a square wave, about a second),
@@ -229,51 +227,29 @@ def _read_and_check(
 
 
 @endpoint(
-    "GET",
-    "/controllers",
-    "The caller's uploaded controllers, newest first (an instructor's: everyone's)",
-    response=s.UploadedControllerList,
-    params=(
-        Param(
-            "plant", "query", "only those of this plant", {"type": "string", "enum": list(PLANTS)}
-        ),
-    ),
-    errors=(422,),
+    "GET", "/controllers", response=s.UploadedControllerList, params=(PLANT_FILTER,), errors=(422,)
 )
 async def list_controllers(request: Request) -> Response:
-    plant = query(request, "plant")
-    if plant is not None and plant not in PLANTS:
-        raise InvalidInput("plant", plant, "one of " + ", ".join(PLANTS))
+    """The caller's uploaded controllers, newest first (an instructor's: everyone's)"""
+    plant = plant_filter(request)
     who = identity(request)
     owner = None if who.instructor else who.id
     found = await asyncio.to_thread(store(request).list_controllers, owner, plant)
     return ok(s.UploadedControllerList(controllers=[controller_out(c, who) for c in found]))
 
 
-@endpoint(
-    "GET",
-    "/controllers/{controller_id}",
-    "An uploaded controller: its law and report",
-    response=s.UploadedController,
-    params=(CONTROLLER_ID,),
-    errors=(404,),
-)
+@endpoint("GET", "/controllers/{controller_id}", response=s.UploadedController, errors=(404,))
 async def get_controller(request: Request) -> Response:
+    """An uploaded controller: its law and report"""
     who = identity(request)
     return ok(
         controller_out(await visible(request, request.path_params["controller_id"], who), who)
     )
 
 
-@endpoint(
-    "DELETE",
-    "/controllers/{controller_id}",
-    "Delete an uploaded controller (runs made with it keep their record of it)",
-    params=(CONTROLLER_ID,),
-    status=204,
-    errors=(404, 503),
-)
+@endpoint("DELETE", "/controllers/{controller_id}", status=204, errors=(404, 503))
 async def delete_controller(request: Request) -> Response:
+    """Delete an uploaded controller (runs made with it keep their record of it)"""
     c = await visible(request, request.path_params["controller_id"], identity(request))
     await asyncio.to_thread(store(request).delete_controller, c.id)
     return Response(status_code=204)

@@ -6,7 +6,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import secrets
+from dataclasses import dataclass
 from typing import Any, assert_never
+
+import numpy as np
+from numpy.typing import NDArray
 
 from elab.api import schemas as s
 from elab.errors import InvalidInput
@@ -14,6 +18,7 @@ from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, 
 from elab.plants.base import Plant
 from elab.sim import signals as sig
 from elab.sim.spec import RunSpec
+from elab.store.base import JsonObject, RunRecord
 
 
 def law(model: s.Controller, plant: Plant) -> ControlLaw:
@@ -152,12 +157,52 @@ def run_spec(req: s.RunCreate, plant: Plant, law_: ControlLaw | None = None) -> 
     )
 
 
+@dataclass(frozen=True)
+class Requested:
+    """What a run's stored request says about how it ran, read in this one place and
+    leniently (a run recorded by an earlier version may lack any of it): its controller
+    and signal as asked (``None``: the plant's), the noise's ``seed`` (``None``: no
+    noise), whether outputs were quantised, and the frequency (Hz) of a sine that
+    excited it (its excitation's, else its signal's)."""
+
+    controller: JsonObject | None
+    signal: JsonObject | None
+    seed: int | None
+    quantize: bool
+    sine_hz: float | None
+
+
+def requested(record: RunRecord) -> Requested:
+    spec = record.spec
+    noise = spec.get("noise", spec.get("seed") is not None)
+    sines = [
+        float(sig["frequency"])
+        for sig in (spec.get("excitation"), spec.get("signal"))
+        if isinstance(sig, dict) and sig.get("kind") == "sine"
+    ]
+    return Requested(
+        controller=spec.get("controller"),
+        signal=spec.get("signal"),
+        seed=spec.get("seed") if noise else None,
+        quantize=bool(spec.get("quantize")),
+        sine_hz=sines[0] if sines else None,
+    )
+
+
 def complex_list(values: Any) -> list[s.Complex]:
     return [s.Complex(re=float(complex(z).real), im=float(complex(z).imag)) for z in values]
 
 
 def finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
+
+
+def finite_response(v: NDArray[np.float64]) -> list[float]:
+    """A computed response's values; :class:`InvalidInput` naming the horizon ``T`` where
+    it overflowed (an unstable loop)."""
+    if not np.all(np.isfinite(v)):
+        raise InvalidInput("T", None, "a shorter horizon: the response overflows (unstable loop)")
+    return v.tolist()  # type: ignore[no-any-return]
 
 
 def _tuple(v: list[float] | None) -> tuple[float, ...] | None:

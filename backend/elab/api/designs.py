@@ -13,7 +13,6 @@
 from __future__ import annotations
 
 import asyncio
-import math
 from typing import Any, TypeVar
 
 import control as ct
@@ -25,8 +24,9 @@ from elab import controllers as ctl
 from elab.api import convert
 from elab.api import schemas as s
 from elab.api.controllers import MEDIA
-from elab.api.http import Param, computed, endpoint, ok, read_model
-from elab.api.models import MODEL_ID, core_model, not_runnable, reference_index, stored
+from elab.api.http import computed, endpoint, ok, read_model
+from elab.api.models import core_model, not_runnable, reference_index, stored
+from elab.api.paths import plant_and_body
 from elab.design import loop, observed
 from elab.design.closed_loop import closed_loop, loop_transfer
 from elab.design.locus import RootLocus, root_locus
@@ -34,26 +34,18 @@ from elab.design.model import Model, in_domain
 from elab.design.response import Margins, default_horizon, step_response
 from elab.errors import InvalidInput
 from elab.laws import PID, ControlLaw, LTIController, has_feedback
-from elab.plants import PLANTS, Plant, get_plant
+from elab.plants import Plant, get_plant
 from elab.store.base import StoredModel
 
 M = TypeVar("M", bound=s.Model)
 BRYSON_SHARE = 0.8  # Bryson's rule: the largest acceptable u, a share of the actuator's limit
-PLANT_ID = Param(
-    "plant_id", "path", "plant id", {"type": "string", "enum": list(PLANTS)}, required=True
-)
 
 
-@endpoint(
-    "POST",
-    "/models/{model_id}/design",
-    "Design a controller on an identified model: its loop's step, root locus and margins",
-    body=s.ModelDesignRequest,
-    response=s.ModelDesignOut,
-    params=(MODEL_ID,),
-)
+@endpoint("POST", "/models/{model_id}/design", body=s.ModelDesignRequest, response=s.ModelDesignOut)
 async def design_on_model(request: Request) -> Response:
-    """``method``: ``lqr`` (Q or an output weight, R; discrete time: dlqr), ``place``
+    """Design a controller on an identified model: its loop's step, root locus and margins
+
+    ``method``: ``lqr`` (Q or an output weight, R; discrete time: dlqr), ``place``
     (closed-loop poles in z or s), ``gain`` (K typed by hand) — each state feedback on a
     full-order observer's estimate, u = Nr r − K x̂ — or ``pid`` on the error of the
     reference output. ``domain`` discrete designs on the model as identified; continuous on
@@ -103,8 +95,8 @@ def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
             plant=plant.id,
             loop="closed",
             t=r.t.tolist(),
-            outputs={n: _finite(r.y[i]) for i, n in enumerate(names)},
-            u=_finite(r.u),
+            outputs={n: convert.finite_response(r.y[i]) for i, n in enumerate(names)},
+            u=convert.finite_response(r.u),
             info=None
             if a.info is None
             else s.StepInfoOut(**{k: convert.finite_or_none(v) for k, v in vars(a.info).items()}),
@@ -147,12 +139,6 @@ def _z(p: s.Complex) -> complex:
     return complex(p.re, p.im)
 
 
-def _finite(v: np.ndarray) -> list[float]:
-    if not np.all(np.isfinite(v)):
-        raise InvalidInput("T", None, "a shorter horizon: the response overflows (unstable loop)")
-    return v.tolist()  # type: ignore[no-any-return]
-
-
 def _loop_out(
     plant: Plant, lp: loop.Loop, locus: RootLocus, m: Margins, peak: float | None, amplitude: float
 ) -> dict[str, Any]:
@@ -170,8 +156,8 @@ def _loop_out(
         "root_locus": s.RootLocusOut(
             domain="s" if lp.closed.isctime() else "z",
             gains=locus.gains.tolist(),
-            re=[[_or_none(x) for x in row] for row in locus.branches.real],
-            im=[[_or_none(x) for x in row] for row in locus.branches.imag],
+            re=[[convert.finite_or_none(x) for x in row] for row in locus.branches.real],
+            im=[[convert.finite_or_none(x) for x in row] for row in locus.branches.imag],
             poles=convert.complex_list(locus.poles),
             zeros=convert.complex_list(locus.zeros),
         ),
@@ -182,26 +168,16 @@ def _loop_out(
     }
 
 
-def _or_none(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
-
-
-@endpoint(
-    "POST",
-    "/plants/{plant_id}/loop",
-    "A controller's loop on the plant's model: poles, verdict, root locus, margins, peak u",
-    body=s.LoopRequest,
-    response=s.LoopOut,
-    params=(PLANT_ID,),
-)
+@endpoint("POST", "/plants/{plant_id}/loop", body=s.LoopRequest, response=s.LoopOut)
 async def plant_loop(request: Request) -> Response:
-    """The loop as a run closes it (the law's own state estimate; a discrete LTI law on
+    """A controller's loop on the plant's model: poles, verdict, root locus, margins, peak u
+
+    The loop as a run closes it (the law's own state estimate; a discrete LTI law on
     the plant's zero-order-hold model at its ``dt``), linear: closed-loop poles and
     verdict, the root locus in the loop gain, the margins at the plant input, and the peak
     |u| of a step of r by ``amplitude`` (default: the plant's default reference
     amplitude) against the actuator limit."""
-    plant = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.LoopRequest)
+    plant, req = await plant_and_body(request, s.LoopRequest)
     law = convert.law(req.controller, plant)
     amplitude = _amplitude(req.amplitude, plant)
     return ok(await asyncio.to_thread(computed, _plant_loop, plant, law, amplitude))
@@ -233,19 +209,18 @@ def _plant_loop(plant: Plant, law: ControlLaw, amplitude: float) -> s.LoopOut:
 @endpoint(
     "POST",
     "/plants/{plant_id}/controller-file",
-    "A controller as a file (TOML, JSON, .mat, .npz, Python) that uploads as the same law",
     body=s.ControllerFileRequest,
     response="file",
     files=tuple(dict.fromkeys(MEDIA.values())),
-    params=(PLANT_ID,),
 )
 async def controller_file(request: Request) -> Response:
-    """The law in the controller file format (docs/controllers.md): what a designed gain
+    """A controller as a file (TOML, JSON, .mat, .npz, Python) that uploads as the same law
+
+    The law in the controller file format (docs/controllers.md): what a designed gain
     or a design on a model exports. The file is read back before it is sent: 422 if it
     would not read as the same law (a Python file exists for state feedback on the
     plant's velocity filters and for PID only)."""
-    plant = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.ControllerFileRequest)
+    plant, req = await plant_and_body(request, s.ControllerFileRequest)
     law = convert.law(req.controller, plant)
     data = await asyncio.to_thread(computed, _file, plant, law, req.format, req.name)
     stem = "".join(

@@ -12,9 +12,10 @@ from starlette.requests import Request
 from starlette.responses import Response, StreamingResponse
 
 from elab.access import display_name
+from elab.api import convert
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, query, query_float
-from elab.api.runs import RUN_ID, manager
+from elab.api.runs import manager
 from elab.errors import InvalidInput
 from elab.plants import get_plant
 from elab.runs import export
@@ -31,10 +32,8 @@ FORMATS = {
 @endpoint(
     "GET",
     "/runs/{run_id}/data",
-    "The complete recording as CSV, JSON or MATLAB .mat",
     response="file",
     params=(
-        RUN_ID,
         Param(
             "format",
             "query",
@@ -47,7 +46,9 @@ FORMATS = {
     ),
 )
 async def get_data(request: Request) -> Response:
-    """CSV starts with ``# key: value`` lines (plant, controller, signal, sample time, units,
+    """The complete recording as CSV, JSON or MATLAB .mat
+
+    CSV starts with ``# key: value`` lines (plant, controller, signal, sample time, units,
     parameter changes); numbers are the shortest decimals that read back exactly. The file
     is streamed as it is written, part by part (a download of any length holds one part of
     the recording in memory), and stops when the client goes away. A live run downloads
@@ -102,7 +103,7 @@ async def _while_downloading(
 
 
 def _header(record: RunRecord) -> dict[str, str]:
-    spec = record.spec
+    asked = convert.requested(record)
     header = {
         "run": record.id,
         "plant": record.plant,
@@ -111,13 +112,9 @@ def _header(record: RunRecord) -> dict[str, str]:
         "status": record.status,
         "owner": display_name(record.owner),
         "reason": record.error or "",
-        "controller": _compact(spec.get("controller")),
-        "signal": _compact(spec.get("signal")),
-        **export.sensors_header(
-            get_plant(record.plant),
-            spec.get("seed") if spec.get("noise", spec.get("seed") is not None) else None,
-            bool(spec.get("quantize")),
-        ),
+        "controller": _compact(asked.controller),
+        "signal": _compact(asked.signal),
+        **export.sensors_header(get_plant(record.plant), asked.seed, asked.quantize),
         "generator": "elab serve",
     }
     if record.error:  # who stopped it and why, why it failed or was interrupted

@@ -28,7 +28,7 @@ from starlette.requests import HTTPConnection, Request
 from starlette.responses import JSONResponse, Response
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from elab.api.schemas.errors import ErrorBody, ErrorDetail, FieldError
+from elab.api.schemas.errors import ErrorBody, ErrorCode, ErrorDetail, FieldError
 from elab.api.state import lab
 from elab.errors import (
     Conflict,
@@ -97,7 +97,8 @@ class BodyTimeout:
 
 @dataclass(frozen=True)
 class Param:
-    """A path or query parameter, for the OpenAPI document."""
+    """A path or query parameter, for the OpenAPI document (a path's own are declared once,
+    in :mod:`elab.api.paths`)."""
 
     name: str
     where: str  # "path" | "query"
@@ -112,10 +113,11 @@ class Endpoint:
     path: str
     summary: str
     handler: Handler
+    description: str | None = None
     body: type[BaseModel] | None = None
     response: Any = None
     status: int = 200
-    params: tuple[Param, ...] = ()
+    params: tuple[Param, ...] = ()  # query parameters (a path's own follow from the path)
     errors: tuple[int, ...] = (404, 422)
     media: str = "application/json"
     stream: type[BaseModel] | None = None  # answered as NDJSON lines of this model on request
@@ -130,11 +132,21 @@ class Endpoint:
 ENDPOINTS: list[Endpoint] = []
 
 
-def endpoint(method: str, path: str, summary: str, **meta: Any) -> Callable[[Handler], Handler]:
-    """Register ``handler`` under ``/api/v1`` + ``path`` (the docstring is its description)."""
+def endpoint(
+    method: str, path: str, summary: str | None = None, **meta: Any
+) -> Callable[[Handler], Handler]:
+    """Register ``handler`` under ``/api/v1`` + ``path``. Its docstring says what it does:
+    the first paragraph is the summary, the rest the description (a generated handler,
+    without one, is given its ``summary``)."""
 
     def register(handler: Handler) -> Handler:
-        ENDPOINTS.append(Endpoint(method, path, summary, handler, **meta))
+        words, description = summary, " ".join((handler.__doc__ or "").split()) or None
+        if words is None:
+            first, _, rest = (handler.__doc__ or "").strip().partition("\n\n")
+            words, description = " ".join(first.split()), " ".join(rest.split()) or None
+        if not words:
+            raise TypeError(f"endpoint {method} {path}: its handler has no docstring to sum it up")
+        ENDPOINTS.append(Endpoint(method, path, words, handler, description, **meta))
         return handler
 
     return register
@@ -288,23 +300,23 @@ def error_detail(exc: Exception) -> tuple[int, ErrorDetail]:
             field=exc.field,
             errors=[FieldError(field=exc.field, message=str(exc))],
         )
-    if isinstance(exc, NotFound):
-        return 404, ErrorDetail(code="not_found", message=str(exc))
-    if isinstance(exc, Conflict):
-        return 409, ErrorDetail(code="conflict", message=str(exc))
-    if isinstance(exc, Forbidden):
-        return 403, ErrorDetail(code="forbidden", message=str(exc))
-    if isinstance(exc, Unauthorized):
-        return 401, ErrorDetail(code="unauthorized", message=str(exc))
-    if isinstance(exc, TooMany):
-        return 429, ErrorDetail(code="too_many", message=str(exc))
-    if isinstance(exc, TooLarge):
-        return 413, ErrorDetail(code="too_large", message=str(exc))
-    if isinstance(exc, SlowBody):
-        return 408, ErrorDetail(code="timeout", message=str(exc))
-    if isinstance(exc, Unavailable):
-        return 503, ErrorDetail(code="unavailable", message=str(exc))
+    for kind, status, code in _STATUS:
+        if isinstance(exc, kind):
+            return status, ErrorDetail(code=code, message=str(exc))
     raise exc
+
+
+#: the other errors' status codes and codes, the first that matches
+_STATUS: tuple[tuple[type[ElabError], int, ErrorCode], ...] = (
+    (NotFound, 404, "not_found"),
+    (Conflict, 409, "conflict"),
+    (Forbidden, 403, "forbidden"),
+    (Unauthorized, 401, "unauthorized"),
+    (TooMany, 429, "too_many"),
+    (TooLarge, 413, "too_large"),
+    (SlowBody, 408, "timeout"),
+    (Unavailable, 503, "unavailable"),
+)
 
 
 def _loc(loc: tuple[int | str, ...]) -> str:

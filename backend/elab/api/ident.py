@@ -56,14 +56,15 @@ T = TypeVar("T")
 @endpoint(
     "POST",
     "/ident",
-    "Identify models from a run's data or an uploaded table",
     body=s.IdentRequest,
     response=s.IdentOut,
     errors=(404, 413, 422, 429, 503),
     stream=s.IdentLine,
 )
 async def identify(request: Request) -> Response:
-    """Correlation, spectral and sine analysis, ARX order search, subspace singular values
+    """Identify models from a run's data or an uploaded table
+
+    Correlation, spectral and sine analysis, ARX order search, subspace singular values
     and the requested ARX, ARMAX, OE and n4sid models with their validation fit % and
     residual analysis (see docs/identification.md), validated on the rest of the data or on
     a separate ``validation`` record. The body, both records in it, may be as large as

@@ -11,10 +11,11 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Awaitable, Callable
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from starlette.requests import Request
 
+from elab.api import convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.state import lab
@@ -131,15 +132,7 @@ async def _dataset(
             k0=k0,
         ),
     )
-    return data, _sine_of(record.spec)
-
-
-def _sine_of(spec: dict[str, Any]) -> float | None:
-    for key in ("excitation", "signal"):
-        sig = spec.get(key)
-        if isinstance(sig, dict) and sig.get("kind") == "sine":
-            return float(sig["frequency"])
-    return None
+    return data, convert.requested(record).sine_hz
 
 
 def _prefixed(prefix: str, make: Callable[[], T]) -> T:

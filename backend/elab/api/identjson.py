@@ -9,6 +9,7 @@ fit of −∞ on a constant output) become ``null``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Literal, assert_never
 
@@ -121,14 +122,7 @@ def _spectral(sp: Spectrum) -> s.SpectralOut:
 
 
 def _sine(r: SineResponse) -> s.SineOut:
-    return s.SineOut(
-        frequency_hz=r.frequency_hz,
-        omega=r.omega,
-        magnitude=r.magnitude,
-        phase_deg=r.phase_deg,
-        periods_used=r.periods_used,
-        samples_used=r.samples_used,
-    )
+    return s.SineOut(**dataclasses.asdict(r))
 
 
 def _search(x: ArxOrderSearch) -> s.ArxSearchOut:
@@ -210,6 +204,20 @@ def _residuals(r: Residuals) -> s.ResidualsOut:
     )
 
 
+def _descent(p: ArmaxParameters | OeParameters, **extra: Parameter) -> dict[str, Parameter]:
+    """What a prediction-error fit says of itself, in this order: its loss, the descent
+    (iterations, the start chosen, each start's loss), ``extra``, FPE and samples."""
+    return {
+        "loss": _num(p.loss),
+        "iterations": p.iterations,
+        "start": p.start,
+        "start_losses": {k: _num(v) for k, v in p.start_losses.items()},
+        **extra,
+        "fpe": _num(p.fpe),
+        "samples": p.samples,
+    }
+
+
 def _structure(
     p: ModelParameters | None,
 ) -> tuple[Kind, dict[str, int], dict[str, Parameter]]:
@@ -254,29 +262,14 @@ def _structure(
                     "A": _nums(p.A),
                     "B": _nums(p.B),
                     "C": _nums(p.C),
-                    "loss": _num(p.loss),
-                    "iterations": p.iterations,
-                    "start": p.start,
-                    "start_losses": {k: _num(v) for k, v in p.start_losses.items()},
-                    "c_at_margin": p.c_at_margin,
-                    "fpe": _num(p.fpe),
-                    "samples": p.samples,
+                    **_descent(p, c_at_margin=p.c_at_margin),
                 },
             )
         case OeParameters():
             return (
                 "oe",
                 {"nb": p.nb, "nf": p.nf, "nk": p.nk},
-                {
-                    "B": _nums(p.B),
-                    "F": _nums(p.F),
-                    "loss": _num(p.loss),
-                    "iterations": p.iterations,
-                    "start": p.start,
-                    "start_losses": {k: _num(v) for k, v in p.start_losses.items()},
-                    "fpe": _num(p.fpe),
-                    "samples": p.samples,
-                },
+                {"B": _nums(p.B), "F": _nums(p.F), **_descent(p)},
             )
         case N4sidParameters():
             choice: dict[str, Parameter] = {}

@@ -34,6 +34,7 @@ from elab.api.http import (
     read_model,
     within_budget,
 )
+from elab.api.paths import PLANT_FILTER, plant_filter
 from elab.api.state import lab
 from elab.design import loop
 from elab.design.model import Model
@@ -42,7 +43,6 @@ from elab.errors import DimensionError, InvalidInput
 from elab.plants import PLANTS, Plant, get_plant
 from elab.store.base import ModelStore, StoredModel
 
-MODEL_ID = Param("model_id", "path", "model id (from POST /models)", required=True)
 FILE_FORMATS = {"json": "application/json", "mat": "application/x-matlab-data"}
 STEP_POINTS = 2001
 
@@ -54,7 +54,6 @@ def store(conn: HTTPConnection) -> ModelStore:
 @endpoint(
     "POST",
     "/models",
-    "Keep an identified model: it gets an id and a design page to share",
     body=s.ModelCreate,
     response=s.IdentifiedModel,
     status=201,
@@ -68,7 +67,9 @@ def store(conn: HTTPConnection) -> ModelStore:
     ),
 )
 async def create_model(request: Request) -> Response:
-    """A discrete model as identification gives it (``POST /ident``: a model's ``ss`` A, B,
+    """Keep an identified model: it gets an id and a design page to share
+
+    A discrete model as identification gives it (``POST /ident``: a model's ``ss`` A, B,
     C, D and ``Ts``, the data's input and output names and units). Checked before it is
     kept: finite numbers, shapes that fit together (A n × n, B n × 1, C p × n, D p × 1,
     one output name per row of C), at most 20 states and 8 outputs; 422 names the field.
@@ -122,22 +123,10 @@ def _document(req: s.ModelCreate) -> dict[str, Any]:
     }
 
 
-@endpoint(
-    "GET",
-    "/models",
-    "The caller's identified models, newest first (an instructor's: everyone's)",
-    response=s.IdentifiedModelList,
-    params=(
-        Param(
-            "plant", "query", "only those of this plant", {"type": "string", "enum": list(PLANTS)}
-        ),
-    ),
-    errors=(422,),
-)
+@endpoint("GET", "/models", response=s.IdentifiedModelList, params=(PLANT_FILTER,), errors=(422,))
 async def list_models(request: Request) -> Response:
-    plant = query(request, "plant")
-    if plant is not None and plant not in PLANTS:
-        raise InvalidInput("plant", plant, "one of " + ", ".join(PLANTS))
+    """The caller's identified models, newest first (an instructor's: everyone's)"""
+    plant = plant_filter(request)
     who = identity(request)
     found = await asyncio.to_thread(
         store(request).list_models, None if who.instructor else who.id, plant
@@ -145,28 +134,16 @@ async def list_models(request: Request) -> Response:
     return ok(s.IdentifiedModelList(models=[model_out(m, who) for m in found]))
 
 
-@endpoint(
-    "GET",
-    "/models/{model_id}",
-    "An identified model: matrices, names, poles, transfer functions, its design page",
-    response=s.IdentifiedModel,
-    params=(MODEL_ID,),
-    errors=(404,),
-)
+@endpoint("GET", "/models/{model_id}", response=s.IdentifiedModel, errors=(404,))
 async def get_model(request: Request) -> Response:
+    """An identified model: matrices, names, poles, transfer functions, its design page"""
     kept = await stored(request)
     return ok(model_out(kept, identity(request)))
 
 
-@endpoint(
-    "DELETE",
-    "/models/{model_id}",
-    "Delete an identified model (its owner or an instructor)",
-    params=(MODEL_ID,),
-    status=204,
-    errors=(403, 404, 503),
-)
+@endpoint("DELETE", "/models/{model_id}", status=204, errors=(403, 404, 503))
 async def delete_model(request: Request) -> Response:
+    """Delete an identified model (its owner or an instructor)"""
     kept = await stored(request)
     require_control(identity(request), kept.owner, f"model {kept.id}", "delete")
     await asyncio.to_thread(store(request).delete_model, kept.id)
@@ -176,10 +153,8 @@ async def delete_model(request: Request) -> Response:
 @endpoint(
     "GET",
     "/models/{model_id}/step",
-    "The model's open-loop response to a unit step of its input",
     response=s.StepOut,
     params=(
-        MODEL_ID,
         Param(
             "T",
             "query",
@@ -189,7 +164,9 @@ async def delete_model(request: Request) -> Response:
     ),
 )
 async def model_step(request: Request) -> Response:
-    """Computed with python-control on the discrete model (x₀ = 0), every sample up to
+    """The model's open-loop response to a unit step of its input
+
+    Computed with python-control on the discrete model (x₀ = 0), every sample up to
     20,001, returned on at most 2001 points."""
     T = query_float(request, "T")
     if T is not None and not 0 < T <= 3600:
@@ -237,11 +214,9 @@ def _num(v: float) -> float:
 @endpoint(
     "GET",
     "/models/{model_id}/file",
-    "The model as a file: JSON, or MATLAB .mat (A, B, C, D, Ts, names)",
     response="file",
     files=tuple(FILE_FORMATS.values()),
     params=(
-        MODEL_ID,
         Param(
             "format",
             "query",
@@ -251,6 +226,7 @@ def _num(v: float) -> float:
     ),
 )
 async def model_file(request: Request) -> Response:
+    """The model as a file: JSON, or MATLAB .mat (A, B, C, D, Ts, names)"""
     fmt = query(request, "format")
     fmt = "json" if fmt is None else fmt
     if fmt not in FILE_FORMATS:

@@ -13,19 +13,13 @@ from starlette.responses import Response
 from elab import design
 from elab.api import convert
 from elab.api import schemas as s
-from elab.api.http import Param, computed, endpoint, ok, query, read_model
+from elab.api.http import Param, computed, endpoint, ok, query
+from elab.api.paths import plant_and_body, plant_of
 from elab.api.state import lab
-from elab.errors import InvalidInput, NotFound
+from elab.errors import NotFound
 from elab.laws import ControlLaw, OpenLoop, has_feedback
-from elab.plants import PLANTS, Channel, Plant, get_plant
+from elab.plants import PLANTS, Channel, Plant
 
-PLANT_ID = Param(
-    "plant_id",
-    "path",
-    "plant id: " + ", ".join(PLANTS),
-    {"type": "string", "enum": list(PLANTS)},
-    required=True,
-)
 #: every output name of any plant (which ones a plant has: GET /plants/{plant_id})
 OUTPUTS = sorted({o.name for p in PLANTS.values() for o in p.outputs})
 
@@ -42,21 +36,16 @@ def _summary(p: Plant, request: Request) -> s.PlantSummary:
     )
 
 
-@endpoint("GET", "/plants", "List the plants", response=list[s.PlantSummary], errors=())
+@endpoint("GET", "/plants", response=list[s.PlantSummary], errors=())
 async def list_plants(request: Request) -> Response:
+    """List the plants"""
     return ok([_summary(p, request) for p in PLANTS.values()])
 
 
-@endpoint(
-    "GET",
-    "/plants/{plant_id}",
-    "A plant: model, units, limits, defaults, description",
-    response=s.PlantDetail,
-    params=(PLANT_ID,),
-    errors=(404,),
-)
+@endpoint("GET", "/plants/{plant_id}", response=s.PlantDetail, errors=(404,))
 async def get_plant_detail(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
+    """A plant: model, units, limits, defaults, description"""
+    p = plant_of(request)
 
     def ch(cs: tuple[Channel, ...]) -> list[s.PlantChannel]:
         return [s.PlantChannel(name=c.name, unit=c.unit, label=c.label) for c in cs]
@@ -100,16 +89,10 @@ def _rank(r: design.RankReport, n: int) -> s.RankInfo:
     )
 
 
-@endpoint(
-    "GET",
-    "/plants/{plant_id}/analysis",
-    "Eigenvalues, stability verdict, controllability, observability, transfer functions",
-    response=s.AnalysisInfo,
-    params=(PLANT_ID,),
-    errors=(404,),
-)
+@endpoint("GET", "/plants/{plant_id}/analysis", response=s.AnalysisInfo, errors=(404,))
 async def analysis(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
+    """Eigenvalues, stability verdict, controllability, observability, transfer functions"""
+    p = plant_of(request)
     a = await asyncio.to_thread(design.analyze, p)
     return ok(
         s.AnalysisInfo(
@@ -137,10 +120,8 @@ async def analysis(request: Request) -> Response:
 @endpoint(
     "GET",
     "/plants/{plant_id}/bode",
-    "Open-loop Bode diagram of each output (or one)",
     response=s.BodeList,
     params=(
-        PLANT_ID,
         Param(
             "output",
             "query",
@@ -150,7 +131,8 @@ async def analysis(request: Request) -> Response:
     ),
 )
 async def bode(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
+    """Open-loop Bode diagram of each output (or one)"""
+    p = plant_of(request)
     name = query(request, "output")
     names = [o.name for o in p.outputs]
     if name is not None and name not in names:
@@ -175,17 +157,10 @@ async def bode(request: Request) -> Response:
     )
 
 
-@endpoint(
-    "POST",
-    "/plants/{plant_id}/step",
-    "Step response: open loop, or closed loop with a controller (linear, continuous)",
-    body=s.StepRequest,
-    response=s.StepOut,
-    params=(PLANT_ID,),
-)
+@endpoint("POST", "/plants/{plant_id}/step", body=s.StepRequest, response=s.StepOut)
 async def step(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.StepRequest)
+    """Step response: open loop, or closed loop with a controller (linear, continuous)"""
+    p, req = await plant_and_body(request, s.StepRequest)
     law = OpenLoop() if req.controller is None else convert.law(req.controller, p)
     return ok(await asyncio.to_thread(computed, _step, p, law, req))
 
@@ -211,8 +186,8 @@ def _step(p: Plant, law: ControlLaw, req: s.StepRequest) -> s.StepOut:
         plant=p.id,
         loop=loop,
         t=r.t[:end].tolist(),
-        outputs={o.name: _finite(r.y[i, :end]) for i, o in enumerate(p.outputs)},
-        u=_finite(r.u[:end]),
+        outputs={o.name: convert.finite_response(r.y[i, :end]) for i, o in enumerate(p.outputs)},
+        u=convert.finite_response(r.u[:end]),
         info=info,
         poles=convert.complex_list(stab.eigenvalues),
         verdict=stab.verdict,
@@ -240,56 +215,33 @@ def _leaves_range(p: Plant, y: np.ndarray) -> tuple[int, int, float, float] | No
     return i, k, lo, hi
 
 
-def _finite(v: np.ndarray) -> list[float]:
-    if not np.all(np.isfinite(v)):
-        raise InvalidInput("T", None, "a shorter horizon: the response overflows (unstable loop)")
-    return v.tolist()  # type: ignore[no-any-return]
-
-
-@endpoint(
-    "POST",
-    "/plants/{plant_id}/design/lqr",
-    "LQR state feedback from Q and R",
-    body=s.LQRRequest,
-    response=s.DesignOut,
-    params=(PLANT_ID,),
-)
+@endpoint("POST", "/plants/{plant_id}/design/lqr", body=s.LQRRequest, response=s.DesignOut)
 async def design_lqr(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.LQRRequest)
+    """LQR state feedback from Q and R"""
+    p, req = await plant_and_body(request, s.LQRRequest)
     res = await asyncio.to_thread(
         computed, design.design_lqr, p, req.Q, req.R, field="Q", value=req.Q
     )
-    return ok(
-        s.DesignOut(
-            plant=p.id,
-            method="lqr",
-            K=np.ravel(res.K).tolist(),
-            closed_loop_poles=convert.complex_list(res.poles),
-        )
-    )
+    return ok(_design_out(p, "lqr", res))
 
 
-@endpoint(
-    "POST",
-    "/plants/{plant_id}/design/place",
-    "Pole placement: K from closed-loop poles",
-    body=s.PlaceRequest,
-    response=s.DesignOut,
-    params=(PLANT_ID,),
-)
+@endpoint("POST", "/plants/{plant_id}/design/place", body=s.PlaceRequest, response=s.DesignOut)
 async def design_place(request: Request) -> Response:
-    p = get_plant(request.path_params["plant_id"])
-    req = await read_model(request, s.PlaceRequest)
+    """Pole placement: K from closed-loop poles"""
+    p, req = await plant_and_body(request, s.PlaceRequest)
     poles = [complex(z.re, z.im) for z in req.poles]
     res = await asyncio.to_thread(
         computed, design.design_place, p, poles, field="poles", value=req.poles
     )
-    return ok(
-        s.DesignOut(
-            plant=p.id,
-            method="place",
-            K=np.ravel(res.K).tolist(),
-            closed_loop_poles=convert.complex_list(res.poles),
-        )
+    return ok(_design_out(p, "place", res))
+
+
+def _design_out(
+    p: Plant, method: Literal["lqr", "place"], res: design.LQR | design.Placement
+) -> s.DesignOut:
+    return s.DesignOut(
+        plant=p.id,
+        method=method,
+        K=np.ravel(res.K).tolist(),
+        closed_loop_poles=convert.complex_list(res.poles),
     )

@@ -12,6 +12,7 @@ from pydantic.json_schema import models_json_schema
 
 from elab.api import schemas as s
 from elab.api.http import ENDPOINTS, Endpoint
+from elab.api.paths import path_params
 
 REF = "#/components/schemas/{model}"
 STATUS_TEXT = {
@@ -129,9 +130,10 @@ def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict
         "operationId": e.handler.__name__,
         "tags": [e.path.split("/")[1]],
     }
-    if e.handler.__doc__:
-        op["description"] = " ".join(e.handler.__doc__.split())
-    if e.params:
+    if e.description:
+        op["description"] = e.description
+    params = path_params(e.path) + e.params
+    if params:
         op["parameters"] = [
             {
                 "name": p.name,
@@ -140,7 +142,7 @@ def _operation(e: Endpoint, ref: dict[tuple[int, Mode], dict[str, Any]]) -> dict
                 "description": p.description,
                 "schema": p.schema,
             }
-            for p in e.params
+            for p in params
         ]
     if e.body is not None:
         op["requestBody"] = {

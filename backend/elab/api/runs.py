@@ -11,21 +11,20 @@ from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response
 
 from elab.access import Identity, display_name, may_control, may_view, require_control
-from elab.api import changes, controllers, convert
+from elab.api import controllers, convert
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, query_int, read_model
+from elab.api.paths import PLANT_FILTER, plant_filter
 from elab.api.state import lab
 from elab.engines.base import Action, EngineStatus, StoreHealth
-from elab.errors import Conflict, InvalidInput, Unavailable
+from elab.errors import InvalidInput, Unavailable
 from elab.laws import is_code
-from elab.lifecycle import RunState
-from elab.plants import PLANTS, get_plant
+from elab.plants import get_plant
+from elab.runs.changes import Change
 from elab.runs.fanout import frame_samples
 from elab.runs.manager import ManagerStatus, RunManager
-from elab.store.base import RunRecord, RunSummary
-
-RUN_ID = Param("run_id", "path", "run id (from POST /runs)", required=True)
+from elab.store.base import JsonObject, RunRecord, RunSummary
 
 
 def manager(request: HTTPConnection) -> RunManager:
@@ -139,13 +138,10 @@ async def create_run(request: Request) -> Response:
 @endpoint(
     "GET",
     "/runs",
-    "List runs, newest first (others' private runs only for instructors)",
     response=s.RunList,
     errors=(422,),
     params=(
-        Param(
-            "plant", "query", "only runs of this plant", {"type": "string", "enum": list(PLANTS)}
-        ),
+        PLANT_FILTER,
         Param("owner", "query", "me: only the caller's runs", {"type": "string", "enum": ["me"]}),
         Param(
             "live",
@@ -168,10 +164,9 @@ async def create_run(request: Request) -> Response:
     ),
 )
 async def list_runs(request: Request) -> Response:
+    """List runs, newest first (others' private runs only for instructors)"""
     m = manager(request)
-    plant = query(request, "plant")
-    if plant is not None and plant not in PLANTS:
-        raise InvalidInput("plant", plant, "one of " + ", ".join(PLANTS))
+    plant = plant_filter(request)
     owner = query(request, "owner")
     if owner not in (None, "me"):
         raise InvalidInput("owner", owner, "me (or leave it out for every run you may see)")
@@ -203,15 +198,11 @@ async def list_runs(request: Request) -> Response:
     )
 
 
-@endpoint(
-    "GET",
-    "/server",
-    "The server: live runs, watchers, the engine, the store, and how closely the engine keeps time",
-    response=s.ServerStatus,
-    errors=(),
-)
+@endpoint("GET", "/server", response=s.ServerStatus, errors=())
 async def server_status(request: Request) -> Response:
-    """For operators and benchmarks: is the engine up and keeping up? Its ticks' lateness
+    """The server: live runs, watchers, the engine, the store, and how closely the engine keeps time
+
+    For operators and benchmarks: is the engine up and keeping up? Its ticks' lateness
     over the last minute and the trend of that lateness (the drift of the runs' clocks);
     whether its writes to the store work."""
     jobs, uploads = lab(request).jobs, lab(request).uploads
@@ -224,15 +215,11 @@ async def server_status(request: Request) -> Response:
     )
 
 
-@endpoint(
-    "GET",
-    "/health",
-    "200 when the server can take runs, else 503 and why",
-    response=s.HealthInfo,
-    errors=(503,),
-)
+@endpoint("GET", "/health", response=s.HealthInfo, errors=(503,))
 async def health(request: Request) -> Response:
-    """For a load balancer or a supervisor: the engine is up and ticking and its store
+    """200 when the server can take runs, else 503 and why
+
+    For a load balancer or a supervisor: the engine is up and ticking and its store
     writes work."""
     engines = manager(request).status().engines
     st = engines["simulation"]
@@ -318,86 +305,48 @@ def rig_model(st: EngineStatus | None) -> s.RigInfo | None:
 _LATENCY = ("latency_p50_us", "latency_p99_us", "latency_max_us")
 
 
-@endpoint(
-    "GET",
-    "/runs/{run_id}",
-    "A run: state, progress, channels, parameter changes",
-    response=s.RunInfo,
-    params=(RUN_ID,),
-    errors=(404,),
-)
+@endpoint("GET", "/runs/{run_id}", response=s.RunInfo, errors=(404,))
 async def get_run(request: Request) -> Response:
+    """A run: state, progress, channels, parameter changes"""
     record = await manager(request).get(request.path_params["run_id"], identity(request))
     return ok(await run_info(request, record))
 
 
-async def _control(request: Request, action: Action) -> Response:
-    record = await manager(request).control(
-        request.path_params["run_id"], action, identity(request)
-    )
-    return ok(await run_info(request, record))
-
-
-@endpoint(
-    "DELETE",
-    "/runs/{run_id}",
-    "Delete an ended run and its recording (its owner or an instructor)",
-    params=(RUN_ID,),
-    status=204,
-    errors=(403, 404, 409, 503),
-)
+@endpoint("DELETE", "/runs/{run_id}", status=204, errors=(403, 404, 409, 503))
 async def delete_run(request: Request) -> Response:
+    """Delete an ended run and its recording (its owner or an instructor)"""
     await manager(request).delete(request.path_params["run_id"], identity(request))
     return Response(status_code=204)
 
 
-@endpoint(
-    "POST",
-    "/runs/{run_id}/stop",
-    "Stop a run; its samples so far stay recorded",
-    response=s.RunInfo,
-    params=(RUN_ID,),
-    errors=(403, 404, 409, 503),
-)
-async def stop_run(request: Request) -> Response:
-    return await _control(request, "stop")
+def _control_endpoint(action: Action, summary: str) -> None:
+    """``POST /runs/{run_id}/<action>`` (operation ``<action>_run``), answered with the run."""
+
+    async def control(request: Request) -> Response:
+        run_id, who = request.path_params["run_id"], identity(request)
+        return ok(await run_info(request, await manager(request).control(run_id, action, who)))
+
+    control.__name__ = control.__qualname__ = f"{action}_run"
+    path, errors = f"/runs/{{run_id}}/{action}", (403, 404, 409, 503)
+    endpoint("POST", path, summary, response=s.RunInfo, errors=errors)(control)
 
 
-@endpoint(
-    "POST",
-    "/runs/{run_id}/pause",
-    "Pause a run (its clock stops)",
-    response=s.RunInfo,
-    params=(RUN_ID,),
-    errors=(403, 404, 409, 503),
-)
-async def pause_run(request: Request) -> Response:
-    return await _control(request, "pause")
-
-
-@endpoint(
-    "POST",
-    "/runs/{run_id}/resume",
-    "Resume a paused run",
-    response=s.RunInfo,
-    params=(RUN_ID,),
-    errors=(403, 404, 409, 503),
-)
-async def resume_run(request: Request) -> Response:
-    return await _control(request, "resume")
+_control_endpoint("stop", "Stop a run; its samples so far stay recorded")
+_control_endpoint("pause", "Pause a run (its clock stops)")
+_control_endpoint("resume", "Resume a paused run")
 
 
 @endpoint(
     "POST",
     "/runs/{run_id}/params",
-    "Change the controller gains and/or the reference of a live run",
     body=s.ParamsUpdate,
     response=s.ParamsApplied,
-    params=(RUN_ID,),
     errors=(403, 404, 409, 413, 415, 422, 503),
 )
 async def set_params(request: Request) -> Response:
-    """Applied from the next sample; the change and its sample index are recorded, and the
+    """Change the controller gains and/or the reference of a live run
+
+    Applied from the next sample; the change and its sample index are recorded, and the
     answer lists every value it altered (``changed``). A part equal to what the run uses
     (gains or reference) is left out of the change; when nothing differs, nothing is
     applied or recorded."""
@@ -406,11 +355,11 @@ async def set_params(request: Request) -> Response:
 
 
 async def apply_params(
-    conn: HTTPConnection, run_id: str, change: Any, who: Identity
+    conn: HTTPConnection, run_id: str, update: s.ParamsUpdate | s.SetParams, who: Identity
 ) -> s.ParamsApplied:
-    """Shared by REST and the websocket's ``set_params``: ``change`` has a controller (or
-    an uploaded one's ``controller_id``) and/or a signal."""
-    controller, cid, signal = change.controller, change.controller_id, change.signal
+    """Shared by REST and the websocket's ``set_params``: the update as a typed change
+    (:class:`~elab.runs.changes.Change`), decided and applied by the run manager."""
+    controller, cid, signal = update.controller, update.controller_id, update.signal
     if controller is None and cid is None and signal is None:
         raise InvalidInput("body", {}, "controller, controller_id and/or signal")
     if controller is not None and cid is not None:
@@ -418,53 +367,34 @@ async def apply_params(
     m = manager(conn)
     record = await m.get(run_id, who)
     require_control(who, record.owner, f"run {run_id}", "change")  # before its controller
-    plant = get_plant(record.plant)
+    applied = await m.set_params(run_id, await _change(conn, update, record.plant), who)
+    return s.ParamsApplied(
+        k=applied.k,
+        t=applied.k * record.Ts,
+        changed=[
+            s.ParamDiff(field=d.field, before=d.before, after=d.after) for d in applied.changed
+        ],
+    )
+
+
+async def _change(
+    conn: HTTPConnection, update: s.ParamsUpdate | s.SetParams, plant_id: str
+) -> Change:
+    """``update`` (a controller, or an uploaded one's ``controller_id``, and/or a signal) as
+    a change of the plant's run, with what it asks as JSON."""
+    controller, cid, signal = update.controller, update.controller_id, update.signal
+    plant = get_plant(plant_id)
+    asked: JsonObject = {}
     law = None
-    params: dict[str, Any] = {}
     if cid is not None:
         law = await controllers.law_of(conn, cid, plant.id)
-        if is_code(law):
-            raise InvalidInput(
-                "controller_id",
-                cid,
-                "a declarative controller: a Python controller runs from the start of a "
-                "run (POST /runs with its controller_id), not swapped into a live one",
-            )
-        params["controller"] = convert.law_model(law).model_dump(mode="json")
-        params["controller_id"] = cid
+        if not is_code(law):  # (code has no such form: the change refuses it)
+            asked = {"controller": convert.law_model(law).model_dump(mode="json")}
+        asked["controller_id"] = cid
     elif controller is not None:
         law = convert.law(controller, plant)
-        params["controller"] = controller.model_dump(mode="json")
+        asked["controller"] = controller.model_dump(mode="json")
     if signal is not None:
-        params["signal"] = signal.model_dump(mode="json")
-    recorded = await m.param_changes(run_id)
-    now = changes.running(record, recorded, plant)
-    changed: dict[str, list[s.ParamDiff]] = {
-        part: changes.diff(part, now[part], changes.resolved(params[part], plant))
-        for part in changes.PARTS
-        if part in params
-    }
-    # a run started from an upload may step a Python controller its request does not show:
-    # the engine decides about a new law for it (and refuses one for code)
-    unknown = record.spec.get("controller_id") is not None and not any(
-        "controller" in c.params for c in recorded
-    )
-    if not changed.get("controller") and not unknown:
-        law = None
-        params.pop("controller", None)
-        params.pop("controller_id", None)
-    if not changed.get("signal"):
-        signal = None
-        params.pop("signal", None)
-    if not params:  # the same answer as a change: an ended run no longer steps
-        if not RunState(record.status).live:
-            raise Conflict(f"run {run_id} has ended ({record.status}): it no longer steps")
-        return s.ParamsApplied(k=record.n_stored, t=record.n_stored * record.Ts, changed=[])
-    k = await m.set_params(
-        run_id,
-        law=law,
-        reference=convert.signal(signal) if signal is not None else None,
-        params=params,
-        who=who,
-    )
-    return s.ParamsApplied(k=k, t=k * record.Ts, changed=[d for ds in changed.values() for d in ds])
+        asked["signal"] = signal.model_dump(mode="json")
+    reference = convert.signal(signal) if signal is not None else None
+    return Change(law, reference, cid, asked)

@@ -17,6 +17,7 @@ import scipy.linalg
 
 from elab.design._checks import Matrix, columns, readonly, rows, shaped, square
 from elab.errors import DimensionError, InvalidInput
+from elab.lti import StateSpaceShape
 from elab.validate import finite_float
 
 Domain = Literal["continuous", "discrete"]
@@ -27,7 +28,7 @@ MIN_TS = 1e-6  # s: a discrete model's shortest sample time
 
 
 @dataclass(frozen=True)
-class Model:
+class Model(StateSpaceShape):
     """A single-input LTI model in SI units:
 
     .. math:: x' = A x + B u, \\qquad y = C x + D u
@@ -69,14 +70,6 @@ class Model:
     ) -> Model:
         """A model from array-likes (lists, as JSON gives them), checked on construction."""
         return cls(A, B, C, D, Ts, ref)
-
-    @property
-    def nx(self) -> int:
-        return int(self.A.shape[0])
-
-    @property
-    def ny(self) -> int:
-        return int(self.C.shape[0])
 
     @property
     def domain(self) -> Domain:

@@ -70,21 +70,7 @@ def lqr(A: Any, B: Any, Q: Any, R: Any) -> LQR:
     B. D. O. Anderson and J. B. Moore, *Optimal Control: Linear Quadratic Methods*, 1990, §3.3;
     K. Zhou, J. C. Doyle and K. Glover, *Robust and Optimal Control*, 1996, Cor. 13.8.
     """
-    A = square("A", A)
-    B = columns("B", B, A.shape[0])
-    Q = _weight("Q", Q, A.shape[0], definite=False)
-    R = _weight("R", R, B.shape[1], definite=True)
-    _check_modes(A, B, Q)
-    try:
-        with np.errstate(all="ignore"):  # weights near the float range: the solver says so
-            K, S, _ = ct.lqr(A, B, Q, R)
-    except np.linalg.LinAlgError as exc:
-        raise InvalidInput(
-            "Q, R", (Q, R), f"weights for which the Riccati equation is solvable (solver: {exc})"
-        ) from exc
-    K = np.asarray(K, dtype=np.float64).reshape(B.shape[1], A.shape[0])
-    poles = sort_eigenvalues(np.linalg.eigvals(A - B @ K))
-    return LQR(readonly(K), readonly(np.asarray(S, dtype=np.float64)), readonly(poles))
+    return _regulator(A, B, Q, R, discrete=False)
 
 
 def dlqr(A: Any, B: Any, Q: Any, R: Any) -> LQR:
@@ -105,15 +91,22 @@ def dlqr(A: Any, B: Any, Q: Any, R: Any) -> LQR:
     G. F. Franklin, J. D. Powell and M. Workman, *Digital Control of Dynamic Systems*,
     3rd ed., 1998, §9.3.
     """
+    return _regulator(A, B, Q, R, discrete=True)
+
+
+def _regulator(A: Any, B: Any, Q: Any, R: Any, *, discrete: bool) -> LQR:
+    """:func:`lqr` or :func:`dlqr`: the checks, python-control's solver, the poles."""
     A = square("A", A)
     B = columns("B", B, A.shape[0])
     Q = _weight("Q", Q, A.shape[0], definite=False)
     R = _weight("R", R, B.shape[1], definite=True)
-    _check_modes(A, B, Q, discrete=True)
+    _check_modes(A, B, Q, discrete=discrete)
+    # the discrete solver says ValueError where the continuous one says LinAlgError
+    failures = (np.linalg.LinAlgError, ValueError) if discrete else (np.linalg.LinAlgError,)
     try:
-        with np.errstate(all="ignore"):
-            K, S, _ = ct.dlqr(A, B, Q, R)
-    except (np.linalg.LinAlgError, ValueError) as exc:
+        with np.errstate(all="ignore"):  # weights near the float range: the solver says so
+            K, S, _ = (ct.dlqr if discrete else ct.lqr)(A, B, Q, R)
+    except failures as exc:
         raise InvalidInput(
             "Q, R", (Q, R), f"weights for which the Riccati equation is solvable (solver: {exc})"
         ) from exc

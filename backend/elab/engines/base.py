@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from concurrent.futures import Future
 from dataclasses import dataclass, field
-from typing import Any, Literal, NamedTuple, Protocol
+from typing import Literal, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,7 +22,7 @@ from elab.laws import ControlLaw
 from elab.lifecycle import RunState
 from elab.sim.signals import Signal
 from elab.sim.spec import RunSpec
-from elab.store.base import ParamChange, RunRecord
+from elab.store.base import JsonObject, ParamChange, RunRecord
 
 Array = NDArray[np.float64]
 Pace = Literal["realtime", "fast"]
@@ -42,16 +42,26 @@ class Block(NamedTuple):
 @dataclass(frozen=True)
 class RunOrder:
     """A run for an engine to start: its id (chosen by the caller), what to step, how fast,
-    and what to record about it (``request``: the client's request, JSON-able)."""
+    and what to record about it (``request``: the client's request, kept as it is)."""
 
     id: str
     spec: RunSpec
     pace: Pace
     mode: str
     experiment: str
-    request: dict[str, Any]
+    request: JsonObject
     owner: str | None = None  # the identity that started it (elab.access)
     private: bool = False
+
+
+@dataclass(frozen=True)
+class NewParams:
+    """A live run's new law and/or reference, from the next sample on (``None``: keep it);
+    ``asked``: the change as its client asked it, recorded with it and told to watchers."""
+
+    law: ControlLaw | None = None
+    reference: Signal | None = None
+    asked: JsonObject = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -194,17 +204,10 @@ class Engine(Protocol):
         (who did it and why) goes with the change to the watchers and, for a stop, into
         the record."""
 
-    async def replace(
-        self,
-        run_id: str,
-        *,
-        law: ControlLaw | None,
-        reference: Signal | None,
-        params: dict[str, Any],
-    ) -> int:
-        """A new law and/or reference from the next sample on (recorded with ``params``, what
-        the client asked for); returns that sample's index. :class:`InvalidInput` for a law
-        whose controller state differs in size from the run's."""
+    async def replace(self, run_id: str, new: NewParams) -> int:
+        """The run's new law and/or reference from the next sample on (recorded with
+        ``new.asked``); returns that sample's index. :class:`InvalidInput` for a law whose
+        controller state differs in size from the run's, or code swapped in or out."""
 
     def status(self) -> EngineStatus:
         """Up or not, why, and its last heartbeat."""
@@ -230,14 +233,7 @@ class SteppingEngine(Protocol):
     def control(self, run_id: str, action: Action, reason: str | None = None) -> Future[int]:
         """Pause, resume or stop: the sample it happens at, once the stepping decided it."""
 
-    def replace(
-        self,
-        run_id: str,
-        *,
-        law: ControlLaw | None,
-        reference: Signal | None,
-        params: dict[str, Any],
-    ) -> int:
+    def replace(self, run_id: str, new: NewParams) -> int:
         """As :meth:`Engine.replace`."""
 
     def health(self) -> Health:

@@ -225,14 +225,7 @@ def _serve(
             case wire.Control():
                 _reply_when(engine.control(cmd.run, cmd.action, cmd.reason), outbox, cmd.id)
             case wire.Replace():
-                change = workers.submit(
-                    engine.replace,
-                    cmd.run,
-                    law=cmd.law,
-                    reference=cmd.reference,
-                    params=cmd.params,
-                )
-                _reply_when(change, outbox, cmd.id)
+                _reply_when(workers.submit(engine.replace, cmd.run, cmd.new), outbox, cmd.id)
             case _:
                 assert_never(cmd)
 

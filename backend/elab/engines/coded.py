@@ -13,8 +13,7 @@ the server (:class:`~elab.engines.stepper.Stepper`) and offline (``elab simulate
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +23,7 @@ from elab.controllers.sandbox import ControllerFailed, Sandboxed, StepTimes
 from elab.errors import InvalidInput
 from elab.laws import CodeController, ControlLaw
 from elab.plants import Plant
-from elab.sim.engine import first_divergence
+from elab.sim.engine import diverged, first_divergence
 from elab.sim.kernel import actuate, sense
 from elab.sim.signals import Square, Step
 from elab.sim.spec import CompiledRun, RunSpec, compile_run
@@ -56,18 +55,33 @@ class CodeSettings:
     start: float = 5.0
 
 
-def controller_params(run: CompiledRun) -> dict[str, Any]:
+@dataclass(frozen=True)
+class ResetParams:
+    """What a code controller's ``reset(params)`` is given about its run, as a dict of these
+    fields (docs/controllers.md): ``Ts`` in s, ``u_max`` in V (``None``: no limit), the
+    outputs' names and units, ``y_op`` the outputs at the operating point."""
+
+    plant: str
+    Ts: float
+    u_max: float | None
+    outputs: list[str]
+    units: list[str]
+    y_op: list[float]
+    reference_output: int
+
+
+def controller_params(run: CompiledRun) -> ResetParams:
     """What a code controller's ``reset(params)`` is given about its run."""
     p = run.spec.plant
-    return {
-        "plant": p.id,
-        "Ts": run.Ts,
-        "u_max": run.u_lim if math.isfinite(run.u_lim) else None,
-        "outputs": [o.name for o in p.outputs],
-        "units": [o.unit for o in p.outputs],
-        "y_op": (p.C @ p.operating_point).tolist(),
-        "reference_output": p.reference_output,
-    }
+    return ResetParams(
+        plant=p.id,
+        Ts=run.Ts,
+        u_max=run.u_lim if math.isfinite(run.u_lim) else None,
+        outputs=[o.name for o in p.outputs],
+        units=[o.unit for o in p.outputs],
+        y_op=(p.C @ p.operating_point).tolist(),
+        reference_output=p.reference_output,
+    )
 
 
 class CodedRun:
@@ -96,7 +110,7 @@ class CodedRun:
         self.sandbox = Sandboxed(
             law.source,
             ny=p.ny,
-            params=controller_params(run),
+            params=asdict(controller_params(run)),
             deadline=settings.deadline,
             max_misses=settings.max_misses,
             filename=law.name,
@@ -183,7 +197,7 @@ def run_through(run: CompiledRun, settings: CodeSettings | None = None) -> Outco
             i = first_divergence(data[:, 1:])
             if i is not None:
                 data = data[:i]
-                failed = f"diverged at t = {(k0 + i) * run.Ts:.4g} s: the closed loop is unstable"
+                failed = diverged((k0 + i) * run.Ts)
             parts.append(data)
     finally:
         coded.close()

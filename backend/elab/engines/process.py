@@ -31,12 +31,17 @@ from pathlib import Path
 from typing import Any, assert_never
 
 from elab.engines import wire
-from elab.engines.base import Action, EngineEvents, EngineStatus, Health, RunOrder
+from elab.engines.base import (
+    Action,
+    EngineEvents,
+    EngineStatus,
+    Health,
+    NewParams,
+    RunOrder,
+)
 from elab.engines.rig import RigSettings
 from elab.engines.simulation import EngineSettings
 from elab.errors import ElabError, Unavailable
-from elab.laws import ControlLaw
-from elab.sim.signals import Signal
 from elab.store.base import RunRecord
 
 log = logging.getLogger(__name__)
@@ -144,17 +149,8 @@ class ProcessEngine:
     async def control(self, run_id: str, action: Action, reason: str | None = None) -> int:
         return _sample(await self._call(lambda cid: wire.Control(cid, run_id, action, reason)))
 
-    async def replace(
-        self,
-        run_id: str,
-        *,
-        law: ControlLaw | None,
-        reference: Signal | None,
-        params: dict[str, Any],
-    ) -> int:
-        return _sample(
-            await self._call(lambda cid: wire.Replace(cid, run_id, law, reference, params))
-        )
+    async def replace(self, run_id: str, new: NewParams) -> int:
+        return _sample(await self._call(lambda cid: wire.Replace(cid, run_id, new)))
 
     async def _call(self, command: Callable[[int], wire.Command]) -> RunRecord | int | None:
         """Send the command made for a fresh id; its answer."""

@@ -38,6 +38,7 @@ from elab.engines.base import (
     Action,
     EngineEvents,
     Health,
+    NewParams,
     RigLink,
     RunOrder,
     StoreHealth,
@@ -52,7 +53,7 @@ from elab.engines.riglaw import (
 from elab.engines.rigloop import CHANNELS, ActiveRun, HostLoop, RigSettings
 from elab.engines.rigseat import SeatKeeper
 from elab.errors import Conflict, InvalidInput, Unavailable
-from elab.laws import CodeController, ControlLaw, is_code
+from elab.laws import CodeController, is_code, law_kind
 from elab.lifecycle import RunState
 from elab.rig.driver import Driver
 from elab.rig.estop import EStopListener
@@ -60,7 +61,6 @@ from elab.rig.settle import (
     SettlePhase,
 )
 from elab.rig.supervisor import SafetyLimits, Supervisor
-from elab.sim.signals import Signal
 from elab.store.base import ParamChange, RigQueueStore, RunRecord, RunStore
 
 log = logging.getLogger(__name__)
@@ -262,14 +262,8 @@ class RigEngine(HostLoop):
             active.stop = (RunState.STOPPED, reason, fut)
         return fut
 
-    def replace(
-        self,
-        run_id: str,
-        *,
-        law: ControlLaw | None,
-        reference: Signal | None,
-        params: dict[str, Any],
-    ) -> int:
+    def replace(self, run_id: str, new: NewParams) -> int:
+        law, reference = new.law, new.reference
         with self._lock:
             active = self._active or self._pending
             if active is None or active.record.id != run_id or active.stop is not None:
@@ -278,7 +272,7 @@ class RigEngine(HostLoop):
         if law is not None and (is_code(law) or is_code(old.spec.law)):
             raise InvalidInput(
                 "controller",
-                params.get("controller"),
+                law_kind(law),
                 "a reference change only: a Python controller's run keeps its controller, "
                 "and a declarative one is not swapped for code mid-run",
             )
@@ -287,7 +281,7 @@ class RigEngine(HostLoop):
         if run.controller.nc != old.controller.nc:
             raise InvalidInput(
                 "controller",
-                params.get("controller"),
+                law_kind(law) if law is not None else None,
                 f"a {type(old.spec.law).__name__} law like the run's (its controller state "
                 "size cannot change mid-run); start a new run instead",
             )
@@ -300,7 +294,7 @@ class RigEngine(HostLoop):
             raise Unavailable(
                 "the rig sent no sample for 5 s: the change was not applied"
             ) from None
-        change = ParamChange(k=k, params=params, at=time.time())
+        change = ParamChange(k=k, params=new.asked, at=time.time())
         self.recorder.param(run_id, change)
         self._events.params(self.id, run_id, change)
         return k

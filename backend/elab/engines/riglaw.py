@@ -13,7 +13,7 @@ real-time: ``n_late`` late answers in a row trip the run).
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -141,7 +141,7 @@ class CodeLaw:
         self.sandbox = Sandboxed(
             law.source,
             ny=run.spec.plant.ny,
-            params=controller_params(run),
+            params=asdict(controller_params(run)),
             deadline=settings.deadline,
             max_misses=1 << 62,  # the supervisor trips first (n_late)
             filename=law.name,

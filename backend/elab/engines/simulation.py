@@ -17,22 +17,29 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 
 from elab.controllers.sandbox import ControllerFailed
-from elab.engines.base import Action, Block, Changed, EngineEvents, Health, RunOrder, StoreHealth
+from elab.engines.base import (
+    Action,
+    Block,
+    Changed,
+    EngineEvents,
+    Health,
+    NewParams,
+    RunOrder,
+    StoreHealth,
+)
 from elab.engines.coded import CodedRun, CodeSettings
 from elab.engines.recorder import Recorder
 from elab.engines.stepper import Stepper
 from elab.errors import Conflict, InvalidInput, TooMany, Unavailable
-from elab.laws import CodeController, ControlLaw, is_code
+from elab.laws import CodeController, is_code, law_kind
 from elab.lifecycle import RunState
 from elab.plants import get_plant
 from elab.sim.batch import Batch
 from elab.sim.result import Samples
-from elab.sim.signals import Signal
 from elab.sim.spec import CompiledRun, RunSpec, compile_run
 from elab.store.base import ParamChange, RunRecord, RunStore
 
@@ -237,16 +244,10 @@ class SimulationEngine:
     def control(self, run_id: str, action: Action, reason: str | None = None) -> Future[int]:
         return self._stepper_of(run_id).control(run_id, action, reason)
 
-    def replace(
-        self,
-        run_id: str,
-        *,
-        law: ControlLaw | None,
-        reference: Signal | None,
-        params: dict[str, Any],
-    ) -> int:
+    def replace(self, run_id: str, new: NewParams) -> int:
         """A new law and/or reference from the next sample on; the change is recorded and
         reported; returns that sample's index."""
+        law, reference = new.law, new.reference
         with self._changing:  # one change at a time: each starts from the last
             old = self._runs.get(run_id)
             if old is None:
@@ -254,7 +255,7 @@ class SimulationEngine:
             if law is not None and CodeController in (type(law), type(old.spec.law)):
                 raise InvalidInput(
                     "controller",
-                    params.get("controller", params.get("controller_id")),
+                    law_kind(law),
                     "a declarative law on a run with one: a Python controller cannot be "
                     "swapped in or out mid-run; start a new run",
                 )
@@ -265,7 +266,7 @@ class SimulationEngine:
             if law is not None and run.controller.nc != old.controller.nc:
                 raise InvalidInput(
                     "controller",
-                    params.get("controller"),
+                    law_kind(law),
                     f"a {type(old.spec.law).__name__} law like the run's (its "
                     "controller state size cannot change mid-run); start a new "
                     "run instead",
@@ -276,7 +277,7 @@ class SimulationEngine:
                 .result()
             )
             self._runs[run_id] = run
-        change = ParamChange(k=k, params=params, at=time.time())
+        change = ParamChange(k=k, params=new.asked, at=time.time())
         self.recorder.param(run_id, change)
         self._events.params(self.id, run_id, change)
         return k

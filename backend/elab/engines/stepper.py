@@ -44,7 +44,7 @@ from elab.engines.timetable import Timetable
 from elab.errors import Conflict
 from elab.lifecycle import RunState, transition
 from elab.sim.batch import Batch, SignalFault
-from elab.sim.engine import DIVERGENCE_LIMIT, first_divergence
+from elab.sim.engine import DIVERGENCE_LIMIT, diverged, first_divergence
 from elab.sim.spec import CompiledRun
 
 log = logging.getLogger(__name__)
@@ -414,8 +414,7 @@ class Stepper:
         block = Block([live.id], [k0], (data if i is None else data[:i])[np.newaxis])
         self._table.k[live.slot] += data.shape[0] if i is None else i
         if i is not None:
-            msg = f"diverged at t = {(k0 + i) * live.run.Ts:.4g} s: the closed loop is unstable"
-            ended.append(self._end(live, RunState.FAILED, msg))
+            ended.append(self._end(live, RunState.FAILED, diverged((k0 + i) * live.run.Ts)))
         return block
 
     def _step_coded(self, live: _Live, n: int, ended: list[Changed]) -> Block | None:
@@ -427,7 +426,7 @@ class Stepper:
         k0 = self._k(live)
         if i is not None:
             data = data[:i]
-            failed = f"diverged at t = {(k0 + i) * live.run.Ts:.4g} s: the closed loop is unstable"
+            failed = diverged((k0 + i) * live.run.Ts)
         self._table.k[live.slot] += data.shape[0]
         if failed is not None:
             ended.append(self._end(live, RunState.FAILED, failed))

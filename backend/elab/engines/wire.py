@@ -33,16 +33,15 @@ from elab.engines.base import (
     Changed,
     Ended,
     Health,
+    NewParams,
     RigLink,
     RunOrder,
     StoreHealth,
 )
 from elab.errors import Conflict, ElabError, InvalidInput, NotFound, TooMany, Unavailable
-from elab.laws import ControlLaw
 from elab.lifecycle import RunState
 from elab.plants import get_plant
 from elab.sim import signals
-from elab.sim.signals import Signal
 from elab.sim.spec import RunSpec
 from elab.store.base import ParamChange, RunRecord
 
@@ -93,13 +92,11 @@ class Control:
 
 @dataclass(frozen=True)
 class Replace:
-    """Change a live run's law, reference or parameters (the answer: the sample)."""
+    """Change a live run's law and/or reference (the answer: the sample)."""
 
     id: int
     run: str
-    law: ControlLaw | None
-    reference: Signal | None
-    params: dict[str, Any]
+    new: NewParams
 
 
 @dataclass(frozen=True)
@@ -121,8 +118,8 @@ def command_out(cmd: Command) -> bytes:
             h = {"op": "control", "id": cmd.id, "run": cmd.run, "action": cmd.action}
             return _frame({**h, "reason": cmd.reason})
         case Replace():
-            h = {"op": "replace", "id": cmd.id, "run": cmd.run, "params": cmd.params}
-            return _frame({**h, "law": _plain(cmd.law), "reference": _plain(cmd.reference)})
+            h = {"op": "replace", "id": cmd.id, "run": cmd.run, "params": cmd.new.asked}
+            return _frame({**h, "law": _plain(cmd.new.law), "reference": _plain(cmd.new.reference)})
         case Close():
             return _frame({"op": "close", "reason": cmd.reason})
         case _:
@@ -177,8 +174,8 @@ def _command_in(h: dict[str, Any]) -> Command:
         case "control":
             return Control(h["id"], h["run"], h["action"], h["reason"])
         case "replace":
-            law, reference = _typed(h["law"]), _typed(h["reference"])
-            return Replace(h["id"], h["run"], law, reference, h["params"])
+            new = NewParams(_typed(h["law"]), _typed(h["reference"]), h["params"])
+            return Replace(h["id"], h["run"], new)
         case "close":
             return Close(str(h.get("reason") or "server shut down"))
         case op:

@@ -53,7 +53,7 @@ def headline(m: LinearModel, N: int) -> Headline:
     zero-state simulation mostly measures that start (an ARX model of an integrating
     plant whose poles matched the physics to four digits "fitted" −36.82 % from a zero
     state)."""
-    slowest = float(np.max(np.abs(m.poles))) if m.n else 0.0
+    slowest = float(np.max(np.abs(m.poles))) if m.nx else 0.0
     if slowest < math.exp(-1.0 / max(N, 1)):
         return Headline("zero", "every mode decays within the validation record")
     if slowest > 1.0:
@@ -107,7 +107,7 @@ def model_notes(name: str, m: LinearModel) -> list[str]:
 
 def _unstable(name: str, m: LinearModel, chose: str = "") -> list[str]:
     """A pole outside the unit circle, kept (``chose``: the fits that kept it)."""
-    top = float(np.max(np.abs(m.poles))) if m.n else 0.0
+    top = float(np.max(np.abs(m.poles))) if m.nx else 0.0
     if top > 1.0:
         return [
             f"{name}: a pole outside the unit circle (|z| = {top:.4g}): the model is "

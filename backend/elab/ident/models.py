@@ -28,6 +28,7 @@ from elab.ident.parameters import (
     N4sidParameters,
     OeParameters,
 )
+from elab.lti import StateSpaceShape
 
 if TYPE_CHECKING:  # imported where used: python-control costs about a second of imports
     import control as ct
@@ -80,8 +81,9 @@ def fit_state(Ob: Array, free: Array) -> Array:
 
 
 @dataclass(frozen=True)
-class LinearModel:
-    """A discrete-time model in innovations form at sample time ``Ts``."""
+class LinearModel(StateSpaceShape):
+    """A discrete-time model in innovations form at sample time ``Ts`` (``nx`` states,
+    ``nu`` inputs, ``ny`` outputs)."""
 
     A: Array
     B: Array
@@ -114,18 +116,6 @@ class LinearModel:
         object.__setattr__(self, "noise_variance", lam)
 
     @property
-    def n(self) -> int:
-        return int(self.A.shape[0])
-
-    @property
-    def ny(self) -> int:
-        return int(self.C.shape[0])
-
-    @property
-    def nu(self) -> int:
-        return int(self.B.shape[1])
-
-    @property
     def kind(self) -> Literal["arx", "armax", "oe", "n4sid", "linear"]:
         """The model structure its parameters are of (``"linear"``: none, a state space)."""
         match self.parameters:
@@ -149,12 +139,12 @@ class LinearModel:
     @property
     def stable(self) -> bool:
         """Every pole strictly inside the unit circle (a static model is stable)."""
-        return bool(np.all(np.abs(self.poles) < 1)) if self.n else True
+        return bool(np.all(np.abs(self.poles) < 1)) if self.nx else True
 
     def simulate(self, u: Array, x0: Array | None = None) -> Array:
         """Outputs for inputs ``u`` ``(N, nu)`` from state ``x0`` (default 0), no noise."""
         u = self._inputs(u)
-        x = np.zeros(self.n) if x0 is None else np.asarray(x0, dtype=float).reshape(self.n)
+        x = np.zeros(self.nx) if x0 is None else np.asarray(x0, dtype=float).reshape(self.nx)
         y = np.empty((u.shape[0], self.ny))
         A, B, C, D = self.A, self.B, self.C, self.D
         for t in range(u.shape[0]):
@@ -172,8 +162,8 @@ class LinearModel:
             raise InvalidInput("horizon", horizon, "an integer ≥ 1")
         u, y = self._inputs(data.u), data.y
         N = u.shape[0]
-        xh = np.empty((N, self.n))
-        x = np.zeros(self.n) if x0 is None else np.asarray(x0, dtype=float).reshape(self.n)
+        xh = np.empty((N, self.nx))
+        x = np.zeros(self.nx) if x0 is None else np.asarray(x0, dtype=float).reshape(self.nx)
         A, B, C, D, K = self.A, self.B, self.C, self.D, self.K
         for t in range(N):
             xh[t] = x
@@ -182,7 +172,7 @@ class LinearModel:
             return xh @ C.T + u @ D.T
         # x(t | t−h): start from x̂(t−h+1 | t−h) and apply h − 1 noise-free steps
         h = horizon
-        X = np.zeros((N, self.n))
+        X = np.zeros((N, self.nx))
         X[h - 1 :] = xh[: N - h + 1]
         for j in range(h - 1):
             idx = np.arange(h - 1, N)
@@ -202,7 +192,7 @@ class LinearModel:
         without slycot, with its trimming of leading zeros: :meth:`to_tf` gives the same
         coefficients as a python-control object, this needs no python-control.
         """
-        if self.n == 0:  # a static gain
+        if self.nx == 0:  # a static gain
             return [
                 [(_trim(self.D[i, [j]]), np.ones(1)) for j in range(self.nu)]
                 for i in range(self.ny)
@@ -261,7 +251,7 @@ def d2c(m: LinearModel) -> ContinuousModel | None:
     one exists: a pole on the negative real axis or at zero (the matrix logarithm has no
     real value there), or a static model."""
     if (
-        m.n == 0
+        m.nx == 0
         or np.any(np.abs(m.poles) < 1e-9)
         or np.any((np.abs(m.poles.imag) < 1e-12) & (m.poles.real < 0))
     ):
@@ -278,7 +268,7 @@ def d2c(m: LinearModel) -> ContinuousModel | None:
 
 def _log_zoh(m: LinearModel) -> tuple[Array, Array]:
     """Ac, Bc of the inverse of the zero-order hold (see :func:`d2c`)."""
-    n, nu = m.n, m.nu
+    n, nu = m.nx, m.nu
     M = np.zeros((n + nu, n + nu))
     M[:n, :n], M[:n, n:], M[n:, n:] = m.A, m.B, np.eye(nu)
     L = scipy.linalg.logm(M) / m.Ts

@@ -52,8 +52,8 @@ def compare(
         )
     if x0 not in ("zero", "estimate"):
         raise InvalidInput("x0", x0, "'zero' or 'estimate'")
-    start = np.zeros(model.n)
-    if x0 == "estimate" and model.n:
+    start = np.zeros(model.nx)
+    if x0 == "estimate" and model.nx:
         start = _initial_state(model, data, horizon)
     yhat = model.simulate(data.u, start) if horizon is None else model.predict(data, horizon, start)
     return Comparison(fit_percent(data.y, yhat), yhat, start)
@@ -70,7 +70,7 @@ def _initial_state(model: LinearModel, data: IdData, horizon: int | None) -> Arr
     free = data.y - model.predict(data, horizon)
     F = model.A - model.K @ model.C
     h, N = horizon, data.N
-    first = observability(F, model.C, min(h - 1, N)) if h > 1 else np.empty((0, model.ny, model.n))
+    first = observability(F, model.C, min(h - 1, N)) if h > 1 else np.empty((0, model.ny, model.nx))
     rest = observability(F, model.C @ np.linalg.matrix_power(model.A, h - 1), max(N - h + 1, 0))
     return fit_state(np.concatenate([first, rest])[:N], free)
 

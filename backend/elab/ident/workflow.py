@@ -246,7 +246,7 @@ def _models(
 
 def _name(r: ModelRequest, m: LinearModel) -> str:
     """The request's name; an n4sid model's whose order was chosen names that order."""
-    return r.name if r.kind != "n4sid" or r.orders.get("order") else f"n4sid {m.n}"
+    return r.name if r.kind != "n4sid" or r.orders.get("order") else f"n4sid {m.nx}"
 
 
 def _same_channels(data: IdData, validation: IdData) -> IdData:

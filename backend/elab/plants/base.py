@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elab.laws import ControlLaw
+from elab.lti import StateSpaceShape
 
 Matrix = NDArray[np.float64]
 
@@ -65,7 +66,7 @@ class SignalDefaults:
 
 
 @dataclass(frozen=True)
-class Plant:
+class Plant(StateSpaceShape):
     """A plant of the lab: continuous model :math:`\\dot x = A x + B u,\\; y = C x + D u`.
 
     States are deviations from ``operating_point`` (absolute state =
@@ -97,18 +98,6 @@ class Plant:
     experiments: tuple[str, ...] = ("analysis", "identification", "design")
     modes: tuple[str, ...] = ("simulation",)
     notes: tuple[str, ...] = field(default=())
-
-    @property
-    def nx(self) -> int:
-        return int(self.A.shape[0])
-
-    @property
-    def nu(self) -> int:
-        return int(self.B.shape[1])
-
-    @property
-    def ny(self) -> int:
-        return int(self.C.shape[0])
 
     @property
     def output_ranges(self) -> tuple[tuple[int, float, float], ...]:

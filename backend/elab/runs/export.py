@@ -267,7 +267,7 @@ def sensors_header(plant: Plant, seed: int | None, quantize: bool) -> dict[str, 
     }
 
 
-def describe(obj: Any) -> str:
+def describe(obj: object) -> str:
     """``Kind(a=1, b=2)`` for a law or signal dataclass, numbers in short form."""
     if not is_dataclass(obj):
         return str(obj)

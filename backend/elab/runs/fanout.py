@@ -30,10 +30,12 @@ import asyncio
 from collections import deque
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
+
+from elab.store.base import JsonObject
 
 Array = NDArray[np.float64]
 Reader = Callable[[int, int], Awaitable[Array]]
@@ -60,7 +62,7 @@ class Codec(Protocol):
 
     def status(self, state: str, k: int, error: str | None) -> bytes: ...
 
-    def params(self, k: int, t: float, params: dict[str, Any]) -> bytes: ...
+    def params(self, k: int, t: float, params: JsonObject) -> bytes: ...
 
 
 @dataclass(eq=False)  # identity: watchers live in sets

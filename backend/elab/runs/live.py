@@ -1,6 +1,6 @@
-"""A run the web process follows: its record as started, its state and progress as the
-engine reports them, the samples received but not yet stored, and readers of its
-recording that join the two."""
+"""A run the web process follows: its record and order as started, the law and reference
+it uses now, its state and progress as the engine reports them, the samples received but
+not yet stored, and readers of its recording that join the two."""
 
 from __future__ import annotations
 
@@ -12,7 +12,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from elab.engines.base import RunOrder
 from elab.lifecycle import RunState
+from elab.runs.changes import RunParams
 from elab.runs.fanout import RunChannel
 from elab.store.base import ParamChange, RunRecord, RunStore
 
@@ -27,6 +29,8 @@ class LiveRun:
     record: RunRecord  # as started; status and progress below
     engine: str
     channel: RunChannel
+    order: RunOrder  # what it was started with, typed
+    params: RunParams  # the law and reference its loop uses now
     state: RunState = RunState.RUNNING
     ending: bool = False  # its engine ended it; how is decided once its samples are stored
     final_k: int = 0  # an ended run's samples in the store

@@ -9,6 +9,7 @@ import logging
 import math
 import time
 from collections.abc import Awaitable, Callable, Coroutine
+from dataclasses import dataclass, field
 from typing import Any
 
 from elab.engines.base import Action
@@ -21,24 +22,17 @@ from elab.store.base import RunStore
 log = logging.getLogger(__name__)
 
 
+@dataclass(eq=False)
 class Patrol:
     """Looks after the runs a manager follows (``runs``, shared with it): ``command``
     pauses or stops one, ``remove`` deletes an ended one (false while it is downloaded)."""
 
-    def __init__(
-        self,
-        runs: dict[str, LiveRun],
-        limits: Limits,
-        store: RunStore,
-        command: Callable[[str, Action, str], Awaitable[None]],
-        remove: Callable[[str], Awaitable[bool]],
-    ) -> None:
-        self._runs = runs
-        self.limits = limits
-        self.store = store
-        self._command = command
-        self._remove = remove
-        self._tasks: set[asyncio.Task[None]] = set()
+    runs: dict[str, LiveRun]
+    limits: Limits
+    store: RunStore
+    command: Callable[[str, Action, str], Awaitable[None]]
+    remove: Callable[[str], Awaitable[bool]]
+    _tasks: set[asyncio.Task[None]] = field(default_factory=set)
 
     async def run(self) -> None:
         """Every second: pause and then stop real-time runs whose owner is gone; every
@@ -48,7 +42,7 @@ class Patrol:
         while True:
             await asyncio.sleep(min(1.0, self.limits.owner_grace / 4))
             now = time.monotonic()
-            for run in list(self._runs.values()):
+            for run in list(self.runs.values()):
                 self._look_after(run, now)
             if self.limits.retention > 0 and now >= sweep_at:
                 sweep_at = now + min(600.0, max(1.0, self.limits.retention / 4))
@@ -56,7 +50,7 @@ class Patrol:
 
     def _look_after(self, run: LiveRun, now: float) -> None:
         owner = run.record.owner
-        if not run.state.live or run.ending or run.record.spec.get("pace") == "fast":
+        if not run.state.live or run.ending or run.order.pace == "fast":
             return
         if owner and any(w.who == owner for w in run.channel.watchers):
             run.seen = now
@@ -74,10 +68,10 @@ class Patrol:
 
     async def _quietly(self, run_id: str, action: Action, reason: str) -> None:
         try:
-            await self._command(run_id, action, reason)
+            await self.command(run_id, action, reason)
         except ElabError as exc:  # it ended meanwhile, or the engine is down: next round
             log.info("run %s: %s not done: %s", run_id, action, exc)
-            run = self._runs.get(run_id)
+            run = self.runs.get(run_id)
             if run is not None and run.seen == math.inf:
                 run.seen = time.monotonic() - self.limits.owner_gone + 5.0
 
@@ -85,7 +79,7 @@ class Patrol:
         cutoff = time.time() - self.limits.retention
         try:
             while ids := await asyncio.to_thread(self.store.ended_before, cutoff):
-                done = [run_id for run_id in ids if await self._remove(run_id)]
+                done = [run_id for run_id in ids if await self.remove(run_id)]
                 log.info("deleted %d runs past the retention", len(done))
                 if not done:  # all being downloaded: they go when their downloads end
                     break

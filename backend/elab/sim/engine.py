@@ -105,6 +105,11 @@ def first_divergence(rows: NDArray[np.float64]) -> int | None:
     return None if ok.all() else int(np.argmin(ok))
 
 
+def diverged(t: float) -> str:
+    """Why a run whose loop diverged at ``t`` (s) failed."""
+    return f"diverged at t = {t:.4g} s: the closed loop is unstable"
+
+
 def divergence_index(samples: Samples) -> int | None:
     """Index of the first sample whose input or state diverged."""
     return first_divergence(np.column_stack([samples.u, samples.x]))

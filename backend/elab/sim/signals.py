@@ -171,6 +171,11 @@ SIGNAL_KINDS: dict[str, type[Signal]] = {
 }
 
 
+def signal_kind(signal: Signal) -> str:
+    """The signal's name in requests (its key in :data:`SIGNAL_KINDS`)."""
+    return next(name for name, cls in SIGNAL_KINDS.items() if type(signal) is cls)
+
+
 def make_signal(kind: str, **params: float | int | tuple[float, ...]) -> Signal:
     """A signal from its kind name and parameters; errors name the bad field."""
     try:

@@ -23,6 +23,12 @@ from elab.rig_queue import QueueChange, QueueOp, QueuePolicy, RigQueue
 
 Array = NDArray[np.float64]
 
+#: A JSON document the lab keeps and shows as it was given, never reading into it: a run's
+#: request (as the client sent it, the defaults filled in) and a live change as asked. The
+#: API writes and reads these (their schema is the wire's); the core carries them opaque
+#: and works on the typed values beside them (``RunOrder.spec``, a change's law).
+JsonObject = dict[str, Any]
+
 
 class StoreError(Unavailable):
     """The store could not do what was asked. ``transient``: retrying may succeed soon
@@ -61,18 +67,19 @@ class RunSummary:
 
 @dataclass(frozen=True, kw_only=True)
 class RunRecord(RunSummary):
-    """A run with the request it was started from (JSON-able, as the client sent it with
-    the defaults filled in)."""
+    """A run with the request it was started from (as the client sent it with the
+    defaults filled in)."""
 
-    spec: dict[str, Any] = field(default_factory=dict)
+    spec: JsonObject = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
 class ParamChange:
-    """New parameters of a run, in force from sample ``k`` on (``at`` in unix seconds)."""
+    """New parameters of a run, in force from sample ``k`` on (``at`` in unix seconds):
+    ``params``, the change as its client asked it (the parts that altered something)."""
 
     k: int
-    params: dict[str, Any]  # JSON-able
+    params: JsonObject
     at: float
 
 

@@ -161,7 +161,7 @@ def test_a_noise_free_two_by_two_arx_is_recovered() -> None:
         assert_allclose(got, true, atol=1e-9)
     # the state space is the same system: it simulates (D: the undelayed u1 → y2) and
     # predicts one step ahead (K) the noise-free data exactly, from rest
-    assert m.n == 2 + 3 and m.D[1, 0] == pytest.approx(0.4, abs=1e-9)
+    assert m.nx == 2 + 3 and m.D[1, 0] == pytest.approx(0.4, abs=1e-9)
     assert_allclose(m.simulate(z.u), z.y, atol=1e-9)
     assert_allclose(m.predict(z), z.y, atol=1e-9)
 

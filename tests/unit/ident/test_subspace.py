@@ -155,7 +155,7 @@ def test_a_gap_in_the_singular_values_decides_the_order() -> None:
     choice = choose_order(sub, range(1, 11))
     why = choice.reason
     assert choice.best == 4 and "fall" in why and "after order 4" in why, why
-    assert n4sid(z).n == 4
+    assert n4sid(z).nx == 4
 
 
 def _lightly_damped(seed: int) -> tuple[IdData, IdData]:

@@ -12,19 +12,22 @@ class FieldError(Model):
     message: str
 
 
+ErrorCode = Literal[
+    "invalid",
+    "not_found",
+    "conflict",
+    "too_many",
+    "too_large",
+    "unavailable",
+    "forbidden",
+    "unauthorized",
+    "unsupported_media_type",
+    "timeout",
+]
+
+
 class ErrorDetail(Model):
-    code: Literal[
-        "invalid",
-        "not_found",
-        "conflict",
-        "too_many",
-        "too_large",
-        "unavailable",
-        "forbidden",
-        "unauthorized",
-        "unsupported_media_type",
-        "timeout",
-    ]
+    code: ErrorCode
     message: str
     field: str | None = None
     errors: list[FieldError] = []

@@ -51,27 +51,13 @@ class SQLiteLibrary(SQLiteConnections):
     def list_controllers(
         self, owner: str | None, plant: str | None = None
     ) -> list[StoredController]:
-        terms = [t for t, v in (("owner = ?", owner), ("plant = ?", plant)) if v is not None]
-        args = [v for v in (owner, plant) if v is not None]
-        where = "WHERE " + " AND ".join(terms) if terms else ""
-        with self._snapshot() as conn:
-            rows = conn.execute(
-                f"SELECT {_CONTROLLER} FROM controllers {where} "
-                "ORDER BY created_at DESC, rowid DESC LIMIT 1000",
-                args,
-            ).fetchall()
-        return [_controller(r) for r in rows]
+        return [_controller(r) for r in self._owned("controllers", _CONTROLLER, owner, plant)]
 
     def count_controllers(self, owner: str) -> int:
-        with self._snapshot() as conn:
-            n = conn.execute("SELECT count(*) FROM controllers WHERE owner = ?", (owner,))
-            return int(n.fetchone()[0])
+        return self._count("controllers", owner)
 
     def delete_controller(self, controller_id: str) -> None:
-        with self._transaction() as conn:
-            cur = conn.execute("DELETE FROM controllers WHERE id = ?", (controller_id,))
-            if cur.rowcount == 0:
-                raise NotFound("controller", controller_id)
+        self._delete("controllers", "controller", controller_id)
 
     # -- identified models (ModelStore) -------------------------------------------
     def add_model(self, model: StoredModel) -> None:
@@ -91,24 +77,38 @@ class SQLiteLibrary(SQLiteConnections):
         return _model(row)
 
     def list_models(self, owner: str | None, plant: str | None = None) -> list[StoredModel]:
-        terms = [t for t, v in (("owner = ?", owner), ("plant = ?", plant)) if v is not None]
-        args = [v for v in (owner, plant) if v is not None]
-        where = "WHERE " + " AND ".join(terms) if terms else ""
-        with self._snapshot() as conn:
-            rows = conn.execute(
-                f"SELECT {_MODEL} FROM models {where} {NEWEST_FIRST} LIMIT 1000", args
-            ).fetchall()
-        return [_model(r) for r in rows]
+        return [_model(r) for r in self._owned("models", _MODEL, owner, plant)]
 
     def count_models(self, owner: str) -> int:
-        with self._snapshot() as conn:
-            n = conn.execute("SELECT count(*) FROM models WHERE owner = ?", (owner,))
-            return int(n.fetchone()[0])
+        return self._count("models", owner)
 
     def delete_model(self, model_id: str) -> None:
+        self._delete("models", "model", model_id)
+
+    # -- either table ----------------------------------------------------------------
+    def _owned(
+        self, table: str, columns: str, owner: str | None, plant: str | None
+    ) -> list[tuple[Any, ...]]:
+        """Rows of ``owner`` for ``plant`` (``None``: anyone's, any plant's), newest first,
+        at most 1000."""
+        given = [("owner = ?", owner), ("plant = ?", plant)]
+        terms = [term for term, value in given if value is not None]
+        where = "WHERE " + " AND ".join(terms) if terms else ""
+        with self._snapshot() as conn:
+            return conn.execute(
+                f"SELECT {columns} FROM {table} {where} {NEWEST_FIRST} LIMIT 1000",
+                [value for _, value in given if value is not None],
+            ).fetchall()
+
+    def _count(self, table: str, owner: str) -> int:
+        with self._snapshot() as conn:
+            n = conn.execute(f"SELECT count(*) FROM {table} WHERE owner = ?", (owner,))
+            return int(n.fetchone()[0])
+
+    def _delete(self, table: str, kind: str, item_id: str) -> None:
         with self._transaction() as conn:
-            if conn.execute("DELETE FROM models WHERE id = ?", (model_id,)).rowcount == 0:
-                raise NotFound("model", model_id)
+            if conn.execute(f"DELETE FROM {table} WHERE id = ?", (item_id,)).rowcount == 0:
+                raise NotFound(kind, item_id)
 
 
 def _controller(row: tuple[Any, ...], source: bytes = b"") -> StoredController:
