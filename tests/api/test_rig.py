@@ -219,12 +219,12 @@ def leave(srv: Server) -> None:
     assert r.status_code in (200, 409), r.text  # 409: not in the queue
 
 
-def ended(srv: Server, run_id: str) -> dict[str, Any]:
+def ended(srv: Server, run_id: str, within: float = 30) -> dict[str, Any]:
     def done() -> dict[str, Any] | None:
         j: dict[str, Any] = call(srv, "GET", f"/runs/{run_id}").json()
         return None if j["status"] in ("running", "created") else j
 
-    return until(done, 30)
+    return until(done, within)
 
 
 def test_two_visitors_take_turns_and_never_drive_together(srv: Server) -> None:
@@ -326,4 +326,47 @@ def test_an_emergency_stop_reaches_the_rig_while_the_web_process_is_stopped(
 
     asyncio.run(press())
     assert "emergency stop" in ended(srv, run["id"])["error"]
+    leave(srv)
+
+
+LATE_AFTER_THE_TRIAL = """
+class Controller:
+    def step(self, t, y, r):
+        while t > 10.5:  # past the 10 s the rig trial tries
+            pass
+        return 0.0
+"""
+
+
+def test_only_laws_that_pass_the_rig_trial_drive_and_late_python_trips_the_deadline(
+    srv: Server,
+) -> None:
+    leave(srv)
+    until(lambda: armed(srv), 60)
+    wrong = {"kind": "state_feedback", "K": [-20.0, 93.56, -3.36, -0.96]}
+    r = call(srv, "POST", "/runs", json={**RIG_RUN, "controller": wrong})
+    err = r.json()["error"]
+    assert r.status_code == 422 and err["field"] == "controller", r.text
+    assert "rig trial" in err["message"] and "supervisor trips" in err["message"]
+    far = {"kind": "step", "amplitude": math.radians(150)}
+    r = call(srv, "POST", "/runs", json={**RIG_RUN, "signal": far})
+    assert r.status_code == 422 and "reaches 150°" in r.text, r.text
+    assert call(srv, "GET", "/rig").json()["phase"] == "armed"  # refused before the seat
+    # a Python controller that answers through the trial and stops answering after it:
+    # the supervisor trips the deadline on the rig, at 0 V
+    up = call(
+        srv,
+        "POST",
+        "/controllers",
+        json={"plant": "flexible_link", "format": "py", "content": LATE_AFTER_THE_TRIAL},
+    )
+    assert up.status_code == 201, up.text
+    run = start(
+        srv, controller_id=up.json()["id"], duration=12.0, signal={"kind": "step", "amplitude": 0.0}
+    )
+    end = ended(srv, run["id"], within=60)
+    assert end["status"] == "failed" and "safety trip (deadline)" in end["error"], end
+    # at its endless loop, 10.5 s in (earlier on a loaded machine: late answers of a
+    # process that waits for a CPU trip the same way)
+    assert end["n_samples"] < 10_600, end
     leave(srv)

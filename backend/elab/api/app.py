@@ -107,8 +107,6 @@ def create_app(settings: Settings | None = None) -> Starlette:
                 command_timeout=settings.engine_timeout,
                 stall_timeout=settings.engine_stall,
             )
-            desk = RigDesk(store, "rig", settings.rig_queue, estop_address(settings.data_dir))
-        manager = RunManager(store, engines, MsgpackCodec(), limits=settings.limits, desk=desk)
         jobs = JobPool(
             workers=settings.ident_workers,
             timeout=settings.ident_timeout,
@@ -124,6 +122,11 @@ def create_app(settings: Settings | None = None) -> Starlette:
             ),
             preload=controllers.JOB_MODULES,
         )
+        if "rig" in engines:
+            desk = RigDesk(
+                store, "rig", settings.rig_queue, estop_address(settings.data_dir), trials
+            )
+        manager = RunManager(store, engines, MsgpackCodec(), limits=settings.limits, desk=desk)
         app.state.lab = Lab(
             settings=settings,
             index=STATIC / "index.html" if (STATIC / "index.html").is_file() else None,

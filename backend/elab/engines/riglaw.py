@@ -66,12 +66,14 @@ class RigLaw(Protocol):
     def close(self) -> None: ...
 
 
-def law_for(run: CompiledRun, code: CodeSettings | None = None) -> RigLaw:
+def law_for(run: CompiledRun, code: CodeSettings | None = None, *, trial: bool = False) -> RigLaw:
     """The loop's controller for ``run``; a Python controller's process starts here (about
-    0.1 s: in the engine's command thread, never in the loop)."""
+    0.1 s: in the engine's command thread, never in the loop). ``trial``: for a trial off
+    the rig, where a Python controller is waited for as in a simulation (its own compute
+    time, not the machine's load, decides whether it is too slow)."""
     match run.spec.law:
         case CodeController() as law:
-            return CodeLaw(run, law, code or CodeSettings())
+            return CodeLaw(run, law, code or CodeSettings(), trial=trial)
         case _:
             return LinearLaw.of(run)
 
@@ -136,16 +138,21 @@ class CodeLaw:
     later than the deadline holds the last voltage and counts as late for the supervisor,
     which trips the run; the sandbox itself never ends the controller for lateness."""
 
-    def __init__(self, run: CompiledRun, law: CodeController, settings: CodeSettings) -> None:
+    def __init__(
+        self, run: CompiledRun, law: CodeController, settings: CodeSettings, trial: bool = False
+    ) -> None:
         self.run = run
         self.sandbox = Sandboxed(
             law.source,
             ny=run.spec.plant.ny,
             params=asdict(controller_params(run)),
             deadline=settings.deadline,
-            max_misses=1 << 62,  # the supervisor trips first (n_late)
+            # on the rig the supervisor trips first (n_late); in a trial, as in a
+            # simulation, steps too slow by their own compute time fail it
+            max_misses=settings.max_misses if trial else 1 << 62,
             filename=law.name,
-            hold=True,
+            hold=not trial,
+            patience=settings.patience,
             start_timeout=settings.start,
             nice=CODE_NICE,
         )
@@ -154,7 +161,8 @@ class CodeLaw:
         misses = self.sandbox.times.misses
         v = self.sandbox.step(t, (theta, alpha), r)  # ControllerFailed: the run fails
         u = min(max(v + e, -self.run.u_lim), self.run.u_lim)
-        return u, self.sandbox.times.misses > misses
+        # late: held (on the rig); a trial's late round trips are the machine's, not late
+        return u, self.sandbox.hold and self.sandbox.times.misses > misses
 
     def changed(self, run: CompiledRun) -> RigLaw:
         self.run = run  # new signals; the code stays (a Python controller is not swapped)

@@ -109,11 +109,40 @@ def f(t: float, x: Vector, u: float, p: FlexibleLinkParameters) -> Vector:
     signature; ``x`` as in the module docstring; ``u`` in V.
     """
     _, alpha, theta_dot, alpha_dot = (float(v) for v in x)
+    theta_ddot, alpha_ddot = accelerations(alpha, theta_dot, alpha_dot, u, p)
+    return np.array([theta_dot, alpha_dot, theta_ddot, alpha_ddot])
+
+
+def accelerations(
+    alpha: float, theta_dot: float, alpha_dot: float, u: float, p: FlexibleLinkParameters
+) -> tuple[float, float]:
+    """:math:`\\ddot\\theta` and :math:`\\ddot\\alpha` (rad/s²) of the equations above, on plain
+    floats (what :func:`f` and :func:`rk4_floats` share)."""
     link = p.K_s * alpha + p.B_l * alpha_dot  # torque of the bent link on the servo
     friction = p.B_eq * theta_dot + p.tau_c * math.tanh(theta_dot / p.omega_s)
     theta_ddot = (p.k_u * amplifier(u, p) - friction + link) / p.J_eq
-    alpha_ddot = -link / p.J_l - theta_ddot
-    return np.array([theta_dot, alpha_dot, theta_ddot, alpha_ddot])
+    return theta_ddot, -link / p.J_l - theta_ddot
+
+
+State = tuple[float, float, float, float]
+
+
+def rk4_floats(x: State, u: float, h: float, p: FlexibleLinkParameters) -> State:
+    """:func:`rk4_step` on a tuple of floats: the same arithmetic, several times faster
+    for a loop in Python (a trial of thousands of samples)."""
+    th, al, thd, ald = x
+    a1, b1 = accelerations(al, thd, ald, u, p)
+    g = 0.5 * h
+    a2, b2 = accelerations(al + g * ald, thd + g * a1, ald + g * b1, u, p)
+    a3, b3 = accelerations(al + g * (ald + g * b1), thd + g * a2, ald + g * b2, u, p)
+    a4, b4 = accelerations(al + h * (ald + g * b2), thd + h * a3, ald + h * b3, u, p)
+    k = h / 6.0
+    return (
+        th + k * (thd + 2.0 * (thd + g * a1) + 2.0 * (thd + g * a2) + (thd + h * a3)),
+        al + k * (ald + 2.0 * (ald + g * b1) + 2.0 * (ald + g * b2) + (ald + h * b3)),
+        thd + k * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
+        ald + k * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
+    )
 
 
 def rk4_step(x: Vector, u: float, h: float, p: FlexibleLinkParameters) -> Vector:

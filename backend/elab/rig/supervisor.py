@@ -34,7 +34,9 @@ class SafetyLimits:
     ``theta_max`` (rad, 120°): the servo's arc before the link meets the base's stops;
     ``theta_dot_max`` (rad/s): servo speed; ``alpha_max`` (rad, 15°): the link's deflection
     the strain gauge may see without bending the blade for good; ``n_bad``: bad samples in a
-    row before a trip; ``n_late``: late controller answers in a row before a trip;
+    row before a trip; ``n_late``: late controller answers in a row before a trip, except
+    in a run's first ``n_start`` samples (a fresh controller process's first answers are
+    slow: they hold the voltage, which starts at 0 V, and trip only if still late after);
     ``inactivity`` (s): practable's 90 s after the last command; ``duration`` (s): longest
     run.
     """
@@ -46,6 +48,7 @@ class SafetyLimits:
     alpha_max: float = math.radians(15.0)
     n_bad: int = 10
     n_late: int = 5
+    n_start: int = 50
     inactivity: float = 90.0
     duration: float = 600.0
 
@@ -189,7 +192,7 @@ class Supervisor:
 
     def _deadline(self, k: int, t: float, late: bool) -> Trip | None:
         self._late = self._late + 1 if late else 0
-        if self._late < self.limits.n_late:
+        if self._late < self.limits.n_late or k < self.limits.n_start:
             return None
         message = (
             f"the controller missed its deadline {self._late} samples in a row "

@@ -14,8 +14,11 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import hashlib
 import math
+import pickle
 import time
+from collections import OrderedDict
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import TypeVar
@@ -23,7 +26,10 @@ from typing import TypeVar
 from elab.access import Identity, display_name
 from elab.engines.base import RunOrder
 from elab.engines.riglaw import compile_for_rig
+from elab.engines.rigtrial import TRIAL_S, RigTrial, rig_trial
 from elab.errors import ElabError, Forbidden, InvalidInput, Unavailable
+from elab.jobs import JobPool
+from elab.laws import law_kind
 from elab.rig.estop import send_estop
 from elab.rig_queue import (
     Arm,
@@ -40,9 +46,11 @@ from elab.rig_queue import (
     Start,
     TakeOver,
 )
+from elab.sim.spec import RunSpec
 from elab.store.base import RigQueueStore
 
 T = TypeVar("T")
+PASSED_KEPT = 256  # passed rig trials remembered
 MAX_EXTEND = 24 * 3600.0  # s an instructor may add to a slot at once
 
 
@@ -74,13 +82,16 @@ class RigDesk:
         rig: str,
         policy: QueuePolicy,
         estop: str | None,
+        trials: JobPool | None = None,
         clock: Callable[[], float] = time.time,
     ) -> None:
         self.store = store
         self.rig = rig
         self.policy = policy
         self.estop_address = estop
+        self.trials = trials  # the worker pool rig trials run in (None: this process)
         self.clock = clock
+        self._passed: OrderedDict[str, RigTrial] = OrderedDict()  # trials passed, by run
 
     async def view(self, who: Identity, q: RigQueue | None = None) -> DeskView:
         now = self.clock()
@@ -138,7 +149,7 @@ class RigDesk:
         taken the run: :class:`~elab.errors.Conflict` unless ``who`` drives the rig and
         armed it. A law the rig cannot run is refused before it takes the seat; a run its
         engine refuses all the same gives the seat back (the driver arms again)."""
-        await asyncio.to_thread(compile_for_rig, order.spec)  # InvalidInput: as the engine's
+        await self.validate(order.spec)
         run_id = order.id
         await self._apply(Start(_someone(who, "drive the rig"), run_id), who)
         try:
@@ -148,11 +159,53 @@ class RigDesk:
                 await self._apply(RunEnded(run_id), None)
             raise
 
+    async def validate(self, spec: RunSpec) -> RigTrial:
+        """The run's rig trial (:mod:`elab.engines.rigtrial`), passed, or
+        :class:`~elab.errors.InvalidInput` naming ``controller`` and what tripped. A
+        passed trial is remembered for the same controller, signals and duration."""
+        await asyncio.to_thread(compile_for_rig, spec)  # a law the rig cannot run at all
+        key = _trial_key(spec)
+        trial = self._passed.get(key)
+        if trial is None:
+            if self.trials is not None:
+                trial = await self.trials.run(rig_trial, spec)
+            else:
+                trial = await asyncio.to_thread(rig_trial, spec)
+        problem = trial.problem()
+        if problem is not None:
+            raise InvalidInput(
+                "controller",
+                law_kind(spec.law),
+                "a controller that passes the rig trial: " + problem,
+            )
+        self._passed[key] = trial
+        self._passed.move_to_end(key)
+        while len(self._passed) > PASSED_KEPT:
+            self._passed.popitem(last=False)
+        return trial
+
     async def _apply(self, op: QueueOp, who: Identity | None) -> DeskView:
         change = await asyncio.to_thread(
             self.store.apply_rig, self.rig, op, self.policy, self.clock()
         )
         return await self.view(who or Identity(""), change.queue)
+
+
+def _trial_key(spec: RunSpec) -> str:
+    """What a trial depends on: the law, the signals, the sample time and limits, and
+    the duration tried (pickled: numbers to the last bit)."""
+    tried = (
+        spec.plant.id,
+        spec.law,
+        spec.reference,
+        spec.excitation,
+        spec.excitation_at,
+        spec.Ts,
+        spec.u_max,
+        spec.saturate,
+        min(spec.duration, TRIAL_S),
+    )
+    return hashlib.sha256(pickle.dumps(tried)).hexdigest()
 
 
 def phase_of(q: RigQueue) -> Phase | None:

@@ -14,7 +14,7 @@ from elab.errors import InvalidInput
 from elab.rig.supervisor import Decision, SafetyLimits, Supervisor, Trip, TripReason
 
 TS = 0.002  # s, the rig's 500 Hz
-LIMITS = SafetyLimits(u_max=5.0, slew=500.0, n_bad=10, n_late=3)
+LIMITS = SafetyLimits(u_max=5.0, slew=500.0, n_bad=10, n_late=3, n_start=1)
 OK = {"theta": 0.1, "alpha": 0.01, "theta_dot": 1.0}
 FAST = settings(max_examples=150, deadline=None)
 
@@ -45,7 +45,7 @@ def feed(sup: Supervisor, rows: list[tuple[float, float, float, float, bool]]) -
 def test_the_voltage_and_its_slew_stay_inside_the_limits_and_a_trip_is_for_good(
     rows: list[tuple[float, float, float, float, bool]], n_bad: int
 ) -> None:
-    limits = SafetyLimits(u_max=5.0, slew=500.0, n_bad=n_bad, n_late=3)
+    limits = SafetyLimits(u_max=5.0, slew=500.0, n_bad=n_bad, n_late=3, n_start=1)
     decisions = feed(Supervisor(limits, TS), rows)
     u_prev, tripped = 0.0, False
     for d in decisions:
@@ -189,3 +189,14 @@ def test_the_flexible_link_defaults() -> None:
     assert (lim.u_max, lim.n_bad, lim.inactivity) == (10.0, 10, 90.0)  # practable's 10 and 90 s
     assert math.degrees(lim.theta_max) == pytest.approx(120.0)
     assert math.degrees(lim.alpha_max) == pytest.approx(15.0)
+
+
+def test_late_answers_at_a_runs_start_hold_the_voltage_and_trip_only_after_it() -> None:
+    """A fresh controller process answers its first samples slowly: the voltage holds
+    (0 V at the start) through ``n_start`` samples; still late after them, it trips."""
+    sup = Supervisor(SafetyLimits(n_late=3, n_start=20), 1e-3)
+    for k in range(20):
+        d = sup.step(k, k * 1e-3, 0.0, 0.0, 0.0, 7.0, True)
+        assert d.trip is None and d.u_applied == 0.0
+    d = sup.step(20, 0.02, 0.0, 0.0, 0.0, 7.0, True)
+    assert d.trip is not None and d.trip.reason is TripReason.DEADLINE and d.trip.k == 20
