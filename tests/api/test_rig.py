@@ -370,3 +370,29 @@ def test_only_laws_that_pass_the_rig_trial_drive_and_late_python_trips_the_deadl
     # process that waits for a CPU trip the same way)
     assert end["n_samples"] < 10_600, end
     leave(srv)
+
+
+def test_a_server_killed_with_9_leaves_no_emulator_behind(tmp_path: Path) -> None:
+    server = Server(tmp_path, ELAB_RIG="emulator").start()
+    try:
+        assert server.proc is not None
+        found = subprocess.run(
+            ["pgrep", "-P", str(server.proc.pid), "-f", "rig-emulator"],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        emulator = int(found.stdout.split()[0])
+    finally:
+        server.kill9()
+
+    def gone() -> bool:
+        try:
+            os.kill(emulator, 0)
+        except ProcessLookupError:
+            return True
+        # reaped by init once it exits; a zombie counts as gone
+        state = Path(f"/proc/{emulator}/stat").read_text().split(")")[-1].split()[0]
+        return state == "Z"
+
+    until(gone, 30)

@@ -92,6 +92,11 @@ def build_parser() -> argparse.ArgumentParser:
         default=0,
         help="SCHED_FIFO priority of its clock, as a board's own (0: an ordinary process)",
     )
+    p.add_argument(
+        "--exit-with-parent",
+        action="store_true",
+        help="stop when the process that started it ends (as the server starts it)",
+    )
     p.set_defaults(run="elab.cli.rig:cmd_rig_emulator")
     p = sub.add_parser(
         "rig-estop",

@@ -41,7 +41,12 @@ def cmd_rig_emulator(args: argparse.Namespace) -> str:
     emulator = Emulator(EmulatorConfig(args.host, args.port, args.rig_seed, args.watchdog_samples))
     host, port = emulator.address
     print(f"listening on {host}:{port}", flush=True)  # the first line: how tests find the port
-    emulator.serve(lambda: bool(stop))
+    parent = os.getppid() if args.exit_with_parent else None
+
+    def stopping() -> bool:  # a server killed with -9 leaves no emulator behind
+        return bool(stop) or (parent is not None and os.getppid() != parent)
+
+    emulator.serve(stopping)
     return "rig emulator stopped"
 
 

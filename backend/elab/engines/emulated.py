@@ -33,7 +33,7 @@ class EmulatorProcess:
     def start(self) -> str:
         """Start it; its ``host:port``."""
         cmd = [sys.executable, "-m", "elab.cli", "rig-emulator", "--port", str(self.port)]
-        cmd += ["--realtime", str(self.realtime)]
+        cmd += ["--realtime", str(self.realtime), "--exit-with-parent"]
         self.proc = subprocess.Popen(
             [
                 *cmd,
