@@ -161,6 +161,12 @@ def controllers_section() -> str:
     return bench_controllers()
 
 
+def rig_section() -> str:
+    from tests.bench.rig import rig_section as section
+
+    return section()
+
+
 def cli_section() -> str:
     from tests.bench.cli import bench_cli
 
@@ -176,6 +182,7 @@ SECTIONS: dict[str, Callable[[], str]] = {
     "ident": ident_section,
     "controllers": controllers_section,
     "cli": cli_section,
+    "rig": rig_section,
 }
 OUT = ROOT / "docs" / "benchmarks.md"
 
