@@ -159,6 +159,7 @@ describe("rigSummary and friends", () => {
     expect(s.headline).toBe("In use by guest 3f2a (running a run)");
     expect(s.details).toEqual(["2 waiting", "loop latency p50 42 µs · p99 66 µs · max 328 µs (last 10 s)"]);
     expect(rigSummary(queue()).headline).toBe("Online and free");
+    expect(rigSummary(running(ME_DRIVING)).headline).toBe("In use by you (running a run)");
     expect(rigSummary(running({}, { taken_over: true, driver: "prof (instructor)" })).headline).toBe("In use by prof (instructor) (taken over) (running a run)");
     const off = rigSummary(queue({}, {}, { connected: false, problem: "the rig is not connected: refused" }));
     expect(off.headline).toBe("Offline: the rig is not connected: refused");

@@ -134,7 +134,8 @@ export function latencyText(rig: RigInfo): string | null {
 /** The rig's state for a status line: a headline and what else there is to know. */
 export function rigSummary(q: RigQueueInfo): { condition: RigCondition; headline: string; details: string[] } {
   const condition = rigCondition(q);
-  const holder = q.taken_over ? `${q.driver ?? "an instructor"} (taken over)` : q.driver;
+  const who = q.you.driving ? "you" : q.driver;
+  const holder = q.taken_over ? `${who ?? "an instructor"} (taken over)` : who;
   const doing = q.phase === "running" ? "running a run" : q.phase === "armed" ? "armed, about to start" : "seated, arming";
   const headline = {
     offline: `Offline: ${q.rig.problem ?? "the rig does not answer"}`,

@@ -36,7 +36,9 @@ export class RigRunBar {
       "EMERGENCY STOP",
     );
     this.estopBar = h("div.estop-bar", { role: "region", "aria-label": "rig emergency stop", hidden: true }, h("span.estop-label", "Your run is on the rig"), this.estop, this.estopMsg);
-    this.root = h("div.rig-run", { "data-testid": "rig-run" }, this.ending, h("p.rig-latency", "On the ", this.kind, " · ", this.latency), this.estopBar);
+    this.root = h("div.rig-run", { "data-testid": "rig-run" }, this.ending, h("p.rig-latency", "On the ", this.kind, " · ", this.latency));
+    // on the page's top layer, not inside the run panel: no sticky box may cover it
+    document.body.append(this.estopBar);
     this.follow(run.status);
   }
 
@@ -92,5 +94,6 @@ export class RigRunBar {
 
   destroy(): void {
     this.stopWatching();
+    this.estopBar.remove();
   }
 }

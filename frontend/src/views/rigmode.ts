@@ -13,8 +13,8 @@ import { countdown, queueOf, queueOp, Ticker } from "./rigstatus";
 export type RunMode = "simulation" | "rig";
 
 const STEPS: [RigStep[], string][] = [
-  [["join", "wait"], "Join the rig's queue"],
-  [["arm"], "Arm the rig when it is your turn"],
+  [["join"], "Join the rig's queue"],
+  [["wait", "arm"], "Arm the rig when it is your turn"],
   [["start", "running"], "Start (the button below) — the run goes on the rig"],
 ];
 
@@ -31,7 +31,7 @@ export class RigModeChoice {
   private readonly buttons: Record<"join" | "arm" | "leave", HTMLButtonElement>;
   private readonly msg = h("p.error", { role: "alert", "data-testid": "rig-error" });
   private readonly ticker: Ticker;
-  private unsubscribe: (() => void) | null = null;
+  private readonly unsubscribe: (() => void) | null = null;
   private last: RigQueueInfo | null = null;
 
   /** `available` false: the plant has no rig here, and `root` is null-like (empty, hidden). */
@@ -68,6 +68,9 @@ export class RigModeChoice {
       this.queueBox,
     );
     this.ticker = new Ticker(this.queueBox);
+    // the queue is followed while the choice is on the page: "Real rig" says whether it
+    // is emulated before anyone picks it
+    if (this.available) this.unsubscribe = rigFeed.subscribe((s) => this.show(s));
   }
 
   get mode(): RunMode {
@@ -106,9 +109,6 @@ export class RigModeChoice {
     const rig = this.mode === "rig";
     this.queueBox.hidden = !rig;
     fill(this.msg);
-    // the queue is asked only while the rig is chosen
-    if (rig && !this.unsubscribe) this.unsubscribe = rigFeed.subscribe((s) => this.show(s));
-    if (!rig) this.stopWatching();
     this.onMode(this.mode);
   }
 
@@ -152,13 +152,8 @@ export class RigModeChoice {
     await queueOp(api.leaveRig, this.msg, b);
   }
 
-  private stopWatching(): void {
-    this.unsubscribe?.();
-    this.unsubscribe = null;
-  }
-
   destroy(): void {
-    this.stopWatching();
+    this.unsubscribe?.();
     this.ticker.destroy();
   }
 }
