@@ -5,7 +5,7 @@
 import { api } from "../api";
 import { fill, h } from "../dom";
 import { identity } from "../identity";
-import type { RigQueueInfo } from "../protocol.gen";
+import type { Me, RigQueueInfo } from "../protocol.gen";
 import { clock, placeText, remaining, rigButtons, rigIdentity, rigSummary, type Role } from "../rig";
 import { rigFeed, type RigFeedState } from "../rigfeed";
 import { kindBadge } from "../rigrun";
@@ -119,14 +119,12 @@ export class RigStatusPanel {
       extra,
     );
     this.ticker = new Ticker(this.root);
-    this.unsubscribe = [
-      rigFeed.subscribe((s) => this.show(s)),
-      identity.listen((me) => {
-        this.role = me.role === "instructor" ? "instructor" : "student";
-        if (this.last) this.update(this.last);
-      }),
-    ];
-    void identity.get().then((me) => (this.role = me.role === "instructor" ? "instructor" : "student")).catch(() => undefined);
+    const setRole = (me: Me) => {
+      this.role = me.role === "instructor" ? "instructor" : "student";
+      if (this.last) this.update(this.last);
+    };
+    this.unsubscribe = [rigFeed.subscribe((s) => this.show(s)), identity.listen(setRole)];
+    void identity.get().then(setRole, () => undefined); // unknown: a student's buttons
   }
 
   private show(s: RigFeedState): void {
