@@ -23,6 +23,7 @@ import type {
   PlaceRequest,
   PlantDetail,
   PlantSummary,
+  RigQueueInfo,
   RunCreate,
   RunInfo,
   RunList,
@@ -123,6 +124,18 @@ export const api = {
   designOnModel: (id: string, req: ModelDesignRequest) => call<ModelDesignOut>("POST", `/models/${encodeURIComponent(id)}/design`, req),
   /** a controller's loop on the plant's model: poles, verdict, root locus, margins, peak u */
   loop: (plant: string, req: LoopRequest) => call<LoopOut>("POST", `/plants/${encodeURIComponent(plant)}/loop`, req),
+  /** the rig's queue as the caller sees it (422 naming `rig` on a server without one) */
+  rig: () => call<RigQueueInfo>("GET", "/rig"),
+  /** each answers the queue now: 409 saying why when the step is not the caller's */
+  joinRig: () => call<RigQueueInfo>("POST", "/rig/queue"),
+  leaveRig: () => call<RigQueueInfo>("DELETE", "/rig/queue"),
+  armRig: () => call<RigQueueInfo>("POST", "/rig/arm"),
+  /** 0 V at the rig's next sample (the driver or an instructor) */
+  estopRig: () => call<RigQueueInfo>("POST", "/rig/estop"),
+  /** instructors only (403 otherwise) */
+  takeOverRig: () => call<RigQueueInfo>("POST", "/rig/takeover"),
+  extendRig: (seconds: number) => call<RigQueueInfo>("POST", "/rig/extend", { seconds }),
+  clearRig: () => call<RigQueueInfo>("POST", "/rig/clear"),
   demo: () => call<DemoInfo>("GET", "/demo"),
   pinDemo: (runId: string) => call<DemoInfo>("PUT", "/demo", { run_id: runId }),
   unpinDemo: () => call<null>("DELETE", "/demo"),

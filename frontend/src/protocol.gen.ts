@@ -89,6 +89,7 @@ export interface ElabProtocol {
   DemoPin?: DemoPin;
   DesignOut?: DesignOut;
   EmergencyStop?: EmergencyStop;
+  EngineInfo?: EngineInfo;
   ErrorBody?: ErrorBody;
   ErrorDetail?: ErrorDetail;
   ErrorMessage?: ErrorMessage;
@@ -145,6 +146,10 @@ export interface ElabProtocol {
   ResidualsOut?: ResidualsOut;
   Resume?: Resume;
   ResumeFrom?: ResumeFrom;
+  RigExtend?: RigExtend;
+  RigInfo?: RigInfo;
+  RigPlace?: RigPlace;
+  RigQueueInfo?: RigQueueInfo;
   RootLocusOut?: RootLocusOut;
   RunCreate?: RunCreate;
   RunData?: RunData;
@@ -914,6 +919,32 @@ export interface DesignOut {
   K: number[];
   closed_loop_poles: Complex[];
   convention: string;
+}
+/**
+ * The engine that steps runs, as the web process sees it.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "EngineInfo".
+ */
+export interface EngineInfo {
+  id: string;
+  /**
+   * started and answering
+   */
+  up: boolean;
+  /**
+   * why it is not up, or what is wrong while up
+   */
+  problem: string | null;
+  /**
+   * restarts after its process was lost
+   */
+  restarts: number;
+  pid: number | null;
+  /**
+   * since it last reported (s)
+   */
+  heartbeat_age_s: number | null;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -2005,6 +2036,177 @@ export interface PlantSummary {
   summary: string;
   modes: string[];
   experiments: string[];
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "RigExtend".
+ */
+export interface RigExtend {
+  /**
+   * s added to the driver's slot
+   */
+  seconds: number;
+}
+/**
+ * The flexible-link rig of this server, if it has one (``ELAB_RIG``).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "RigInfo".
+ */
+export interface RigInfo {
+  engine: EngineInfo;
+  /**
+   * the rig answers the host loop
+   */
+  connected: boolean;
+  rig_id: string | null;
+  firmware: string | null;
+  /**
+   * an elab rig-emulator process, not hardware
+   */
+  emulated: boolean;
+  /**
+   * why it is not connected, or out of service
+   */
+  problem: string | null;
+  /**
+   * after a run: 0 V until still, then re-zero
+   */
+  settling: boolean;
+  /**
+   * samples the host loop answered since it started
+   */
+  samples: number;
+  /**
+   * of them, answered more than 1 ms after arriving
+   */
+  late_1ms: number;
+  /**
+   * response latency, last 10 s (µs)
+   */
+  latency_p50_us: number | null;
+  latency_p99_us: number | null;
+  latency_max_us: number | null;
+}
+/**
+ * Where the caller stands in the rig's queue.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "RigPlace".
+ */
+export interface RigPlace {
+  /**
+   * 1: the head (the driver once seated); null: not queued
+   */
+  place: number | null;
+  /**
+   * estimated s until the caller is seated (0: driving; null: not queued, or the rig is out of service)
+   */
+  wait_s: number | null;
+  /**
+   * the caller holds the rig's seat
+   */
+  driving: boolean;
+  /**
+   * unix s by which the caller, seated, must arm the rig or lose the turn
+   */
+  arm_by: number | null;
+}
+/**
+ * The rig's queue now (``GET /rig``; every queue operation answers with it).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "RigQueueInfo".
+ */
+export interface RigQueueInfo {
+  rig: RigInfo1;
+  /**
+   * someone may drive it (out of service: nobody)
+   */
+  in_service: boolean;
+  /**
+   * why nobody may drive it
+   */
+  out_of_service: string | null;
+  /**
+   * a run ended: 0 V until the link is still, then it re-zeroes; the next run starts after
+   */
+  settling: boolean;
+  /**
+   * who holds the seat (a display name)
+   */
+  driver: string | null;
+  /**
+   * seated: must arm within the grace; armed: may start a run; running
+   */
+  phase: ("seated" | "armed" | "running") | null;
+  /**
+   * the run on the rig now
+   */
+  run_id: string | null;
+  /**
+   * unix s the driver's slot ends
+   */
+  slot_ends_at: number | null;
+  /**
+   * an instructor took the rig over
+   */
+  taken_over: boolean;
+  /**
+   * users in the queue behind the driver
+   */
+  waiting: number;
+  /**
+   * a driver's turn (ELAB_RIG_SLOT)
+   */
+  slot_s: number;
+  /**
+   * how long a seated driver may take to arm (ELAB_RIG_GRACE)
+   */
+  grace_s: number;
+  you: RigPlace;
+  /**
+   * the server's unix s these times are relative to
+   */
+  now: number;
+}
+/**
+ * The flexible-link rig of this server, if it has one (``ELAB_RIG``).
+ */
+export interface RigInfo1 {
+  engine: EngineInfo;
+  /**
+   * the rig answers the host loop
+   */
+  connected: boolean;
+  rig_id: string | null;
+  firmware: string | null;
+  /**
+   * an elab rig-emulator process, not hardware
+   */
+  emulated: boolean;
+  /**
+   * why it is not connected, or out of service
+   */
+  problem: string | null;
+  /**
+   * after a run: 0 V until still, then re-zero
+   */
+  settling: boolean;
+  /**
+   * samples the host loop answered since it started
+   */
+  samples: number;
+  /**
+   * of them, answered more than 1 ms after arriving
+   */
+  late_1ms: number;
+  /**
+   * response latency, last 10 s (µs)
+   */
+  latency_p50_us: number | null;
+  latency_p99_us: number | null;
+  latency_max_us: number | null;
 }
 /**
  * A run to start. Omitted fields take the plant's defaults; units are SI.

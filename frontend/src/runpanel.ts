@@ -12,6 +12,7 @@ import { type ChangeEntry, type ChangeLike, ParamLog, shortLabel } from "./param
 import { channelColor, LivePlot, type LiveTrace } from "./plot";
 import type { ComputeTimes, PlantDetail, RunInfo } from "./protocol.gen";
 import { ReplayControls } from "./replay";
+import { RigRunBar } from "./rigrun";
 import { PlantSchematic } from "./schematicview";
 import { SampleRing } from "./series";
 import { RunStream } from "./stream";
@@ -70,6 +71,8 @@ export class RunPanel {
   private outputs: string[];
   /** another run drawn over this one (overlay) */
   private companion: CompanionRun | null = null;
+  /** a run on the rig: its emergency stop, loop latency and why it ended */
+  private readonly rig: RigRunBar | null;
 
   constructor(
     public run: RunInfo,
@@ -104,6 +107,7 @@ export class RunPanel {
       h("option", { value: "all" }, "whole run"),
     );
     this.windowSel.value = ENDED.has(run.status) ? "all" : "10";
+    this.rig = run.mode === "rig" ? new RigRunBar(run, () => this.stream.send({ type: "estop" })) : null;
     const share = `${location.origin}/runs/${run.id}`;
     this.root = h(
       "section.run-panel",
@@ -117,11 +121,13 @@ export class RunPanel {
         h("span.owner", { "data-testid": "run-owner" }, controlLabel(run)),
         run.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null,
       ),
+      this.rig?.root,
       h("div.run-view", this.plotDiv, this.schematic.root),
       this.replaySlot,
       h(
         "div.toolbar",
-        options.controls !== false && run.can_control ? h("span.group", this.buttons.pause, this.buttons.resume, this.buttons.stop) : null,
+        // a rig run cannot pause (a motor at 0 V holds no position): stop it
+        options.controls !== false && run.can_control ? h("span.group", this.rig ? null : this.buttons.pause, this.rig ? null : this.buttons.resume, this.buttons.stop) : null,
         h("label.inline", "Window ", this.windowSel),
         h(
           "span.group.downloads",
@@ -169,6 +175,7 @@ export class RunPanel {
         this.plot.setWindow(null);
         this.progress();
         this.offerReplay();
+        this.rig?.complete(this.column("latency"));
       },
     }, { fromSeq: this.firstSeq(run) }).open();
     this.setState(run.status);
@@ -262,6 +269,7 @@ export class RunPanel {
     this.buttons.resume.disabled = state !== "paused";
     this.buttons.stop.disabled = ended;
     this.options.onState?.(state);
+    this.rig?.follow(state);
     this.progress();
     if (ended && this.options.awaitCompute && !this.computeAsked && !this.run.compute) {
       this.computeAsked = true;
@@ -299,6 +307,7 @@ export class RunPanel {
 
   /** Why the run is in `state` (paused by someone, stopped, failed), from the server. */
   private setReason(state: string, reason: string | null): void {
+    if (this.rig?.follow(state, reason)) return; // a rig run's end has its own banner
     const tone = reasonTone(state, reason);
     if (tone === "error") fill(this.messageEl, reason);
     else if (tone === "notice") fill(this.noticeEl, reason);
@@ -340,6 +349,14 @@ export class RunPanel {
     }
   }
 
+  /** A channel's samples held in the page, oldest first (null: the run has no such channel). */
+  private column(name: string): Float32Array | null {
+    if (!this.run.channels.some((c) => c.name === name)) return null;
+    const out = new Float32Array(this.ring.size);
+    for (let i = 0; i < out.length; i++) out[i] = this.ring.at(name, this.ring.start + i);
+    return out;
+  }
+
   /** The samples held in the page (what the plot can show), as CSV in SI units. */
   private savePlotData(): void {
     const k0 = this.ring.start;
@@ -361,6 +378,7 @@ export class RunPanel {
     this.replay?.destroy();
     this.schematic.destroy();
     this.companion?.destroy();
+    this.rig?.destroy();
     this.plot.destroy();
   }
 }

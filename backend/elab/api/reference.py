@@ -229,6 +229,8 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.ControllerUpload, "validation"),
     (s.UploadedController, "serialization"),
     (s.UploadedControllerList, "serialization"),
+    (s.RigQueueInfo, "serialization"),
+    (s.RigExtend, "validation"),
     # the unions by name, as clients build them and as the server describes them
     (s.Controller, "validation"),
     (s.Controller, "serialization"),

@@ -12,6 +12,7 @@ import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, RunInf
 import { RunPanel } from "../runpanel";
 import { fmt } from "../units";
 import { downloadButton, errorText, experimentPage, failure, loading, showApiError } from "./common";
+import { RigModeChoice, type RunMode } from "./rigmode";
 import { StepPlot } from "./stepplot";
 
 export function analysisPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
@@ -32,6 +33,7 @@ class AnalysisView {
   private readonly runFields = new FieldSet();
   private readonly initial: InitialStateForm;
   private readonly startOptions = new StartOptions();
+  private readonly where: RigModeChoice;
   private readonly outputs: HTMLSelectElement;
   private readonly startBtn: HTMLButtonElement;
   private readonly applyBtn: HTMLButtonElement;
@@ -55,12 +57,14 @@ class AnalysisView {
       h("option", { value: "" }, "all outputs"),
       ...plant.outputs.map((o) => h("option", { value: o.name }, `${o.label} only`)),
     );
+    this.where = new RigModeChoice(plant, "analysis", (mode) => this.modeChanged(mode));
     this.startBtn = h("button.primary", { type: "submit" }, "Start");
     this.applyBtn = h("button", { type: "button", disabled: true, onclick: () => void this.apply() }, "Apply changes to the running run");
     const form = h(
       "form.run-form.panel",
       { novalidate: true, "aria-label": "run settings", onsubmit: (ev: Event) => (ev.preventDefault(), void this.start()) },
       h("h2", "Closed-loop run"),
+      this.where.root,
       this.controller.root,
       this.signal.root,
       this.initial.root,
@@ -88,18 +92,23 @@ class AnalysisView {
     const controller = this.controllerValue();
     const signal = this.signal.value();
     const duration = this.duration.check();
-    const x0 = this.initial.value();
+    const mode = this.where.mode;
+    const x0 = mode === "rig" ? undefined : this.initial.value(); // the rig starts where it is, re-zeroed
     if (!controller || !signal || duration === null || x0 === null) {
       fill(this.formMsg, "Please correct the marked fields; nothing was sent.");
       return;
     }
-    const req: RunCreate = { plant: this.plant.id, experiment: "analysis", controller, signal, duration, pace: "realtime", private: this.startOptions.private, ...(x0 ? { x0 } : {}) };
+    const blocked = this.where.blocker();
+    if (blocked) return void fill(this.formMsg, "Nothing was sent: see the rig's steps above.");
+    const req: RunCreate = { plant: this.plant.id, mode, experiment: "analysis", controller, signal, duration, pace: "realtime", private: this.startOptions.private, ...(x0 ? { x0 } : {}) };
     this.startBtn.disabled = true;
     const previous = this.run;
     try {
       this.attach(await api.createRun(req));
+      if (mode === "rig") this.where.started();
     } catch (err) {
       showApiError(err, [this.controller.fields, this.signal.fields, this.runFields, this.initial.fields], this.formMsg);
+      if (mode === "rig") this.where.refused(err);
       return;
     } finally {
       this.startBtn.disabled = false;
@@ -125,6 +134,12 @@ class AnalysisView {
     history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
   }
 
+  /** A rig run starts where the rig is (re-zeroed): no start state to choose. */
+  private modeChanged(mode: RunMode): void {
+    this.initial.disabled = mode === "rig";
+    fill(this.formMsg);
+  }
+
   private onState(state: string, run: RunInfo): void {
     const live = state === "running" || state === "paused";
     const mine = live && run.can_control;
@@ -132,7 +147,7 @@ class AnalysisView {
     this.startBtn.textContent = live ? "Start a new run" : "Start";
     // what a running run cannot change: it is fixed until the run ends
     this.duration.disabled = mine;
-    this.initial.disabled = mine;
+    this.initial.disabled = mine || this.where.mode === "rig";
   }
 
   /** The gains and the reference in the form, from the next sample of the running run;
@@ -267,6 +282,7 @@ class AnalysisView {
 
   destroy(): void {
     this.run?.destroy();
+    this.where.destroy();
     for (const d of this.plots) purge(d);
     for (const st of this.steps) st.destroy();
   }

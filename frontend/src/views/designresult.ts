@@ -13,6 +13,7 @@ import type { Controller, ErrorDetail, LoopOut, PlantDetail, StepOut } from "../
 import { RunPanel } from "../runpanel";
 import { display, fmt, quantity } from "../units";
 import { downloadButton, errorText, showApiError } from "./common";
+import { RigModeChoice } from "./rigmode";
 
 /** A design as the page shows it. */
 export interface Shown {
@@ -44,6 +45,7 @@ export class DesignResult {
   private readonly stepDiv = h("div.chart", { "data-testid": "design-step" });
   private readonly locusDiv = h("div.chart", { "data-testid": "root-locus" });
   private readonly startOptions = new StartOptions("design-start");
+  private readonly where: RigModeChoice;
   private run: RunPanel | null = null;
   private shown: Shown | null = null;
 
@@ -52,6 +54,7 @@ export class DesignResult {
     /** recompute with a gain typed by hand (null: no hand-editing) */
     private readonly onGain: (shown: Shown, K: number[]) => Promise<void>,
   ) {
+    this.where = new RigModeChoice(plant, "design-run");
     this.root = h("div.design-result", this.result, this.runBox);
   }
 
@@ -201,10 +204,14 @@ export class DesignResult {
     runFields.add(durationField(p.default_duration, undefined, undefined, Ts));
     const msg = h("p.error", { role: "alert" });
     const controller = d.controller;
+    // the rig steps at the plant's sample time: a discrete design for another one stays in simulation
+    const onRig = !d.runTs || Math.abs(d.runTs - p.Ts) < 1e-12;
+    if (!onRig) this.where.useSimulation();
     return h(
       "form.run-form",
       { novalidate: true, "aria-label": "run this design", onsubmit: (ev: Event) => (ev.preventDefault(), void this.runIt(d, controller, reference, runFields, msg)) },
-      h("h3", "Run it on the simulated plant"),
+      h("h3", onRig && this.where.available ? "Run it" : "Run it on the simulated plant"),
+      onRig ? this.where.root : null,
       d.runTs && Math.abs(d.runTs - p.Ts) > 1e-12 ? h("p.hint", `At the model's sample time Ts = ${fmt(d.runTs * 1000)} ms (the controller is discrete).`) : null,
       reference.root,
       h("div.grid", ...[...runFields.fields.values()].map((f) => f.root)),
@@ -219,9 +226,12 @@ export class DesignResult {
     const signal = reference.value();
     const v = runFields.values();
     if (!signal || !v) return void fill(msg, "Please correct the marked fields; nothing was sent.");
+    const mode = this.where.mode;
+    if (this.where.blocker()) return void fill(msg, "Nothing was sent: see the rig's steps above.");
     const previous = this.run;
     try {
-      const info = await api.createRun({ plant: this.plant.id, experiment: "design", controller, signal, duration: v.get("duration")!, pace: "realtime", private: this.startOptions.private, ...(d.runTs ? { Ts: d.runTs } : {}) });
+      const info = await api.createRun({ plant: this.plant.id, mode, experiment: "design", controller, signal, duration: v.get("duration")!, pace: "realtime", private: this.startOptions.private, ...(d.runTs && mode === "simulation" ? { Ts: d.runTs } : {}) });
+      if (mode === "rig") this.where.started();
       if (this.shown !== d) {
         // a new design came while the run started: this run is not the shown design's
         await api.stop(info.id).catch(() => undefined);
@@ -235,6 +245,7 @@ export class DesignResult {
     } catch (err) {
       if (err instanceof ApiError) showApiError(err, [reference.fields, runFields], msg);
       else fill(msg, String(err));
+      if (mode === "rig") this.where.refused(err);
       return;
     }
     await this.startOptions.retire(previous).catch((err: unknown) => fill(msg, `The previous run goes on: ${errorText(err)}`));
@@ -253,6 +264,7 @@ export class DesignResult {
 
   destroy(): void {
     this.run?.destroy();
+    this.where.destroy();
     purge(this.stepDiv);
     purge(this.locusDiv);
   }

@@ -4,6 +4,7 @@ import { api } from "../api";
 import { fill, h, link } from "../dom";
 import { identity } from "../identity";
 import { EXPERIMENTS, errorText, failure, loading, plantDetail } from "./common";
+import { RigStatusPanel } from "./rigstatus";
 import { runTable } from "./runtable";
 
 /** How often the start page asks whether the class demo changed (a projector shows it). */
@@ -11,12 +12,15 @@ const DEMO_REFRESH_MS = 5000;
 
 export async function home(root: HTMLElement): Promise<() => void> {
   const demo = h("div", { "data-testid": "demo-slot" });
+  const rigSlot = h("div");
+  let rig: RigStatusPanel | null = null;
   const cards = h("div.cards", loading());
   const recent = h("div", loading());
   const recentMsg = h("p.error", { role: "alert" });
   root.append(
     h("header.page.hero", h("h1", "E-Lab"), h("p.lead", "A web laboratory for control engineering. Pick a plant and an experiment; the response draws itself live as the run goes.")),
     demo,
+    rigSlot,
     h("section", { "aria-labelledby": "plants-h" }, h("h2#plants-h", "Plants and experiments"), cards),
     h("section", { "aria-labelledby": "runs-h" }, h("h2#runs-h", "Recent runs"), recentMsg, recent),
   );
@@ -42,6 +46,12 @@ export async function home(root: HTMLElement): Promise<() => void> {
         ),
       ),
     );
+    // a plant runs on the rig only where the server has one: its status, else nothing
+    const onRig = plants.find((p) => p.modes.includes("rig"));
+    if (onRig) {
+      rig = new RigStatusPanel(h("p.hint", `Run on it from the ${onRig.name.toLowerCase()}'s `, ...onRig.experiments.flatMap((e, i) => [i ? (i === onRig.experiments.length - 1 ? " or " : ", ") : "", link(`/plants/${onRig.id}/${e}`, EXPERIMENTS[e]?.title.toLowerCase() ?? e)]), ": choose “Real rig”."));
+      fill(rigSlot, rig.root);
+    }
   } catch (err) {
     fill(cards, failure(err));
   }
@@ -55,7 +65,10 @@ export async function home(root: HTMLElement): Promise<() => void> {
     }
   };
   await showRecent();
-  return () => clearInterval(timer);
+  return () => {
+    clearInterval(timer);
+    rig?.destroy();
+  };
 }
 
 /** The pinned class demo as a banner (null: none pinned); instructors may unpin it. */

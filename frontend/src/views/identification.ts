@@ -9,6 +9,7 @@ import { RunPanel } from "../runpanel";
 import { display, fmt } from "../units";
 import { errorText, experimentPage, showApiError } from "./common";
 import { IdentAnalysis } from "./identanalysis";
+import { RigModeChoice, type RunMode } from "./rigmode";
 
 export function identificationPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
   return experimentPage(root, params.id, "identification", (plant) => {
@@ -24,6 +25,7 @@ class IdentificationView {
   private excitation!: SignalForm;
   private readonly runFields = new FieldSet();
   private readonly startOptions = new StartOptions();
+  private readonly where: RigModeChoice;
   private readonly loop: HTMLSelectElement;
   private readonly realistic = h("input", { type: "checkbox", id: "realistic-sensors", name: "realistic", checked: true });
   private readonly excitationSlot = h("div");
@@ -47,11 +49,13 @@ class IdentificationView {
       h("option", { value: "open" }, "open loop: the excitation is the plant input"),
     );
     const duration = this.runFields.add(durationField(30, undefined, undefined, plant.Ts));
+    this.where = new RigModeChoice(plant, "ident", (mode) => this.modeChanged(mode));
     this.buildExcitation();
     const form = h(
       "form.run-form.panel",
       { novalidate: true, "aria-label": "identification experiment", onsubmit: (ev: Event) => (ev.preventDefault(), void this.start()) },
       h("h2", "Experiment"),
+      this.where.root,
       h("fieldset", h("legend", "Loop"), h("div.field", h("label", { for: "loop" }, "Configuration"), this.loop), h("small.hint", `The predefined controller (${plant.predefined_design}) keeps the plant near its operating point; open loop suits stable plants only.`)),
       this.excitationSlot,
       h("fieldset", h("legend", "Sensors"), h("label.check", this.realistic, " Realistic sensors"), h("small.hint", { id: "sensors-hint" }, `On: the outputs carry the plant's sensor noise (${sensorText(plant, plant.sensors.noise_std ?? [])}, white) and are rounded to its sensors' resolution (${sensorText(plant, plant.sensors.quantum ?? [])}), as a real experiment's would. Off: exact outputs. The download's header says which.`)),
@@ -86,8 +90,11 @@ class IdentificationView {
     const excitation = this.excitation.value();
     const v = this.runFields.values();
     if (!excitation || !v) return null;
-    const realistic = this.realistic.checked; // the server's default for identification: realistic
-    const base = { plant: this.plant.id, experiment: "identification" as const, duration: v.get("duration")!, pace: "realtime" as const, private: this.startOptions.private, noise: realistic, quantize: realistic };
+    const mode = this.where.mode;
+    // the server's default for simulated identification: realistic; the rig's sensors are real
+    const realistic = mode === "simulation" && this.realistic.checked;
+    const sensors = mode === "rig" ? {} : { noise: realistic, quantize: realistic };
+    const base = { plant: this.plant.id, mode, experiment: "identification" as const, duration: v.get("duration")!, pace: "realtime" as const, private: this.startOptions.private, ...sensors };
     const loop = this.loop.value as Loop;
     if (loop === "open") return { ...base, controller: { kind: "open_loop" }, signal: excitation };
     return { ...base, controller: { kind: "predefined" }, signal: { kind: "step", amplitude: 0 }, excitation, excitation_at: loop === "closed-input" ? "input" : "reference" };
@@ -100,9 +107,11 @@ class IdentificationView {
       fill(this.formMsg, "Please correct the marked fields; nothing was sent.");
       return;
     }
+    if (this.where.blocker()) return void fill(this.formMsg, "Nothing was sent: see the rig's steps above.");
     const previous = this.run;
     try {
       const info = await api.createRun(req);
+      if (req.mode === "rig") this.where.started();
       this.run?.destroy();
       this.run = new RunPanel(info, this.plant, { onState: (s) => this.onState(s) });
       fill(this.runArea, this.run.root);
@@ -113,9 +122,16 @@ class IdentificationView {
       history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
     } catch (err) {
       showApiError(err, [this.excitation.fields, this.runFields], this.formMsg);
+      if (req.mode === "rig") this.where.refused(err);
       return;
     }
     await this.startOptions.retire(previous).catch((err: unknown) => fill(this.formMsg, `The previous run goes on: ${errorText(err)}`));
+  }
+
+  /** The rig's sensors are real: no simulated noise or quantisation to choose. */
+  private modeChanged(mode: RunMode): void {
+    this.realistic.disabled = mode === "rig";
+    fill(this.formMsg);
   }
 
   private onState(state: string): void {
@@ -152,6 +168,7 @@ class IdentificationView {
 
   destroy(): void {
     this.run?.destroy();
+    this.where.destroy();
     this.analysis?.destroy();
     this.fileAnalysis.destroy();
   }
@@ -170,6 +187,7 @@ function sensorText(p: PlantDetail, values: number[]): string {
 
 /** How a run's outputs were measured, from its recorded request. */
 function sensorsUsed(p: PlantDetail, run: RunInfo): string {
+  if (run.mode === "rig") return "the rig's own sensors (encoder and strain gauge), as measured";
   const r = run.request as { noise?: boolean; seed?: number | null; quantize?: boolean };
   const noise = r.noise ?? (r.seed !== null && r.seed !== undefined);
   const parts = [noise ? `noise σ ${sensorText(p, p.sensors.noise_std ?? [])} (seed ${String(r.seed)})` : "no noise", r.quantize ? `quantised to ${sensorText(p, p.sensors.quantum ?? [])}` : "not quantised"];

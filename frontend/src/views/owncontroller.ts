@@ -13,6 +13,7 @@ import { RunPanel } from "../runpanel";
 import { controllerTable } from "./controllerlist";
 import { controllerReport } from "./controllerreport";
 import { errorText, loading, showApiError } from "./common";
+import { RigModeChoice } from "./rigmode";
 
 const TEMPLATES: [ControllerFormat, string][] = [
   ["toml", "TOML (with comments)"],
@@ -37,6 +38,7 @@ export class OwnControllerView {
   private readonly startOptions = new StartOptions(ID);
   private readonly runMsg = h("p.error", { role: "alert" });
   private readonly runForm: HTMLFormElement;
+  private readonly where: RigModeChoice;
   private selected: UploadedController | null = null;
   private run: RunPanel | null = null;
   /** a file dropped beside the panel would make the browser open it, leaving the page */
@@ -50,11 +52,13 @@ export class OwnControllerView {
     const unit = plant.outputs.find((o) => o.name === plant.reference_output)?.unit ?? "";
     this.reference = new SignalForm("signal", "Reference", ["square", "step", "sine"], unit, plant.default_signal, undefined, ID);
     this.runFields.add(durationField(plant.default_duration, undefined, ID));
+    this.where = new RigModeChoice(plant, ID);
     this.runForm = h(
       "form.run-form",
       { novalidate: true, "aria-label": "run your controller", onsubmit: (ev: Event) => (ev.preventDefault(), this.selected && void this.runIt(this.selected)) },
       h("h3", "Run it"),
-      h("p.hint", "Starts your controller and, dotted on the same plot, the predefined controller under the same reference (simulation)."),
+      h("p.hint", "Starts your controller and, dotted on the same plot, the predefined controller under the same reference (simulation). On the real rig: your controller on the rig, and dotted its simulation."),
+      this.where.root,
       this.reference.root,
       h("div.grid", ...[...this.runFields.fields.values()].map((f) => f.root)),
       this.startOptions.root,
@@ -183,29 +187,35 @@ export class OwnControllerView {
     const signal = this.reference.value();
     const v = this.runFields.values();
     if (!signal || !v) return void fill(this.runMsg, "Please correct the marked fields; nothing was sent.");
+    const mode = this.where.mode;
+    if (this.where.blocker()) return void fill(this.runMsg, "Nothing was sent: see the rig's steps above.");
     const same: RunCreate = { plant: this.plant.id, experiment: "design", signal, duration: v.get("duration")!, pace: "realtime", private: this.startOptions.private };
     const previous = this.run;
     let info: RunInfo;
     try {
-      info = await api.createRun({ ...same, controller_id: c.id });
+      info = await api.createRun({ ...same, mode, controller_id: c.id });
+      if (mode === "rig") this.where.started();
     } catch (err) {
       showApiError(err, [this.reference.fields, this.runFields], this.runMsg);
+      if (mode === "rig") this.where.refused(err);
       return;
     }
-    let predefined: RunInfo | null = null;
+    // beside it: the predefined controller's simulation, or on the rig its own simulation
+    const other = mode === "rig" ? { req: { ...same, controller_id: c.id }, label: "its simulation", title: " on the rig against its simulation" } : { req: { ...same, controller: { kind: "predefined" as const } }, label: "predefined controller", title: " against the predefined controller" };
+    let companion: RunInfo | null = null;
     let why = "";
     try {
-      predefined = await api.createRun({ ...same, controller: { kind: "predefined" } });
+      companion = await api.createRun(other.req);
     } catch (err) {
       why = errorText(err);
     }
     previous?.destroy();
     this.run = new RunPanel(info, this.plant, { awaitCompute: c.format === "py" });
-    if (predefined) this.run.overlay(predefined, "predefined controller");
+    if (companion) this.run.overlay(companion, other.label);
     fill(
       this.runBox,
-      h("h2", `${c.name}${predefined ? " against the predefined controller" : ""}`),
-      why ? h("p.notice", `The predefined controller's run did not start, so yours runs alone: ${why}`) : null,
+      h("h2", `${c.name}${companion ? other.title : ""}`),
+      why ? h("p.notice", `The run to draw beside it (${other.label}) did not start, so yours runs alone: ${why}`) : null,
       this.run.root,
     );
     this.runBox.hidden = false;
@@ -222,5 +232,6 @@ export class OwnControllerView {
     window.removeEventListener("dragover", this.elsewhere);
     window.removeEventListener("drop", this.elsewhere);
     this.run?.destroy();
+    this.where.destroy();
   }
 }

@@ -4,8 +4,9 @@ import { renderMarkdown, tex } from "../markdown";
 import type { PlantDetail } from "../protocol.gen";
 import { fmt } from "../units";
 import { EXPERIMENTS, failure, loading, pageHeader, plantDetail, plantTabs } from "./common";
+import { RigStatusPanel } from "./rigstatus";
 
-export async function plantPage(root: HTMLElement, params: Record<string, string>): Promise<void> {
+export async function plantPage(root: HTMLElement, params: Record<string, string>): Promise<(() => void) | void> {
   root.append(loading());
   let plant: PlantDetail;
   try {
@@ -15,10 +16,12 @@ export async function plantPage(root: HTMLElement, params: Record<string, string
     return;
   }
   const description = h("article.description.panel");
+  const rig = plant.modes.includes("rig") ? new RigStatusPanel() : null;
   description.innerHTML = renderMarkdown(plant.description);
   root.replaceChildren(
     pageHeader(plant.name, [[`/plants/${plant.id}`, plant.name]], h("p.lead", plant.summary)),
     plantTabs(plant, `/plants/${plant.id}`),
+    rig?.root ?? "",
     h(
       "div.toolbar.no-print",
       h("button", { type: "button", onclick: () => window.print() }, "Print"),
@@ -28,6 +31,7 @@ export async function plantPage(root: HTMLElement, params: Record<string, string
     h("section.panel", h("h2", "Parameters"), parameters(plant)),
     h("section.panel.no-print", h("h2", "Experiments"), h("ul.experiments", ...plant.experiments.map((e) => h("li", link(`/plants/${plant.id}/${e}`, EXPERIMENTS[e]?.title ?? e), " — ", EXPERIMENTS[e]?.blurb ?? "")))),
   );
+  return rig ? () => rig.destroy() : undefined;
 }
 
 function matrix(name: string, m: number[][]): HTMLElement {
