@@ -2119,7 +2119,7 @@ export interface RigPlace {
  * via the `definition` "RigQueueInfo".
  */
 export interface RigQueueInfo {
-  rig: RigInfo1;
+  rig: RigInfo;
   /**
    * someone may drive it (out of service: nobody)
    */
@@ -2169,44 +2169,6 @@ export interface RigQueueInfo {
    * the server's unix s these times are relative to
    */
   now: number;
-}
-/**
- * The flexible-link rig of this server, if it has one (``ELAB_RIG``).
- */
-export interface RigInfo1 {
-  engine: EngineInfo;
-  /**
-   * the rig answers the host loop
-   */
-  connected: boolean;
-  rig_id: string | null;
-  firmware: string | null;
-  /**
-   * an elab rig-emulator process, not hardware
-   */
-  emulated: boolean;
-  /**
-   * why it is not connected, or out of service
-   */
-  problem: string | null;
-  /**
-   * after a run: 0 V until still, then re-zero
-   */
-  settling: boolean;
-  /**
-   * samples the host loop answered since it started
-   */
-  samples: number;
-  /**
-   * of them, answered more than 1 ms after arriving
-   */
-  late_1ms: number;
-  /**
-   * response latency, last 10 s (µs)
-   */
-  latency_p50_us: number | null;
-  latency_p99_us: number | null;
-  latency_max_us: number | null;
 }
 /**
  * A run to start. Omitted fields take the plant's defaults; units are SI.

@@ -101,6 +101,7 @@ class Server:
             except httpx.HTTPError:
                 pass
             time.sleep(0.1)
+        self.stop()  # not left running (with its engines and emulator) after the failure
         raise RuntimeError("server did not start in 60 s")
 
     def stop(self) -> None:

@@ -181,7 +181,7 @@ def warm() -> None:
 
 
 def tripped(trip: Trip) -> str:
-    return f"safety trip ({trip.reason}) at sample {trip.k}: {trip.message}; 0 V since"
+    return f"safety trip ({trip.reason}) at sample {trip.k}: {trip.message}; the motor at 0 V from then on"
 
 
 class Differentiator:

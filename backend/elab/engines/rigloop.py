@@ -294,14 +294,14 @@ class HostLoop:
         except ControllerFailed as exc:
             self._row(active, [r, 0.0, s.theta, s.alpha, theta_dot, alpha_dot, 0.0])
             active.k += 1
-            self._finish(active, RunState.FAILED, f"{exc}; 0 V since")
+            self._finish(active, RunState.FAILED, f"{exc}; the motor at 0 V from then on")
             return 0.0
         if not math.isfinite(u_req):  # the law's arithmetic overflowed: nothing to apply
             self._row(active, [r, 0.0, s.theta, s.alpha, theta_dot, alpha_dot, 0.0])
             active.k += 1
             reason = (
                 f"the controller's voltage is {u_req} at t = {t:.4g} s: its numbers overflow "
-                "(a reference or gain too large); 0 V since"
+                "(a reference or gain too large); the motor at 0 V from then on"
             )
             self._finish(active, RunState.FAILED, reason)
             return 0.0

@@ -27,7 +27,7 @@ class RigPlace(Model):
 class RigQueueInfo(Model):
     """The rig's queue now (``GET /rig``; every queue operation answers with it)."""
 
-    rig: RigInfo = Field(description="the rig itself: connection, identity, loop latency")
+    rig: RigInfo  # the rig itself: connection, identity, loop latency
     in_service: bool = Field(description="someone may drive it (out of service: nobody)")
     out_of_service: str | None = Field(description="why nobody may drive it")
     settling: bool = Field(
