@@ -181,7 +181,10 @@ def warm() -> None:
 
 
 def tripped(trip: Trip) -> str:
-    return f"safety trip ({trip.reason}) at sample {trip.k}: {trip.message}; the motor at 0 V from then on"
+    return (
+        f"safety trip ({trip.reason}) at sample {trip.k}: {trip.message}; the motor at 0 V "
+        "from then on"
+    )
 
 
 class Differentiator:
