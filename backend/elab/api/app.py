@@ -81,7 +81,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
             EmulatorProcess(
                 settings.rig_seed,
                 settings.rig_watchdog,
-                min(99, settings.engine.realtime + 1) if settings.engine.realtime else 0,
+                min(99, settings.engine.realtime + 2) if settings.engine.realtime else 0,
             )
             if settings.rig == "emulator"
             else None
@@ -98,7 +98,12 @@ def create_app(settings: Settings | None = None) -> Starlette:
                 settings.database,
                 RigSettings(
                     address=address,
-                    realtime=settings.engine.realtime,
+                    # ahead of the simulation's stepping thread (at ELAB_ENGINE_REALTIME),
+                    # which a burst of simulations keeps busy: the rig's watchdog waits
+                    # for nobody
+                    realtime=min(98, settings.engine.realtime + 1)
+                    if settings.engine.realtime
+                    else 0,
                     slot=settings.rig_queue.slot,
                     grace=settings.rig_queue.grace,
                     estop=estop_address(settings.data_dir),

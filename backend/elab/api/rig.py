@@ -5,9 +5,12 @@ nothing of this: they watch rig runs like any other."""
 
 from __future__ import annotations
 
+from collections.abc import Awaitable, Callable
+
 from starlette.requests import HTTPConnection, Request
 from starlette.responses import Response
 
+from elab.access import Identity
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import endpoint, ok, read_model
@@ -53,96 +56,83 @@ def queue_info(request: Request, view: DeskView) -> s.RigQueueInfo:
 
 
 ERRORS = (403, 409, 422, 503)
+#: what a queue operation does to the desk, as the caller
+Act = Callable[[RigDesk, Identity], Awaitable[DeskView]]
 
 
-@endpoint(
-    "GET",
-    "/rig",
-    "The rig's queue: who drives, your place and wait",
-    response=s.RigQueueInfo,
-    errors=(422,),
-)
+@endpoint("GET", "/rig", response=s.RigQueueInfo, errors=(422,))
 async def get_rig(request: Request) -> Response:
+    """The rig's queue: who drives, your place and wait"""
     return ok(queue_info(request, await rig_desk(request).view(identity(request))))
 
 
-@endpoint("POST", "/rig/queue", "Join the rig's queue", response=s.RigQueueInfo, errors=ERRORS)
-async def join_queue(request: Request) -> Response:
-    """The head of the queue is seated for a slot of ``slot_s`` s and must arm within
-    ``grace_s`` s or lose the turn; 409 if the caller is queued already."""
-    return ok(queue_info(request, await rig_desk(request).join(identity(request))))
+def _queue_endpoint(method: str, path: str, name: str, act: Act, doc: str) -> None:
+    """``method path`` (operation ``name``): ``act`` as the caller, answered with the
+    queue; ``doc`` the summary, then the description."""
+
+    async def handler(request: Request) -> Response:
+        return ok(queue_info(request, await act(rig_desk(request), identity(request))))
+
+    handler.__name__ = handler.__qualname__ = name
+    handler.__doc__ = doc
+    endpoint(method, path, response=s.RigQueueInfo, errors=ERRORS)(handler)
 
 
-@endpoint(
-    "DELETE",
+_queue_endpoint(
+    "POST",
     "/rig/queue",
-    "Leave the rig's queue (a driver's run stops)",
-    response=s.RigQueueInfo,
-    errors=ERRORS,
+    "join_queue",
+    RigDesk.join,
+    """Join the rig's queue
+
+    The head of the queue is seated for a slot of ``slot_s`` s and must arm within
+    ``grace_s`` s or lose the turn; 409 if the caller is queued already.""",
 )
-async def leave_queue(request: Request) -> Response:
-    return ok(queue_info(request, await rig_desk(request).leave(identity(request))))
-
-
-@endpoint(
+_queue_endpoint(
+    "DELETE", "/rig/queue", "leave_queue", RigDesk.leave,
+    "Leave the rig's queue (a driver's run stops)",
+)  # fmt: skip
+_queue_endpoint(
     "POST",
     "/rig/arm",
-    "Arm the rig (the driver): a run in mode rig may start",
-    response=s.RigQueueInfo,
-    errors=ERRORS,
+    "arm_rig",
+    RigDesk.arm,
+    """Arm the rig (the driver): a run in mode rig may start
+
+    Then ``POST /runs`` with ``mode: rig`` starts the run (409 while the rig settles after
+    the last one). After each run the driver, still seated, arms again.""",
 )
-async def arm_rig(request: Request) -> Response:
-    """Then ``POST /runs`` with ``mode: rig`` starts the run (409 while the rig settles
-    after the last one). After each run the driver, still seated, arms again."""
-    return ok(queue_info(request, await rig_desk(request).arm(identity(request))))
-
-
-@endpoint(
+_queue_endpoint(
     "POST",
     "/rig/estop",
-    "Emergency stop (the driver or an instructor)",
-    response=s.RigQueueInfo,
-    errors=ERRORS,
+    "estop_rig",
+    RigDesk.emergency_stop,
+    """Emergency stop (the driver or an instructor)
+
+    0 V and the amplifier disabled at the rig's next sample; the run ends ``stopped``. It
+    goes to the rig engine on a socket of its own, so it works while this server's other
+    paths are busy; ``elab rig-estop`` does the same from a shell.""",
 )
-async def estop_rig(request: Request) -> Response:
-    """0 V and the amplifier disabled at the rig's next sample; the run ends ``stopped``.
-    It goes to the rig engine on a socket of its own, so it works while this server's
-    other paths are busy; ``elab rig-estop`` does the same from a shell."""
-    return ok(queue_info(request, await rig_desk(request).emergency_stop(identity(request))))
-
-
-@endpoint(
+_queue_endpoint(
     "POST",
     "/rig/takeover",
-    "Take the rig over now (instructors)",
-    response=s.RigQueueInfo,
-    errors=ERRORS,
+    "take_over_rig",
+    RigDesk.take_over,
+    """Take the rig over now (instructors)
+
+    A running run stops; its driver waits first in line; the take-over ends with its
+    slot.""",
 )
-async def take_over_rig(request: Request) -> Response:
-    """A running run stops; its driver waits first in line; the take-over ends with its
-    slot."""
-    return ok(queue_info(request, await rig_desk(request).take_over(identity(request))))
+_queue_endpoint(
+    "POST", "/rig/clear", "clear_queue", RigDesk.clear,
+    "Clear the waiting users (instructors)",
+)  # fmt: skip
 
 
 @endpoint(
-    "POST",
-    "/rig/extend",
-    "Extend the driver's slot (instructors)",
-    body=s.RigExtend,
-    response=s.RigQueueInfo,
-    errors=(*ERRORS, 413, 415),
+    "POST", "/rig/extend", body=s.RigExtend, response=s.RigQueueInfo, errors=(*ERRORS, 413, 415)
 )
 async def extend_slot(request: Request) -> Response:
+    """Extend the driver's slot (instructors)"""
     req = await read_model(request, s.RigExtend)
     return ok(queue_info(request, await rig_desk(request).extend(identity(request), req.seconds)))
-
-
-@endpoint(
-    "POST",
-    "/rig/clear",
-    "Clear the waiting users (instructors)",
-    response=s.RigQueueInfo,
-    errors=ERRORS,
-)
-async def clear_queue(request: Request) -> Response:
-    return ok(queue_info(request, await rig_desk(request).clear(identity(request))))

@@ -30,6 +30,7 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -74,6 +75,19 @@ class _Param:
     change: ParamChange
 
 
+class Flushing(Protocol):
+    """An engine's settings for its recorder (both engines' settings have them)."""
+
+    @property
+    def flush_interval(self) -> float: ...
+
+    @property
+    def retry_for(self) -> float: ...
+
+    @property
+    def max_pending(self) -> int: ...
+
+
 class Recorder:
     """The writer thread of one engine and what waits for it."""
 
@@ -113,19 +127,17 @@ class Recorder:
         store: RunStore,
         engine_id: str,
         events: EngineEvents,
-        *,
-        interval: float,
-        retry_for: float,
-        max_pending: int,
+        settings: Flushing,
         on_fault: Callable[[StoreHealth], None],
     ) -> Recorder:
-        """The recorder of engine ``engine_id``, reporting what it commits, decides and
-        stores to ``events``."""
+        """The recorder of engine ``engine_id`` with its ``settings``' flush interval,
+        retry time and memory budget, reporting what it commits, decides and stores to
+        ``events``."""
         return cls(
             store,
-            interval=interval,
-            retry_for=retry_for,
-            max_pending=max_pending,
+            interval=settings.flush_interval,
+            retry_for=settings.retry_for,
+            max_pending=settings.max_pending,
             on_committed=lambda counts: events.committed(engine_id, counts),
             on_ended=lambda run_id, ended: events.ended(engine_id, run_id, ended),
             on_stored=lambda run_id: events.stored(engine_id, run_id),

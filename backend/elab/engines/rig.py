@@ -85,15 +85,7 @@ class RigEngine(HostLoop):
         connect: Callable[[], Driver],
         limits: SafetyLimits | None = None,
     ) -> None:
-        recorder = Recorder.reporting(
-            store,
-            engine_id,
-            events,
-            interval=settings.flush_interval,
-            retry_for=settings.retry_for,
-            max_pending=settings.max_pending,
-            on_fault=self._on_fault,
-        )
+        recorder = Recorder.reporting(store, engine_id, events, settings, self._on_fault)
         super().__init__(engine_id, store, events, settings, connect, limits, recorder)
         self.store: RigStore = store
         self.seat = SeatKeeper(store, self, settings.seat)

@@ -105,15 +105,7 @@ class SimulationEngine:
         self.store = store
         self._events = events
         self.settings = settings = settings or EngineSettings()
-        self.recorder = Recorder.reporting(
-            store,
-            engine_id,
-            events,
-            interval=settings.flush_interval,
-            retry_for=settings.retry_for,
-            max_pending=settings.max_pending,
-            on_fault=self._on_fault,
-        )
+        self.recorder = Recorder.reporting(store, engine_id, events, settings, self._on_fault)
         self._backlog = backlog
         self.stepper = Stepper(
             self._on_tick, tick=settings.tick, backlog=backlog, realtime=settings.realtime

@@ -16,17 +16,7 @@ from dataclasses import dataclass
 from typing import Protocol, assert_never
 
 from elab.errors import Conflict, Unavailable
-from elab.rig.messages import (
-    Action,
-    Command,
-    Hello,
-    Message,
-    Refusal,
-    RigIdentity,
-    Sample,
-    Status,
-    Voltage,
-)
+from elab.rig import messages as m
 from elab.rig.protocol import Decoder, FrameError, encode
 
 
@@ -46,7 +36,7 @@ class RigSample:
     seq: int
     theta: float
     alpha: float
-    status: Status
+    status: m.Status
     received_ns: int
 
 
@@ -54,19 +44,19 @@ class Driver(Protocol):
     """A rig as a host loop sees it. Call :meth:`connect` once, then per sample
     :meth:`read` and :meth:`write`; :meth:`close` leaves the motor at 0 V."""
 
-    def connect(self) -> RigIdentity: ...
+    def connect(self) -> m.RigIdentity: ...
 
     def read(self, timeout: float) -> RigSample: ...
 
     def write(self, seq: int, u: float) -> None: ...
 
-    def command(self, action: Action) -> None: ...
+    def command(self, action: m.Action) -> None: ...
 
     def close(self) -> None: ...
 
 
-def calibrate(sample: Sample, identity: RigIdentity, received_ns: int) -> RigSample:
-    """The sample in rad through the rig's calibration (:class:`RigIdentity`)."""
+def calibrate(sample: m.Sample, identity: m.RigIdentity, received_ns: int) -> RigSample:
+    """The sample in rad through the rig's calibration (:class:`~elab.rig.messages.RigIdentity`)."""
     theta = sample.encoder_counts * 2 * math.pi / identity.counts_per_rev
     alpha = (sample.gauge_reading - identity.gauge_offset) * identity.gauge_rad_per_count
     return RigSample(sample.seq, theta, alpha, sample.status, received_ns)
@@ -80,10 +70,10 @@ class TcpDriver:
         self.connect_timeout = connect_timeout
         self._sock: socket.socket | None = None
         self._decoder = Decoder()
-        self._identity: RigIdentity | None = None
+        self._identity: m.RigIdentity | None = None
 
     @property
-    def identity(self) -> RigIdentity:
+    def identity(self) -> m.RigIdentity:
         if self._identity is None:
             raise RigDisconnected(f"rig at {self._where}: not connected; call connect() first")
         return self._identity
@@ -92,7 +82,7 @@ class TcpDriver:
     def _where(self) -> str:
         return f"{self.host}:{self.port}"
 
-    def connect(self) -> RigIdentity:
+    def connect(self) -> m.RigIdentity:
         """Open the connection and say HELLO; the rig's identity, or a typed error."""
         try:
             self._sock = socket.create_connection((self.host, self.port), self.connect_timeout)
@@ -106,16 +96,16 @@ class TcpDriver:
             self._sock = None
             raise
 
-    def _greet(self) -> RigIdentity:
-        self._send(Hello())
+    def _greet(self) -> m.RigIdentity:
+        self._send(m.Hello())
         message = self._receive(time.monotonic() + self.connect_timeout)
         match message:
-            case RigIdentity():
+            case m.RigIdentity():
                 self._identity = message
                 return message
-            case Refusal(reason):
+            case m.Refusal(reason):
                 raise Conflict(f"rig at {self._where} refused the host: {reason}")
-            case Sample() | Hello() | Voltage() | Command():
+            case m.Sample() | m.Hello() | m.Voltage() | m.Command():
                 raise FrameError("message", type(message).__name__, "the rig's identity")
             case _:
                 assert_never(message)
@@ -125,33 +115,33 @@ class TcpDriver:
         identity = self.identity
         message = self._receive(time.monotonic() + timeout)
         match message:
-            case Sample():
+            case m.Sample():
                 return calibrate(message, identity, time.monotonic_ns())
-            case Refusal(reason):
+            case m.Refusal(reason):
                 raise Conflict(f"rig at {self._where} refused the host: {reason}")
-            case RigIdentity() | Hello() | Voltage() | Command():
+            case m.RigIdentity() | m.Hello() | m.Voltage() | m.Command():
                 raise FrameError("message", type(message).__name__, "a sample")
             case _:
                 assert_never(message)
 
     def write(self, seq: int, u: float) -> None:
         """Answer sample ``seq`` with the voltage ``u`` (V)."""
-        self._send(Voltage(seq, u))
+        self._send(m.Voltage(seq, u))
 
-    def command(self, action: Action) -> None:
-        self._send(Command(action))
+    def command(self, action: m.Action) -> None:
+        self._send(m.Command(action))
 
     def close(self) -> None:
         """STOP the motor (best effort) and close; the rig also stops on a lost host."""
         if self._sock is None:
             return
         with contextlib.suppress(OSError):  # a rig already gone has stopped on its own
-            self._sock.sendall(encode(Command(Action.STOP)))
+            self._sock.sendall(encode(m.Command(m.Action.STOP)))
         self._sock.close()
         self._sock = None
         self._identity = None
 
-    def _send(self, message: Message) -> None:
+    def _send(self, message: m.Message) -> None:
         if self._sock is None:
             raise RigDisconnected(f"rig at {self._where}: not connected; call connect() first")
         try:
@@ -159,7 +149,7 @@ class TcpDriver:
         except OSError as err:
             raise RigDisconnected(f"rig at {self._where}: connection lost ({err})") from None
 
-    def _receive(self, deadline: float) -> Message:
+    def _receive(self, deadline: float) -> m.Message:
         if self._sock is None:
             raise RigDisconnected(f"rig at {self._where}: not connected; call connect() first")
         while (message := self._decoder.next()) is None:

@@ -7,56 +7,41 @@ from dataclasses import replace
 from typing import assert_never
 
 from elab.errors import Conflict, InvalidInput
-from elab.rig_queue.ops import (
-    Arm,
-    Clear,
-    EStop,
-    Extend,
-    Join,
-    Leave,
-    QueueOp,
-    RunEnded,
-    SetService,
-    Settled,
-    Start,
-    Stop,
-    TakeOver,
-    Tick,
-)
+from elab.rig_queue import ops
 from elab.rig_queue.state import Phase, QueueChange, QueuePolicy, RigQueue, Seat
 
 
-def apply(q: RigQueue, op: QueueOp, policy: QueuePolicy, now: float) -> QueueChange:
+def apply(q: RigQueue, op: ops.QueueOp, policy: QueuePolicy, now: float) -> QueueChange:
     """``q`` advanced to ``now``, then changed by ``op``; :class:`Conflict` if ``op`` is not
     allowed in that state (nothing changes then)."""
     before = q
     q = advance(q, policy, now)
     match op:
-        case Join(user):
+        case ops.Join(user):
             q = _join(q, user)
-        case Leave(user):
+        case ops.Leave(user):
             q = _remove(_member(q, user), user)
-        case Arm(user):
+        case ops.Arm(user):
             q = _arm(_driving(q, user), now)
-        case Start(user, run_id):
+        case ops.Start(user, run_id):
             q = _start(_driving(q, user), run_id, now)
-        case Stop(user):
+        case ops.Stop(user):
             q = _end_run(_running(_driving(q, user)), now)
-        case EStop():
+        case ops.EStop():
             q = _end_run(q, now) if q.seat and q.seat.phase is Phase.RUNNING else q
-        case RunEnded(run_id):
+        case ops.RunEnded(run_id):
             q = _end_run(q, now) if q.seat and q.seat.run_id == run_id else q
-        case TakeOver(user):
+        case ops.TakeOver(user):
             q = _take_over(q, user, policy, now)
-        case Extend(seconds):
+        case ops.Extend(seconds):
             q = _extend(q, seconds)
-        case Clear():
+        case ops.Clear():
             q = replace(q, users=q.users[:1] if q.seat else ())
-        case SetService(reason):
+        case ops.SetService(reason):
             q = _set_service(q, reason)
-        case Settled():
+        case ops.Settled():
             q = replace(q, settling=False)
-        case Tick():
+        case ops.Tick():
             pass
         case _:
             assert_never(op)

@@ -23,6 +23,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import TypeVar
 
+from elab import rig_queue as rq
 from elab.access import Identity, display_name
 from elab.engines.base import RunOrder
 from elab.engines.riglaw import compile_for_rig
@@ -31,21 +32,7 @@ from elab.errors import ElabError, Forbidden, InvalidInput, Unavailable
 from elab.jobs import JobPool
 from elab.laws import law_kind
 from elab.rig.estop import send_estop
-from elab.rig_queue import (
-    Arm,
-    Clear,
-    EStop,
-    Extend,
-    Join,
-    Leave,
-    Phase,
-    QueueOp,
-    QueuePolicy,
-    RigQueue,
-    RunEnded,
-    Start,
-    TakeOver,
-)
+from elab.rig_queue import QueuePolicy, RigQueue
 from elab.sim.spec import RunSpec
 from elab.store.base import RigQueueStore
 
@@ -103,26 +90,26 @@ class RigDesk:
         return DeskView(q, self.policy, driver, you, now)
 
     async def join(self, who: Identity) -> DeskView:
-        return await self._apply(Join(_someone(who, "join the rig's queue")), who)
+        return await self._apply(rq.Join(_someone(who, "join the rig's queue")), who)
 
     async def leave(self, who: Identity) -> DeskView:
-        return await self._apply(Leave(_someone(who, "leave the rig's queue")), who)
+        return await self._apply(rq.Leave(_someone(who, "leave the rig's queue")), who)
 
     async def arm(self, who: Identity) -> DeskView:
-        return await self._apply(Arm(_someone(who, "arm the rig")), who)
+        return await self._apply(rq.Arm(_someone(who, "arm the rig")), who)
 
     async def take_over(self, who: Identity) -> DeskView:
-        return await self._apply(TakeOver(_instructor(who, "take the rig over")), who)
+        return await self._apply(rq.TakeOver(_instructor(who, "take the rig over")), who)
 
     async def extend(self, who: Identity, seconds: float) -> DeskView:
         _instructor(who, "extend a slot on the rig")
         if not (math.isfinite(seconds) and 0 < seconds <= MAX_EXTEND):
             raise InvalidInput("seconds", seconds, f"a time in (0, {MAX_EXTEND:g}] s")
-        return await self._apply(Extend(seconds), who)
+        return await self._apply(rq.Extend(seconds), who)
 
     async def clear(self, who: Identity) -> DeskView:
         _instructor(who, "clear the rig's queue")
-        return await self._apply(Clear(), who)
+        return await self._apply(rq.Clear(), who)
 
     async def emergency_stop(self, who: Identity) -> DeskView:
         """Stop the motor now: the rig engine hears it on its own socket (whatever this
@@ -139,7 +126,7 @@ class RigDesk:
                 await asyncio.to_thread(send_estop, self.estop_address, who.name)
             except Unavailable as exc:
                 sent = exc
-        view = await self._apply(EStop(who.id), who)
+        view = await self._apply(rq.EStop(who.id), who)
         if sent is not None:  # the queue stopped the run; the engine's own path is down
             raise sent
         return view
@@ -151,12 +138,12 @@ class RigDesk:
         engine refuses all the same gives the seat back (the driver arms again)."""
         await self.validate(order.spec)
         run_id = order.id
-        await self._apply(Start(_someone(who, "drive the rig"), run_id), who)
+        await self._apply(rq.Start(_someone(who, "drive the rig"), run_id), who)
         try:
             return await start()
         except BaseException:
             with contextlib.suppress(ElabError):
-                await self._apply(RunEnded(run_id), None)
+                await self._apply(rq.RunEnded(run_id), None)
             raise
 
     async def validate(self, spec: RunSpec) -> RigTrial:
@@ -184,7 +171,7 @@ class RigDesk:
             self._passed.popitem(last=False)
         return trial
 
-    async def _apply(self, op: QueueOp, who: Identity | None) -> DeskView:
+    async def _apply(self, op: rq.QueueOp, who: Identity | None) -> DeskView:
         change = await asyncio.to_thread(
             self.store.apply_rig, self.rig, op, self.policy, self.clock()
         )
@@ -208,7 +195,7 @@ def _trial_key(spec: RunSpec) -> str:
     return hashlib.sha256(pickle.dumps(tried)).hexdigest()
 
 
-def phase_of(q: RigQueue) -> Phase | None:
+def phase_of(q: RigQueue) -> rq.Phase | None:
     return q.seat.phase if q.seat is not None else None
 
 
