@@ -65,7 +65,7 @@ describe("RigFeed", () => {
   });
 
   it("tells a server without a rig once, then stops asking", async () => {
-    const none = new ApiError(422, { code: "invalid", message: "rig: a server with a rig", field: "rig", errors: [] });
+    const none = new ApiError(404, { code: "not_found", message: "unknown rig 'on this server (ELAB_RIG is none)'", field: null, errors: [] });
     const { f, hand, asked } = feed([none]);
     const seen: RigFeedState[] = [];
     f.subscribe((s) => seen.push(s));

@@ -1,7 +1,7 @@
 // The rig's queue, polled (GET /rig) every 2 s while some view on the page shows it and
 // the tab is visible; every view showing it shares one poll. The answers of the queue's
 // operations (join, arm, …) are the queue too and are told at once. A server without a rig
-// (422) is told once and not asked again until a view subscribes anew.
+// (404) is told once and not asked again until a view subscribes anew.
 import { api, ApiError } from "./api";
 import type { RigQueueInfo } from "./protocol.gen";
 
@@ -77,7 +77,7 @@ export class RigFeed {
       const q = await this.fetchQueue();
       if (this.version === asked) this.tell({ kind: "rig", q, at: this.clock.now() });
     } catch (err) {
-      if (err instanceof ApiError && err.status === 422) {
+      if (err instanceof ApiError && err.status === 404) {
         // no rig on this server (GET /rig takes no input to be wrong about)
         this.tell({ kind: "none" });
         this.end();

@@ -164,7 +164,9 @@ def test_a_server_without_a_rig_says_how_to_get_one(tmp_path: Path) -> None:
         with server.client() as c:
             assert c.get("/plants/flexible_link").json()["modes"] == ["simulation"]
             r = c.post("/runs", json=RIG_RUN)
+            queue = c.get("/rig")
         assert r.status_code == 422 and "ELAB_RIG" in r.json()["error"]["message"]
+        assert queue.status_code == 404 and "ELAB_RIG" in queue.json()["error"]["message"]
     finally:
         server.stop()
 

@@ -16,7 +16,7 @@ from elab.api.auth import identity
 from elab.api.http import endpoint, ok, read_model
 from elab.api.runs import manager, rig_model
 from elab.api.state import lab
-from elab.errors import InvalidInput
+from elab.errors import NotFound
 from elab.rig_queue import Phase
 from elab.runs.rigdesk import DeskView, RigDesk
 
@@ -24,7 +24,7 @@ from elab.runs.rigdesk import DeskView, RigDesk
 def rig_desk(conn: HTTPConnection) -> RigDesk:
     d = lab(conn).desk
     if d is None:
-        raise InvalidInput("rig", None, "a server with a rig (this one has none: ELAB_RIG)")
+        raise NotFound("rig", "on this server (ELAB_RIG is none)")
     return d
 
 
@@ -55,12 +55,12 @@ def queue_info(request: Request, view: DeskView) -> s.RigQueueInfo:
     )
 
 
-ERRORS = (403, 409, 422, 503)
+ERRORS = (403, 404, 409, 422, 503)
 #: what a queue operation does to the desk, as the caller
 Act = Callable[[RigDesk, Identity], Awaitable[DeskView]]
 
 
-@endpoint("GET", "/rig", response=s.RigQueueInfo, errors=(422,))
+@endpoint("GET", "/rig", response=s.RigQueueInfo, errors=(404,))
 async def get_rig(request: Request) -> Response:
     """The rig's queue: who drives, your place and wait"""
     return ok(queue_info(request, await rig_desk(request).view(identity(request))))

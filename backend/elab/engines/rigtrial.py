@@ -32,6 +32,9 @@ from elab.sim.spec import CompiledRun, RunSpec
 #: The rigs a trial draws (seeds of :func:`draw_rig_parameters`; the served rig's own
 #: seed is not one of them)
 TRIAL_RIGS = (9001, 9002, 9003, 9004, 9005)
+#: s a Python controller's step may compute in a trial, ten in a row before it fails
+#: (the rig's own deadline is the supervisor's; a trial's worker may share a busy CPU)
+TRIAL_DEADLINE = 5e-3
 TRIAL_S = 10.0  # s of the run tried at most (its start: where a bad law shows)
 
 
@@ -102,7 +105,7 @@ def rig_trial(
     if reach > limits.theta_max:  # past the trial's end too: nothing to try
         return RigTrial((), tried, reach, limits.theta_max)
     run = compile_for_rig(replace(spec, duration=tried))
-    code = CodeSettings()
+    code = CodeSettings(deadline=TRIAL_DEADLINE)
     outcomes = []
     for i, seed in enumerate(rigs, start=1):
         outcomes.append(_try(run, seed, i, limits, code))
