@@ -16,7 +16,7 @@ import numpy as np
 
 from elab.plants import get_plant
 from elab.sim import RunSpec, Square, simulate
-from tests.api.server import KEEP_ALIVE, Server, Watcher, until
+from tests.api.server import KEEP_ALIVE, TLS, Server, Watcher, until
 from tests.api.test_live_runs import NAMES, downloads
 from tests.unit.store.test_versions_and_faults import locked
 
@@ -34,7 +34,7 @@ async def _burst(srv: Server, bodies: list[dict[str, Any]]) -> list[tuple[httpx.
     # (the 300 downloads one after another left the last clients idle for longer than
     # the server's keep-alive, and one request was lost: see KEEP_ALIVE)
     clients = [
-        httpx.AsyncClient(base_url=srv.url + "/api/v1", timeout=120, limits=KEEP_ALIVE)
+        httpx.AsyncClient(base_url=srv.url + "/api/v1", timeout=120, limits=KEEP_ALIVE, verify=TLS)
         for _ in bodies
     ]
     await asyncio.gather(*(c.get("/me") for c in clients))  # each gets its identity

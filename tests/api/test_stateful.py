@@ -28,7 +28,7 @@ from websockets.sync.client import ClientConnection, connect
 from elab.laws import StateFeedback
 from elab.plants import get_plant
 from elab.sim import RunSpec, Samples, Simulation, Square, Step
-from tests.api.server import Server, identity_of
+from tests.api.server import TLS, Server, identity_of
 
 FLEX = get_plant("flexible_link")
 SQUARE = {"kind": "square", "amplitude": math.radians(20), "period": 1.0}
@@ -79,8 +79,9 @@ class Lab(RuleBasedStateMachine):
 
     def __init__(self) -> None:
         super().__init__()
-        self.c = httpx.Client(base_url=self.server.url + "/api/v1", timeout=30)  # the owner
-        self.stranger = httpx.Client(base_url=self.server.url + "/api/v1", timeout=30)
+        api = self.server.url + "/api/v1"
+        self.c = httpx.Client(base_url=api, timeout=30, verify=TLS)  # the owner
+        self.stranger = httpx.Client(base_url=api, timeout=30, verify=TLS)
         self.all_runs: list[Run] = []
         self.all_watches: list[Watch] = []
 
