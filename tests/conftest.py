@@ -2,8 +2,11 @@
 
 ``server``: one ``elab serve`` per test worker (pytest-xdist), shared by every test that
 needs no settings of its own; each test sees it as a new visitor (its own identity and its
-own part of the log). A test that needs other settings, or kills or stops the server,
-starts a ``Server`` of its own."""
+own part of the log). Tests on one worker run one after another, so a test may also stop
+or kill one of the shared server's processes for a while, provided it proves that the
+server recovered before it ends (its engine restarted, its web process going on). A test
+that needs other settings, stops or restarts the whole server, or breaks its data
+directory starts a ``Server`` of its own."""
 
 from __future__ import annotations
 

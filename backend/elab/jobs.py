@@ -17,7 +17,9 @@ spawned worker imported numpy, scipy and python-control again, 1.7 s of CPU each
 times at every server start and again for every worker replaced after a timeout. A fork
 of the server's own process is not safe (its threads and event loop); a fork of the fork
 server is. Starting a worker waits for the fork server's imports, so it happens on a
-thread, never on the event loop.
+thread, never on the event loop. The engine process is forked from the same fork server
+(:class:`Forked`), which imports its modules too: one set of imports at a server's start
+instead of two.
 
 Jobs and results cross by pickle between this process and workers it started
 itself (nothing from outside is unpickled).
@@ -59,12 +61,43 @@ _PRELOAD: set[str] = set()  # what the fork server imports when it starts
 _PRELOAD_LOCK = threading.Lock()
 
 
-def _preload(modules: Iterable[str]) -> None:
+def import_in_fork_server(modules: Iterable[str]) -> None:
     """Have the fork server import ``modules`` (those asked for after it started are
-    imported by each worker instead: slower, still correct)."""
+    imported by each process forked from it instead: slower, still correct)."""
     with _PRELOAD_LOCK:
         _PRELOAD.update(modules)
         _FORKSERVER.set_forkserver_preload(sorted(_PRELOAD))
+
+
+class Forked:
+    """``target(*args)`` in a process forked from the fork server, with what a supervisor
+    needs of :class:`subprocess.Popen`: ``pid``, ``wait`` (the exit code, negative for a
+    signal) and ``kill``. For a long-lived process that needs the fork server's imports
+    (the engine: :func:`import_in_fork_server` its module first). :meth:`start` waits
+    for the fork server's imports: call it on a thread."""
+
+    def __init__(self, target: Callable[..., object], args: tuple[Any, ...], name: str) -> None:
+        # daemonic: the web process never waits for it at exit (its supervisor closes it)
+        self._proc = _FORKSERVER.Process(target=target, args=args, daemon=True, name=name)
+        # the exit status is read once from the fork server's pipe; a second reader at the
+        # same time would find it gone (and report 255): one wait at a time
+        self._waiting = threading.Lock()
+
+    def start(self) -> Forked:
+        self._proc.start()
+        return self
+
+    @property
+    def pid(self) -> int | None:
+        return self._proc.pid
+
+    def wait(self) -> int | None:
+        with self._waiting:
+            self._proc.join()
+            return self._proc.exitcode
+
+    def kill(self) -> None:
+        self._proc.kill()
 
 
 class _Worker:
@@ -135,7 +168,7 @@ class JobPool:
         self.nice = nice
         self.names = names
         self.preload = preload
-        _preload(preload)
+        import_in_fork_server(preload)
         self._idle: asyncio.Queue[_Worker] = asyncio.Queue()  # bound to a loop on first use
         self._all: list[_Worker] = []
         self.busy = 0

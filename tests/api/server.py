@@ -7,6 +7,7 @@ import copy
 import os
 import signal
 import socket
+import ssl
 import subprocess
 import sys
 import time
@@ -26,6 +27,14 @@ T = TypeVar("T")
 #: closes it: a request sent just as the server closes its connection is lost ("Server
 #: disconnected without sending a response"; seen on a loaded machine)
 KEEP_ALIVE = httpx.Limits(keepalive_expiry=2.0)
+#: the TLS context of the test clients, made once. The servers here speak plain HTTP on
+#: loopback, yet httpx loads certifi's bundle into a new context for every client and every
+#: bare ``httpx.get``: 15-35 ms of CPU each, which a poll every 50 ms made most of a core.
+#: Pass it (``verify=TLS``) wherever a test makes clients or requests in a loop.
+TLS = ssl.create_default_context()
+#: s a server may take to become ready: about 4 s on a quiet two-core machine, 35 s seen
+#: beside three other test suites (load average 10); a cap, not an expectation
+START_CAP = 180
 
 
 def free_port() -> int:
@@ -65,7 +74,7 @@ class Server:
         view = copy.copy(self)
         view.log_from = self.log_path.stat().st_size if self.log_path.exists() else 0
         view.cookies = httpx.Cookies()
-        r = httpx.get(self.url + "/api/v1/me", timeout=30, cookies=view.cookies)
+        r = httpx.get(self.url + "/api/v1/me", timeout=30, cookies=view.cookies, verify=TLS)
         r.raise_for_status()
         view.cookies.update(r.cookies)
         return view
@@ -87,12 +96,12 @@ class Server:
                 stdout=subprocess.DEVNULL,
                 stderr=log,
             )
-        deadline = time.monotonic() + 180  # 35 s seen beside three other test suites
+        deadline = time.monotonic() + START_CAP
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 raise RuntimeError(f"server exited: {self.log[-4000:]}")
             try:
-                r = httpx.get(self.url + "/api/v1/me", timeout=1, cookies=self.cookies)
+                r = httpx.get(self.url + "/api/v1/me", timeout=1, cookies=self.cookies, verify=TLS)
                 r.raise_for_status()
                 self.cookies.update(r.cookies)
                 # ready: the identification workers have imported what their jobs need
@@ -101,8 +110,10 @@ class Server:
             except httpx.HTTPError:
                 pass
             time.sleep(0.1)
-        self.stop()  # not left running (with its engines and emulator) after the failure
-        raise RuntimeError("server did not start in 180 s")
+        # not left running: a server that never became ready (its engine real-time, a rig
+        # emulator at 1 kHz) would take the CPU from every test after this one
+        self.stop()
+        raise RuntimeError(f"server did not start in {START_CAP} s: {self.log[-4000:]}")
 
     def stop(self) -> None:
         if self.proc and self.proc.poll() is None:
@@ -122,16 +133,23 @@ class Server:
         """A client with this test's identity (the same browser for every call; a bare
         ``httpx.get`` is a new anonymous visitor each time)."""
         return httpx.Client(
-            base_url=self.url + "/api/v1", timeout=30, cookies=self.cookies, limits=KEEP_ALIVE
+            base_url=self.url + "/api/v1",
+            timeout=30,
+            cookies=self.cookies,
+            limits=KEEP_ALIVE,
+            verify=TLS,
         )
 
     def stranger(self) -> httpx.Client:
         """A client with an identity of its own (another browser)."""
-        return httpx.Client(base_url=self.url + "/api/v1", timeout=30, limits=KEEP_ALIVE)
+        return httpx.Client(
+            base_url=self.url + "/api/v1", timeout=30, limits=KEEP_ALIVE, verify=TLS
+        )
 
     def status(self) -> dict[str, Any]:
         """``GET /api/v1/server``."""
-        return httpx.get(self.url + "/api/v1/server", timeout=30).json()  # type: ignore[no-any-return]
+        r = httpx.get(self.url + "/api/v1/server", timeout=30, verify=TLS)
+        return r.json()  # type: ignore[no-any-return]
 
     @property
     def engine_pid(self) -> int:

@@ -19,7 +19,7 @@ from websockets.asyncio.client import connect
 from websockets.exceptions import InvalidStatus
 
 from elab.api.auth import hash_password
-from tests.api.server import Server, Watcher, until
+from tests.api.server import TLS, Server, Watcher, until
 
 PASSWORD = "correct horse battery"
 LONG = {"plant": "belt_conveyor", "duration": 600}
@@ -47,9 +47,11 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
 
 def instructor(server: Server) -> httpx.Client:
     """A client signed in as the instructor (not yet opened: use it in ``with``)."""
-    r = httpx.post(server.url + "/api/v1/session", json={"name": "prof", "password": PASSWORD})
+    r = httpx.post(
+        server.url + "/api/v1/session", json={"name": "prof", "password": PASSWORD}, verify=TLS
+    )
     assert r.status_code == 200 and r.json()["role"] == "instructor", r.text
-    return httpx.Client(base_url=server.url + "/api/v1", timeout=30, cookies=r.cookies)
+    return httpx.Client(base_url=server.url + "/api/v1", timeout=30, cookies=r.cookies, verify=TLS)
 
 
 def start(c: httpx.Client, **extra: Any) -> dict[str, Any]:

@@ -15,7 +15,7 @@ import pytest
 from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
 
-from tests.api.server import Server, Watcher, until
+from tests.api.server import TLS, Server, Watcher, until
 
 DEEP = "[" * 100_000 + "]" * 100_000
 HUGE = "1" + "0" * 5000  # an integer of 5,001 digits (Python's int() stops at 4,300)
@@ -132,6 +132,7 @@ def test_each_former_crash_is_a_4xx_naming_the_field(
         content=body,
         headers={"content-type": "application/json"},
         timeout=60,
+        verify=TLS,
     )
     assert 400 <= r.status_code < 500, r.text[:300]
     error = r.json()["error"]

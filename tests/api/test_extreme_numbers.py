@@ -28,7 +28,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tests.api.server import Server, Watcher, until
+from tests.api.server import TLS, Server, Watcher, until
 
 BIG_INT = 10**4000  # as JSON: 4,001 digits (Python's int() stops at 4,300 by default)
 EXTREMES: tuple[float | int, ...] = (
@@ -390,6 +390,7 @@ class Lab:
             headers={"content-type": "application/json"},
             cookies=self.srv.cookies,
             timeout=120,
+            verify=TLS,
         )
 
 

@@ -8,7 +8,6 @@ import json
 import threading
 import time
 from collections.abc import Iterator
-from pathlib import Path
 
 import httpx
 import numpy as np
@@ -139,22 +138,19 @@ def test_an_identification_over_the_time_limit_is_422_and_the_next_one_works(
     assert r.status_code == 200 and r.json()["models"][0]["fit"]["validation_one_step"][0] > 50
 
 
-def test_an_identification_whose_client_leaves_stops(tmp_path: Path) -> None:
-    srv = Server(tmp_path / "data").start()  # the default time limit: 120 s
-    try:
-        body = ident_body(heavy_file(), HEAVY_MODELS)
-        for accept in ("application/json", "application/x-ndjson"):
-            with pytest.raises(httpx.ReadTimeout):
-                httpx.post(
-                    srv.url + "/api/v1/ident",
-                    json=body,
-                    timeout=httpx.Timeout(60, read=2),
-                    headers={"accept": accept},
-                )
-            t = time.monotonic()
-            until(lambda: srv.status()["ident"]["busy"] == 0, 10)  # long before ~60 s of work
-            assert time.monotonic() - t < 10
-        small = ident_body(heavy_file(2000), [{"kind": "arx", "na": 2, "nb": 2, "nk": 1}])
-        assert httpx.post(srv.url + "/api/v1/ident", json=small, timeout=60).status_code == 200
-    finally:
-        srv.stop()
+def test_an_identification_whose_client_leaves_stops(server: Server) -> None:
+    # the shared server: the default time limit (120 s), far past the 2 s read timeout
+    body = ident_body(heavy_file(), HEAVY_MODELS)
+    for accept in ("application/json", "application/x-ndjson"):
+        with pytest.raises(httpx.ReadTimeout):
+            httpx.post(
+                server.url + "/api/v1/ident",
+                json=body,
+                timeout=httpx.Timeout(60, read=2),
+                headers={"accept": accept},
+            )
+        t = time.monotonic()
+        until(lambda: server.status()["ident"]["busy"] == 0, 10)  # long before ~60 s of work
+        assert time.monotonic() - t < 10
+    small = ident_body(heavy_file(2000), [{"kind": "arx", "na": 2, "nb": 2, "nk": 1}])
+    assert httpx.post(server.url + "/api/v1/ident", json=small, timeout=60).status_code == 200

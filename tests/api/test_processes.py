@@ -21,7 +21,7 @@ import pytest
 
 from elab.plants import get_plant
 from elab.sim import RunSpec, Square, simulate
-from tests.api.server import Server, Watcher, until
+from tests.api.server import TLS, Server, Watcher, until
 from tests.api.test_live_runs import NAMES, downloads
 
 FLEX = get_plant("flexible_link")
@@ -55,107 +55,97 @@ async def until_async(cond: Any, timeout: float = 30) -> None:
         await asyncio.sleep(0.02)
 
 
-def test_the_web_process_stopped_for_2_s_mid_run_loses_no_sample(tmp_path: Path) -> None:
-    srv = Server(tmp_path / "data").start()
-    try:
-        with srv.client() as c:
-            rid = c.post(
-                "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 6.0}
-            ).json()["id"]
+def test_the_web_process_stopped_for_2_s_mid_run_loses_no_sample(server: Server) -> None:
+    with server.client() as c:
+        rid = c.post(
+            "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 6.0}
+        ).json()["id"]
 
-            async def scenario() -> Watcher:
-                w = await Watcher.open(srv.ws_url, rid, "?from_seq=0")
-                done = asyncio.create_task(follow(w, {"finished"}))
-                await until_async(lambda: received(w) >= 1000)
-                assert srv.proc is not None
-                os.kill(srv.proc.pid, signal.SIGSTOP)  # the web process, not the engine
-                time.sleep(2.0)  # this thread too: nothing is read meanwhile
-                os.kill(srv.proc.pid, signal.SIGCONT)
-                await done
-                await w.conn.close()
-                return w
+        async def scenario() -> Watcher:
+            w = await Watcher.open(server.ws_url, rid, "?from_seq=0")
+            done = asyncio.create_task(follow(w, {"finished"}))
+            await until_async(lambda: received(w) >= 1000)
+            assert server.proc is not None
+            os.kill(server.proc.pid, signal.SIGSTOP)  # the web process, not the engine
+            time.sleep(2.0)  # this thread too: nothing is read meanwhile
+            os.kill(server.proc.pid, signal.SIGCONT)
+            await done
+            await w.conn.close()
+            return w
 
-            w = asyncio.run(scenario())
-            want = offline(6.0)
-            recorded = downloads(c, rid)["csv"]
-            np.testing.assert_array_equal(recorded, want)  # the engine recorded every sample
-            got = w.assemble(6000)  # and the watcher received every one
-            for i, name in enumerate(NAMES):
-                np.testing.assert_array_equal(got[name], want[:, i].astype("<f4"))
-    finally:
-        srv.stop()
+        w = asyncio.run(scenario())
+        want = offline(6.0)
+        recorded = downloads(c, rid)["csv"]
+        np.testing.assert_array_equal(recorded, want)  # the engine recorded every sample
+        got = w.assemble(6000)  # and the watcher received every one
+        for i, name in enumerate(NAMES):
+            np.testing.assert_array_equal(got[name], want[:, i].astype("<f4"))
 
 
 def test_a_killed_engine_interrupts_its_runs_with_their_data_and_starts_again(
-    tmp_path: Path,
+    server: Server,
 ) -> None:
-    srv = Server(tmp_path / "data").start()
-    try:
-        with srv.client() as c:
-            rid = c.post(
-                "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 60.0}
-            ).json()["id"]
-            pid = srv.engine_pid
+    with server.client() as c:
+        rid = c.post(
+            "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 60.0}
+        ).json()["id"]
+        pid = server.engine_pid
+        restarts = server.status()["engine"]["restarts"]  # the shared server's so far
 
-            async def scenario() -> dict[str, Any]:
-                w = await Watcher.open(srv.ws_url, rid, "?from_seq=0")
-                end = asyncio.create_task(follow(w, {"interrupted"}))
-                await until_async(lambda: received(w) >= 1000)
-                os.kill(pid, signal.SIGKILL)
-                await end
-                await w.conn.close()
-                return end.result()
+        async def scenario() -> dict[str, Any]:
+            w = await Watcher.open(server.ws_url, rid, "?from_seq=0")
+            end = asyncio.create_task(follow(w, {"interrupted"}))
+            await until_async(lambda: received(w) >= 1000)
+            os.kill(pid, signal.SIGKILL)
+            await end
+            await w.conn.close()
+            return end.result()
 
-            end = asyncio.run(scenario())
-            assert "SIGKILL" in end["error"]
-            # the watchers were told what the recording holds: frames streamed after the
-            # last commit are not part of the run (issue 24: they were, then vanished)
-            info = c.get(f"/runs/{rid}").json()
-            assert info["status"] == "interrupted" and "killed by SIGKILL" in info["error"]
-            got = downloads(c, rid)["csv"]
-            assert end["k"] == info["n_samples"] == got.shape[0]
-            assert 500 <= got.shape[0] < 60_000  # what was committed (every 0.25 s)
-            np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
-            # a new engine takes over and new runs work
-            until(lambda: c.get("/health").status_code == 200)
-            st = srv.status()["engine"]
-            assert st["restarts"] == 1 and st["pid"] != pid and st["up"]
-            again = c.post(
-                "/runs", json={"plant": "belt_conveyor", "duration": 0.5, "pace": "fast"}
-            ).json()["id"]
-            until(lambda: c.get(f"/runs/{again}").json()["status"] == "finished")
-    finally:
-        srv.stop()
+        end = asyncio.run(scenario())
+        assert "SIGKILL" in end["error"]
+        # the watchers were told what the recording holds: frames streamed after the
+        # last commit are not part of the run (issue 24: they were, then vanished)
+        info = c.get(f"/runs/{rid}").json()
+        assert info["status"] == "interrupted" and "killed by SIGKILL" in info["error"]
+        got = downloads(c, rid)["csv"]
+        assert end["k"] == info["n_samples"] == got.shape[0]
+        assert 500 <= got.shape[0] < 60_000  # what was committed (every 0.25 s)
+        np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
+        # a new engine takes over and new runs work
+        until(lambda: c.get("/health").status_code == 200)
+        st = server.status()["engine"]
+        assert st["restarts"] == restarts + 1 and st["pid"] != pid and st["up"]
+        again = c.post(
+            "/runs", json={"plant": "belt_conveyor", "duration": 0.5, "pace": "fast"}
+        ).json()["id"]
+        until(lambda: c.get(f"/runs/{again}").json()["status"] == "finished")
 
 
 def test_a_stopped_engine_is_reported_and_its_runs_complete_after_it_goes_on(
-    tmp_path: Path,
+    server: Server,
 ) -> None:
-    srv = Server(tmp_path / "data").start()
-    try:
-        with srv.client() as c:
-            rid = c.post(
-                "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 4.0}
-            ).json()["id"]
-            pid = srv.engine_pid
-            until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] > 500)
-            os.kill(pid, signal.SIGSTOP)
-            try:
-                r = until(lambda: (h := c.get("/health")).status_code == 503 and h)
-                assert "has not reported" in r.json()["problems"][0]
-                r = c.post(f"/runs/{rid}/pause")  # the engine cannot answer: 503, not a hang
-                assert r.status_code == 503 and "did not answer" in r.json()["error"]["message"]
-            finally:
-                os.kill(pid, signal.SIGCONT)
-            until(lambda: c.get("/health").status_code == 200)
-            # the pause was decided when the engine went on: resume, then let it finish
-            until(lambda: c.get(f"/runs/{rid}").json()["status"] in ("paused", "running"))
-            if c.get(f"/runs/{rid}").json()["status"] == "paused":
-                assert c.post(f"/runs/{rid}/resume").status_code == 200
-            until(lambda: c.get(f"/runs/{rid}").json()["status"] == "finished")
-            assert srv.status()["engine"]["restarts"] == 0
-    finally:
-        srv.stop()
+    with server.client() as c:
+        rid = c.post(
+            "/runs", json={"plant": "flexible_link", "signal": SQUARE, "duration": 4.0}
+        ).json()["id"]
+        pid = server.engine_pid
+        restarts = server.status()["engine"]["restarts"]  # the shared server's so far
+        until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] > 500)
+        os.kill(pid, signal.SIGSTOP)
+        try:
+            r = until(lambda: (h := c.get("/health")).status_code == 503 and h)
+            assert "has not reported" in r.json()["problems"][0]
+            r = c.post(f"/runs/{rid}/pause")  # the engine cannot answer: 503, not a hang
+            assert r.status_code == 503 and "did not answer" in r.json()["error"]["message"]
+        finally:
+            os.kill(pid, signal.SIGCONT)
+        until(lambda: c.get("/health").status_code == 200)
+        # the pause was decided when the engine went on: resume, then let it finish
+        until(lambda: c.get(f"/runs/{rid}").json()["status"] in ("paused", "running"))
+        if c.get(f"/runs/{rid}").json()["status"] == "paused":
+            assert c.post(f"/runs/{rid}/resume").status_code == 200
+        until(lambda: c.get(f"/runs/{rid}").json()["status"] == "finished")
+        assert server.status()["engine"]["restarts"] == restarts  # it went on: not replaced
 
 
 def test_an_engine_stalled_past_its_limit_is_killed_and_its_runs_say_why(tmp_path: Path) -> None:
@@ -194,7 +184,9 @@ def test_of_five_simultaneous_stops_one_succeeds_and_four_get_409(
     url = f"{server.url}/api/v1/runs/{long_run}/stop"
     with ThreadPoolExecutor(5) as ex:
         replies = list(
-            ex.map(lambda _: httpx.post(url, timeout=30, cookies=server.cookies), range(5))
+            ex.map(
+                lambda _: httpx.post(url, timeout=30, cookies=server.cookies, verify=TLS), range(5)
+            )
         )
     assert sorted(r.status_code for r in replies) == [200, 409, 409, 409, 409]
     for r in replies:

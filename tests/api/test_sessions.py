@@ -11,7 +11,7 @@ from pathlib import Path
 
 import httpx
 
-from tests.api.server import Server
+from tests.api.server import TLS, Server
 from tests.api.test_access import LONG, PASSWORD, instructor, instructors_file, start
 
 
@@ -46,6 +46,7 @@ def _attempts(srv: Server, headers: list[dict[str, str]]) -> list[int]:
             json={"name": "prof", "password": "wrong"},
             headers=h,
             timeout=120,
+            verify=TLS,
         )
         return r.status_code
 

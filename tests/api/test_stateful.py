@@ -14,7 +14,6 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import httpx
@@ -29,7 +28,7 @@ from websockets.sync.client import ClientConnection, connect
 from elab.laws import StateFeedback
 from elab.plants import get_plant
 from elab.sim import RunSpec, Samples, Simulation, Square, Step
-from tests.api.server import Server, identity_of
+from tests.api.server import TLS, Server, identity_of
 
 FLEX = get_plant("flexible_link")
 SQUARE = {"kind": "square", "amplitude": math.radians(20), "period": 1.0}
@@ -80,8 +79,9 @@ class Lab(RuleBasedStateMachine):
 
     def __init__(self) -> None:
         super().__init__()
-        self.c = httpx.Client(base_url=self.server.url + "/api/v1", timeout=30)  # the owner
-        self.stranger = httpx.Client(base_url=self.server.url + "/api/v1", timeout=30)
+        api = self.server.url + "/api/v1"
+        self.c = httpx.Client(base_url=api, timeout=30, verify=TLS)  # the owner
+        self.stranger = httpx.Client(base_url=api, timeout=30, verify=TLS)
         self.all_runs: list[Run] = []
         self.all_watches: list[Watch] = []
 
@@ -293,19 +293,15 @@ def offline(duration: float, changes: list[dict[str, Any]], n: int) -> np.ndarra
 
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
-def test_random_interleavings_keep_the_run_state_machine_and_every_sample(tmp_path: Path) -> None:
-    srv = Server(tmp_path / "data").start()
-    try:
-        Lab.server = srv
-        # no shrinking: each step runs against a live server, and a failure prints its steps
-        run = settings(
-            max_examples=6,
-            stateful_step_count=14,
-            deadline=None,
-            phases=[Phase.explicit, Phase.reuse, Phase.generate],
-            suppress_health_check=list(HealthCheck),
-        )(Lab).TestCase
-        run().runTest()
-    finally:
-        srv.stop()
-    assert "Traceback" not in srv.log, srv.log[-6000:]
+def test_random_interleavings_keep_the_run_state_machine_and_every_sample(server: Server) -> None:
+    Lab.server = server
+    # no shrinking: each step runs against a live server, and a failure prints its steps
+    run = settings(
+        max_examples=6,
+        stateful_step_count=14,
+        deadline=None,
+        phases=[Phase.explicit, Phase.reuse, Phase.generate],
+        suppress_health_check=list(HealthCheck),
+    )(Lab).TestCase
+    run().runTest()
+    assert "Traceback" not in server.log, server.log[-6000:]

@@ -10,7 +10,7 @@ import httpx
 import pytest
 from playwright.sync_api import Browser, expect
 
-from tests.api.server import Server, until
+from tests.api.server import TLS, Server, until
 from tests.e2e.test_access_ui import person, start_analysis
 
 
@@ -35,7 +35,7 @@ def test_a_run_whose_owner_closed_the_tab_pauses_then_stops_with_the_reason(
         expect(spectator.locator(".run-panel")).to_contain_text("its owner has had no connection")
         expect(spectator.locator(".run-panel .badge").first).to_have_text("stopped", timeout=20_000)
         expect(spectator.locator(".run-panel")).to_contain_text("had no connection to it for 5 s")
-    run = until(lambda: (r := httpx.get(api + rid).json())["finished_at"] and r, 20)
+    run = until(lambda: (r := httpx.get(api + rid, verify=TLS).json())["finished_at"] and r, 20)
     assert run["status"] == "stopped"
     assert run["error"].startswith("stopped: its owner had no connection to it for 5 s")
     head = httpx.get(api + rid + "/data").text.split("\nt,", 1)[0]

@@ -1,4 +1,5 @@
-"""The engine process: ``python -m elab.engines.child --fd N --engine ID --database PATH``.
+"""The engine process: ``python -m elab.engines.child --fd N --engine ID --database PATH``,
+or, as the web process starts it, :func:`forked` from its fork server.
 
 It runs a :class:`~elab.engines.simulation.SimulationEngine` and speaks
 :mod:`elab.engines.wire` over the socket ``N`` it inherits from the web process:
@@ -182,6 +183,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         outbox.close()
         store.close()
     return 0
+
+
+def forked(sock: socket.socket, argv: Sequence[str]) -> None:
+    """:func:`main` in a process forked from the web process's fork server
+    (:class:`elab.jobs.Forked`; the engine's modules already imported), on the socket it was
+    handed: in a session of its own first, as ``python -m elab.engines.child`` is started,
+    so that a Ctrl-C at the terminal reaches only the web process, which closes the engine
+    in order."""
+    os.setsid()
+    raise SystemExit(main([*argv, "--fd", str(sock.detach())]))
 
 
 def _build(

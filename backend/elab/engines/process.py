@@ -22,15 +22,13 @@ import json
 import logging
 import signal
 import socket
-import subprocess
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any, assert_never
 
-from elab.engines import wire
+from elab.engines import child, wire
 from elab.engines.base import (
     Action,
     EngineEvents,
@@ -42,6 +40,7 @@ from elab.engines.base import (
 from elab.engines.rig import RigSettings
 from elab.engines.simulation import EngineSettings
 from elab.errors import ElabError, Unavailable
+from elab.jobs import Forked, import_in_fork_server
 from elab.store.base import RunRecord
 
 log = logging.getLogger(__name__)
@@ -51,7 +50,8 @@ _STARTUP = 120.0  # s an engine may take to load (numpy, scipy, the compiled loo
 
 
 class ProcessEngine:
-    """Starts ``python -m elab.engines.child`` and forwards commands and events."""
+    """Starts the engine process (:func:`elab.engines.child.forked`, from the fork server
+    of :mod:`elab.jobs`) and forwards commands and events."""
 
     def __init__(
         self,
@@ -64,6 +64,7 @@ class ProcessEngine:
         command_timeout: float = 10.0,
         stall_timeout: float = 30.0,
     ) -> None:
+        import_in_fork_server([child.__name__])  # before the fork server starts
         self.id = engine_id
         self.kind = "rig" if isinstance(settings, RigSettings) else "simulation"
         self.database = database
@@ -73,7 +74,7 @@ class ProcessEngine:
         self.command_timeout = command_timeout
         self.stall_timeout = stall_timeout
         self._events: EngineEvents | None = None
-        self._proc: subprocess.Popen[bytes] | None = None
+        self._proc: Forked | None = None
         self._writer: asyncio.StreamWriter | None = None
         self._ready = False
         self._closing = False
@@ -181,14 +182,9 @@ class ProcessEngine:
 
     # -- the process -----------------------------------------------------------------
     async def _spawn(self) -> None:
-        parent, child = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        parent, sock = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
         options = {**asdict(self.settings), "nice": self.nice, "max_queue": self.max_queue}
-        cmd = [
-            sys.executable,
-            "-m",
-            "elab.engines.child",
-            "--fd",
-            str(child.fileno()),
+        argv = [
             "--engine",
             self.id,
             "--kind",
@@ -198,12 +194,15 @@ class ProcessEngine:
             "--settings",
             json.dumps(options),
         ]
-        # its own session: a Ctrl-C at the terminal reaches the web process, which then
-        # closes the engine in order (runs interrupted, everything stored)
-        self._proc = subprocess.Popen(
-            cmd, pass_fds=(child.fileno(),), start_new_session=True, stdin=subprocess.DEVNULL
-        )
-        child.close()
+        # forked from the fork server, which has imported the engine's modules: a spawned
+        # interpreter imported numpy, scipy, python-control and numba again, 1.8 s of CPU
+        # at every start and restart (the process takes a session of its own: a Ctrl-C at
+        # the terminal reaches the web process, which closes the engine in order)
+        forked = Forked(child.forked, (sock, argv), name=f"elab-engine-{self.id}")
+        try:
+            self._proc = await asyncio.to_thread(forked.start)
+        finally:
+            sock.close()
         reader, self._writer = await asyncio.open_unix_connection(sock=parent)
         try:
             header, _ = await asyncio.wait_for(_read(reader), _STARTUP)
@@ -320,7 +319,7 @@ class ProcessEngine:
                         "so it was stalled: stopped, hung or starved of CPU"
                     )
                     log.error("engine %s: %s; killing it", self.id, self._killed)
-                    proc.send_signal(signal.SIGKILL)
+                    proc.kill()
                 continue
             if self._ready or (self._reading is not None and not self._reading.done()):
                 continue
