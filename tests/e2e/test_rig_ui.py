@@ -17,7 +17,7 @@ import pytest
 from playwright.sync_api import Browser, Page, expect
 
 from tests.api.server import Server, until
-from tests.api.test_access import PASSWORD, instructors_file
+from tests.api.test_access import PASSWORD, instructor, instructors_file
 
 SAMPLES = "Number(document.querySelector('.run-panel .progress')?.dataset.samples ?? 0)"
 GUEST = r"guest [0-9a-f]{4}"
@@ -40,6 +40,16 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
         yield srv
     finally:
         srv.stop()
+
+
+@pytest.fixture(autouse=True)
+def free_rig(server: Server) -> Iterator[None]:
+    """Each test finds the rig free, whatever the one before left (a failed test's seat)."""
+    yield
+    with instructor(server) as prof:
+        prof.post("/rig/takeover")
+        prof.post("/rig/clear")
+        assert prof.delete("/rig/queue").json()["driver"] is None
 
 
 @contextmanager
@@ -98,7 +108,7 @@ def test_a_student_runs_on_the_rig_and_presses_the_emergency_stop(
     panel = page.locator(".run-panel")
     expect(panel.locator(".badge").first).to_have_text("running")
     rid = str(panel.get_attribute("data-run"))
-    page.wait_for_function(f"{SAMPLES} > 500")  # it streams
+    page.wait_for_function(f"() => {SAMPLES} > 500")  # it streams
     expect(panel.get_by_test_id("rig-latency")).to_contain_text(re.compile(r"p99 \d+ µs"))
     expect(panel.get_by_role("button", name="Pause")).to_have_count(0)  # a motor holds nothing
 
