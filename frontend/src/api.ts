@@ -27,6 +27,7 @@ import type {
   RunCreate,
   RunInfo,
   RunList,
+  RunPrediction,
   SignIn,
   StepOut,
   StepRequest,
@@ -95,6 +96,8 @@ export const api = {
   place: (id: string, req: PlaceRequest) => call<DesignOut>("POST", `/plants/${encodeURIComponent(id)}/design/place`, req),
   runs: (query: RunsQuery = {}) => call<RunList>("GET", `/runs${queryString(query)}`),
   run: (id: string) => call<RunInfo>("GET", `/runs/${encodeURIComponent(id)}`),
+  /** the model's prediction of a run and how far its recording is from it so far */
+  prediction: (id: string) => call<RunPrediction>("GET", `/runs/${encodeURIComponent(id)}/prediction`),
   createRun: (req: RunCreate) => call<RunInfo>("POST", "/runs", req),
   stop: (id: string) => call<RunInfo>("POST", `/runs/${encodeURIComponent(id)}/stop`),
   pause: (id: string) => call<RunInfo>("POST", `/runs/${encodeURIComponent(id)}/pause`),

@@ -142,6 +142,8 @@ export interface ElabProtocol {
   PlantDetail?: PlantDetail;
   PlantSummary?: PlantSummary;
   PredefinedController?: PredefinedController;
+  PredictedChannel?: PredictedChannel;
+  PredictionGap?: PredictionGap;
   RankInfo?: RankInfo;
   ResidualsOut?: ResidualsOut;
   Resume?: Resume;
@@ -155,6 +157,7 @@ export interface ElabProtocol {
   RunData?: RunData;
   RunInfo?: RunInfo;
   RunList?: RunList;
+  RunPrediction?: RunPrediction;
   RunSummaryInfo?: RunSummaryInfo;
   SamplesSignal?: SamplesSignal;
   ServerMessage?: ServerMessage;
@@ -2038,6 +2041,33 @@ export interface PlantSummary {
   experiments: string[];
 }
 /**
+ * One predicted column: ``values[k]`` is sample ``k`` (SI units, as the recording).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "PredictedChannel".
+ */
+export interface PredictedChannel {
+  name: string;
+  unit: string;
+  label: string;
+  values: number[];
+}
+/**
+ * How far the recording is from the prediction on one channel, over the samples
+ * compared: root mean square and largest ``|run − prediction|`` (the channel's unit), and
+ * when the largest happened (s).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "PredictionGap".
+ */
+export interface PredictionGap {
+  name: string;
+  unit: string;
+  rms: number;
+  max_abs: number;
+  t_max: number;
+}
+/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "RigExtend".
  */
@@ -2229,6 +2259,29 @@ export interface RunList {
   total: number;
   limit: number;
   offset: number;
+}
+/**
+ * What the model predicts for a run (the same plant model, law, reference, excitation,
+ * start state and actuator limit with ideal sensors, its live changes replayed) and how
+ * far the recording is from it. ``n``: samples predicted (the run's, or the first
+ * ``ELAB_PREDICTION_SAMPLES``); ``compared``: recorded samples compared so far (a live
+ * run's grow); ``diverged_at``: s where the predicted loop diverged or the predicted
+ * controller failed (the prediction ends there).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "RunPrediction".
+ */
+export interface RunPrediction {
+  run_id: string;
+  model: string;
+  Ts: number;
+  n: number;
+  compared: number;
+  replayed: number;
+  diverged_at: number | null;
+  channels: PredictedChannel[];
+  gaps: PredictionGap[];
+  notes: string[];
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

@@ -10,6 +10,7 @@ import { copyText, csv, h, fill, saveText } from "./dom";
 import { identity } from "./identity";
 import { type ChangeEntry, type ChangeLike, ParamLog, shortLabel } from "./paramlog";
 import { channelColor, LivePlot, type LiveTrace } from "./plot";
+import { PredictionView } from "./prediction";
 import type { ComputeTimes, PlantDetail, RunInfo } from "./protocol.gen";
 import { ReplayControls } from "./replay";
 import { RigRunBar } from "./rigrun";
@@ -73,6 +74,12 @@ export class RunPanel {
   private companion: CompanionRun | null = null;
   /** a run on the rig: its emergency stop, loop latency and why it ended */
   private readonly rig: RigRunBar | null;
+  /** the model's prediction drawn over the run, and run − prediction below (on request;
+   * at once for a rig run, where the gap is the lesson) */
+  private prediction: PredictionView | null = null;
+  private predicting: Promise<void> | null = null;
+  private readonly predictionBox: HTMLInputElement;
+  private readonly predictionSlot = h("div.prediction-slot");
 
   constructor(
     public run: RunInfo,
@@ -101,13 +108,14 @@ export class RunPanel {
     };
     this.windowSel = h(
       "select",
-      { "aria-label": "time window", onchange: () => this.plot.setWindow(this.windowSel.value === "all" ? null : Number(this.windowSel.value)) },
+      { "aria-label": "time window", onchange: () => this.setWindow(this.windowSel.value === "all" ? null : Number(this.windowSel.value)) },
       h("option", { value: "10" }, "last 10 s"),
       h("option", { value: "30" }, "last 30 s"),
       h("option", { value: "all" }, "whole run"),
     );
     this.windowSel.value = ENDED.has(run.status) ? "all" : "10";
     this.rig = run.mode === "rig" ? new RigRunBar(run, () => this.stream.send({ type: "estop" })) : null;
+    this.predictionBox = h("input", { type: "checkbox", "data-testid": "show-prediction", onchange: () => void this.showPrediction(this.predictionBox.checked) });
     const share = `${location.origin}/runs/${run.id}`;
     this.root = h(
       "section.run-panel",
@@ -129,6 +137,7 @@ export class RunPanel {
         // a rig run cannot pause (a motor at 0 V holds no position): stop it
         options.controls !== false && run.can_control ? h("span.group", this.rig ? null : this.buttons.pause, this.rig ? null : this.buttons.resume, this.buttons.stop) : null,
         h("label.inline", "Window ", this.windowSel),
+        h("label.inline", { title: "the same controller, reference and start on the model, and run − prediction" }, this.predictionBox, " Model prediction"),
         h(
           "span.group.downloads",
           "Download: ",
@@ -140,6 +149,7 @@ export class RunPanel {
         h("button", { type: "button", class: "link", onclick: (ev: Event) => void copyText(share, ev.currentTarget as HTMLButtonElement, "Link copied"), title: share }, "Copy share link"),
         this.demoSlot,
       ),
+      this.predictionSlot,
       this.computeEl,
       this.noticeEl,
       this.messageEl,
@@ -154,6 +164,7 @@ export class RunPanel {
         this.ring.push(k0, n, cols);
         this.progress();
         this.plot.dirty();
+        if (this.prediction?.series.follow(this.ring)) this.prediction.plot.dirty();
         if (!this.replay) this.schematic.show(this.ring.end - 1);
       },
       status: (s) => {
@@ -172,7 +183,9 @@ export class RunPanel {
           this.plot.dirty();
         }
         this.windowSel.value = "all"; // the whole recording is here: show it
-        this.plot.setWindow(null);
+        this.setWindow(null);
+        if (this.prediction?.series.follow(this.ring)) this.prediction.plot.dirty();
+        if (this.prediction) void this.prediction.refresh(this.run.id, n); // over all of it now
         this.progress();
         this.offerReplay();
         this.rig?.complete(this.column("latency"));
@@ -182,6 +195,44 @@ export class RunPanel {
     this.setReason(run.status, run.error);
     this.setCompute(run.compute);
     void this.offerPin();
+    if (run.mode === "rig") {
+      this.predictionBox.checked = true;
+      void this.showPrediction(true);
+    }
+  }
+
+  private setWindow(seconds: number | null): void {
+    this.plot.setWindow(seconds);
+    this.prediction?.plot.setWindow(seconds);
+  }
+
+  /** Draw the model's prediction over the run and run − prediction below it, or hide them. */
+  private async showPrediction(on: boolean): Promise<void> {
+    if (on && !this.prediction) {
+      this.predicting ??= this.loadPrediction();
+      await this.predicting;
+    }
+    const shown = on && this.prediction !== null;
+    this.predictionSlot.hidden = !shown;
+    this.plot.setTraces(this.traces());
+    if (shown) this.prediction?.plot.dirty();
+  }
+
+  private async loadPrediction(): Promise<void> {
+    fill(this.predictionSlot, h("p.note", "Asking the model for its prediction…"));
+    try {
+      const p = await api.prediction(this.run.id);
+      if (this.closed) return;
+      const view = new PredictionView(p, this.plant, this.run.channels.map((c) => c.name), this.outputs, this.windowSel.value === "all" ? null : Number(this.windowSel.value));
+      view.series.follow(this.ring);
+      this.prediction = view;
+      fill(this.predictionSlot, view.root);
+      if (!this.live) void view.refresh(this.run.id, this.run.n_samples);
+    } catch (err) {
+      this.predicting = null; // ask again on the next tick of the box
+      this.predictionBox.checked = false;
+      fill(this.predictionSlot, h("p.error", { role: "alert" }, `No prediction: ${err instanceof ApiError ? err.message : String(err)}`));
+    }
   }
 
   /** Changes from the record or the stream: each new one gets its labelled mark. */
@@ -199,6 +250,7 @@ export class RunPanel {
     const last = this.ring.end - 1;
     this.replay = new ReplayControls(this.ring.start, last, this.run.Ts, (k) => {
       this.plot.setEnd(k >= last ? null : k + 1);
+      this.prediction?.plot.setEnd(k >= last ? null : k + 1);
       this.schematic.show(k);
     });
     fill(this.replaySlot, this.replay.root);
@@ -230,7 +282,8 @@ export class RunPanel {
     // the run drawn over this one: its channels on the same axes as this run's; every
     // signal in its own colour, the same on every plot of the plant
     const names = plant.outputs.map((o) => o.name);
-    const over = (this.companion?.traces(plant, chosen) ?? []).map((tr) => ({ ...tr, axis: axis.get(tr.channel) ?? tr.axis }));
+    const predicted = this.prediction && this.predictionBox.checked ? this.prediction.traces(chosen) : [];
+    const over = [...(this.companion?.traces(plant, chosen) ?? []), ...predicted].map((tr) => ({ ...tr, axis: axis.get(tr.channel) ?? tr.axis }));
     return [...traces, ...over].map((tr) => ({ ...tr, color: channelColor(tr.channel, names) }));
   }
 
@@ -379,6 +432,7 @@ export class RunPanel {
     this.schematic.destroy();
     this.companion?.destroy();
     this.rig?.destroy();
+    this.prediction?.destroy();
     this.plot.destroy();
   }
 }

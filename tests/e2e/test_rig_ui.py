@@ -149,6 +149,16 @@ def test_a_student_runs_on_the_rig_and_presses_the_emergency_stop(
     expect(panel.get_by_test_id("rig-latency")).to_contain_text(
         re.compile(r"this run's loop latency: p50 \d+ µs · p99 \d+ µs")
     )
+    # a rig run is shown beside its model's prediction at once: the nominal model, and the
+    # gap over the whole run once it is in
+    expect(panel.get_by_test_id("show-prediction")).to_be_checked()
+    expect(panel.get_by_test_id("prediction")).to_contain_text("nominal linear model")
+    with server.client() as c:
+        n = c.get(f"/runs/{rid}").json()["n_samples"]
+    expect(panel.get_by_test_id("prediction-gap")).to_contain_text(
+        re.compile(rf"Run − prediction over {n:,} samples: servo angle θ: RMS [\d.]+°")
+    )
+    panel.get_by_test_id("prediction").screenshot(path=shots / "rig-prediction.png")
     # still seated: the next run needs arming again
     expect(queue.get_by_role("button", name="Arm the rig")).to_be_visible()
     with server.client() as c:

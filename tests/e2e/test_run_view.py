@@ -6,8 +6,10 @@ schematic's transform, the sample it drew, the readout), not on pixels."""
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import httpx
@@ -122,6 +124,36 @@ def test_a_finished_run_replays_and_scrubs(page: Page, owner: httpx.Client) -> N
     # the plot draws the run up to that sample (at most: its last pixel column's min or max)
     page.wait_for_function(f"() => {{ const t = ({PLOT_END})(); return t > 1.2 && t < 1.2345; }}")
     expect(page.get_by_test_id("replay")).to_contain_text("t = 1.23 s of")
+
+
+def test_a_run_beside_its_models_prediction(page: Page, owner: httpx.Client, shots: Path) -> None:
+    """Noisy sensors: the run strays from its noise-free prediction by about the noise."""
+    square = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
+    rid = start(owner, pace="fast", duration=3, seed=5, signal=square)
+    theta_deg_when_done(owner, rid)
+    page.goto(f"/runs/{rid}")
+    box = page.get_by_test_id("show-prediction")
+    expect(box).not_to_be_checked()  # a simulation's prediction on request
+    box.check()
+    gap = page.get_by_test_id("prediction-gap")
+    expect(gap).to_contain_text(
+        re.compile(r"Run − prediction over 3,000 samples: servo angle θ: RMS [\d.]+°")
+    )
+    api = {g["name"]: g for g in owner.get(f"/runs/{rid}/prediction").json()["gaps"]}
+    shown = float(re.search(r"servo angle θ: RMS ([\d.]+)°", gap.inner_text()).group(1))  # type: ignore[union-attr]
+    assert shown == pytest.approx(math.degrees(api["theta"]["rms"]), rel=0.01)
+    # the predicted traces drawn dotted over the run, run − prediction below, every sample
+    page.wait_for_function(
+        """() => document.querySelector('[data-testid=live-plot]').data
+          .some(t => t.name.endsWith(', predicted') && t.line.dash === 'dot' && t.x.length)"""
+    )
+    page.wait_for_function(
+        """() => { const d = document.querySelector('[data-testid=prediction-diff]').data;
+          return d && d.length >= 2 && d.every(t => t.x.length > 0); }"""
+    )
+    page.get_by_test_id("prediction").screenshot(path=shots / "run-prediction.png")
+    box.uncheck()
+    expect(page.get_by_test_id("prediction")).to_be_hidden()
 
 
 def test_spectators_see_each_change_arrive_with_what_it_changed(

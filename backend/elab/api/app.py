@@ -29,6 +29,7 @@ from elab.api import (  # noqa: F401  (registers their endpoints)
     ident,
     models,
     plants,
+    prediction,
     rig,
     runs,
 )
@@ -48,6 +49,7 @@ from elab.errors import ElabError
 from elab.jobs import JobPool, Names
 from elab.rig.estop import estop_address
 from elab.runs.manager import RunManager
+from elab.runs.prediction import Predictions
 from elab.runs.rigdesk import RigDesk
 from elab.store.sqlite import SQLiteStore
 
@@ -152,6 +154,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
             uploads=Uploads(settings.max_uploads, settings.max_uploads_per_identity),
             streams=Counter(),  # websocket streams open, by identity
             desk=desk,
+            predictions=Predictions(),
         )
         # Everything imported so far (numpy, scipy, control, numba: ~160,000 objects) lives
         # as long as the process. Frozen, the collector stops scanning it: a full collection

@@ -199,6 +199,7 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.RunInfo, "serialization"),
     (s.RunList, "serialization"),
     (s.ParamsApplied, "serialization"),
+    (s.RunPrediction, "serialization"),
     (s.PlantSummary, "serialization"),
     (s.PlantDetail, "serialization"),
     (s.AnalysisInfo, "serialization"),

@@ -47,7 +47,9 @@ class Settings:
     ``ident_wait`` s a request waits for a worker (``ELAB_IDENT_WAIT``, 30). Controller uploads
     are checked (a Python controller tried in its sandbox) by ``trial_workers`` processes
     (``ELAB_TRIAL_WORKERS``, 2), each check within ``trial_timeout`` s (``ELAB_TRIAL_TIMEOUT``,
-    60). Per identity at once: identifications ``max_ident_per_identity``
+    60); the same workers compute runs' predictions, each of the first
+    ``prediction_samples`` samples of its run at most (``ELAB_PREDICTION_SAMPLES``, 120,000:
+    two minutes at 1 kHz). Per identity at once: identifications ``max_ident_per_identity``
     (``ELAB_MAX_IDENT_PER_IDENTITY``, 2) and large bodies ``max_uploads_per_identity``
     (``ELAB_MAX_UPLOADS_PER_IDENTITY``, 2); API tokens an identity may have
     ``max_tokens_per_identity`` (``ELAB_MAX_TOKENS_PER_IDENTITY``, 20), uploaded controllers it
@@ -105,6 +107,7 @@ class Settings:
     max_streams_per_identity: int = 32
     trusted_proxies: tuple[str, ...] = ()
     trial_timeout: float = 60.0
+    prediction_samples: int = 120_000
     rig: str = "none"
     rig_seed: int = 1
     rig_watchdog: int = 5
@@ -156,6 +159,7 @@ class Settings:
             trial_workers=_int(env, "ELAB_TRIAL_WORKERS", 2, hi=64),
             max_streams_per_identity=_int(env, "ELAB_MAX_STREAMS_PER_IDENTITY", 32),
             trial_timeout=_float(env, "ELAB_TRIAL_TIMEOUT", 60.0),
+            prediction_samples=_int(env, "ELAB_PREDICTION_SAMPLES", 120_000, lo=10, hi=10**7),
             watcher_frames=_int(env, "ELAB_WATCHER_FRAMES", 100),
             engine=engine,
             engine_nice=_int(env, "ELAB_ENGINE_NICE", 0, lo=-20, hi=19),

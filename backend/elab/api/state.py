@@ -17,6 +17,7 @@ if TYPE_CHECKING:  # the modules that make these read the state through lab()
     from elab.api.settings import Settings
     from elab.jobs import JobPool
     from elab.runs.manager import RunManager
+    from elab.runs.prediction import Predictions
     from elab.runs.rigdesk import RigDesk
     from elab.store.base import ControllerStore, ModelStore
 
@@ -42,6 +43,7 @@ class Lab:
     pending: Pending
     uploads: Uploads
     streams: Counter[str]
+    predictions: Predictions  # the last runs' predictions made
     desk: RigDesk | None = None  # the rig's queue, on a server with a rig
 
 

@@ -189,3 +189,44 @@ class ParamsApplied(Model):
         "are those the run uses (nothing is then applied or recorded, and k is the sample "
         "the run has reached)",
     )
+
+
+class PredictedChannel(Model):
+    """One predicted column: ``values[k]`` is sample ``k`` (SI units, as the recording)."""
+
+    name: str
+    unit: str
+    label: str
+    values: list[float]
+
+
+class PredictionGap(Model):
+    """How far the recording is from the prediction on one channel, over the samples
+    compared: root mean square and largest ``|run − prediction|`` (the channel's unit), and
+    when the largest happened (s)."""
+
+    name: str
+    unit: str
+    rms: float
+    max_abs: float
+    t_max: float
+
+
+class RunPrediction(Model):
+    """What the model predicts for a run (the same plant model, law, reference, excitation,
+    start state and actuator limit with ideal sensors, its live changes replayed) and how
+    far the recording is from it. ``n``: samples predicted (the run's, or the first
+    ``ELAB_PREDICTION_SAMPLES``); ``compared``: recorded samples compared so far (a live
+    run's grow); ``diverged_at``: s where the predicted loop diverged or the predicted
+    controller failed (the prediction ends there)."""
+
+    run_id: str
+    model: str
+    Ts: float
+    n: int
+    compared: int
+    replayed: int
+    diverged_at: float | None
+    channels: list[PredictedChannel]
+    gaps: list[PredictionGap]
+    notes: list[str]
