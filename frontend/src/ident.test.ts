@@ -11,7 +11,7 @@ function failsWith(text: string, part: string): void {
 
 describe("parseModels", () => {
   it("reads the CLI syntax", () => {
-    const r = parseModels("arx:4,4,3; armax:2,2,2,3\noe:2,2,3; n4sid:4,16; n4sid");
+    const r = parseModels("arx:4,4,3; armax:2,2,2,3\noe:2,2,3; n4sid:4,16; n4sid; link");
     expect(r).toEqual({
       ok: true,
       models: [
@@ -20,12 +20,14 @@ describe("parseModels", () => {
         { kind: "oe", nb: 2, nf: 2, nk: 3 },
         { kind: "n4sid", order: 4, horizon: 16 },
         { kind: "n4sid", order: 0, horizon: 0 },
+        { kind: "link" },
       ],
     });
     expect(parseModels("  ")).toEqual({ ok: true, models: [] });
   });
   it("names what is wrong", () => {
-    failsWith("bj:1,1,1,1", "arx, armax, oe or n4sid");
+    failsWith("bj:1,1,1,1", "arx, armax, oe, n4sid or link");
+    failsWith("link:4", "write link alone");
     failsWith("arx:4,4", "arx:na,nb,nk");
     failsWith("arx:4,x,3", "nb must be a whole number");
     failsWith("arx:4,0,3", "nb must be in 1");

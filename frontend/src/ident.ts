@@ -1,10 +1,10 @@
 // Identification helpers without DOM: the model list in the CLI's syntax
 // (`arx:4,4,3; n4sid:4`), uploaded files as request records, the data set in words, and
 // an identified model as the server keeps it for design.
-import type { ArmaxSpec, ArxSpec, FileData, IdentDataOut, IdentOut, ModelCreate, N4SidSpec, OeSpec } from "./protocol.gen";
+import type { ArmaxSpec, ArxSpec, FileData, IdentDataOut, IdentModelOut, IdentOut, LinkSpec, ModelCreate, N4SidSpec, OeSpec } from "./protocol.gen";
 import { fmt } from "./units";
 
-export type ModelSpec = ArxSpec | ArmaxSpec | OeSpec | N4SidSpec;
+export type ModelSpec = ArxSpec | ArmaxSpec | OeSpec | N4SidSpec | LinkSpec;
 export type ParsedModels = { ok: true; models: ModelSpec[] } | { ok: false; message: string };
 
 const ORDERS: Record<string, { names: string[]; min: number[]; optional?: number }> = {
@@ -12,10 +12,12 @@ const ORDERS: Record<string, { names: string[]; min: number[]; optional?: number
   armax: { names: ["na", "nb", "nc", "nk"], min: [0, 1, 1, 0] },
   oe: { names: ["nb", "nf", "nk"], min: [1, 1, 0] },
   n4sid: { names: ["order", "horizon"], min: [0, 0], optional: 0 },
+  link: { names: [], min: [] },
 };
 const MAX_ORDER = 50;
 
-/** `arx:4,4,3; armax:2,2,2,3; oe:2,2,3; n4sid:4,16; n4sid` (order 0: chosen by the server). */
+/** `arx:4,4,3; armax:2,2,2,3; oe:2,2,3; n4sid:4,16; n4sid` (order 0: chosen by the server);
+ * `link`: the flexible link's physics. */
 export function parseModels(text: string): ParsedModels {
   const models: ModelSpec[] = [];
   for (const raw of text.split(/[;\n]/)) {
@@ -23,11 +25,11 @@ export function parseModels(text: string): ParsedModels {
     if (!item) continue;
     const [kind, rest = ""] = item.split(":", 2).map((s) => s.trim());
     const spec = ORDERS[kind];
-    if (!spec) return { ok: false, message: `“${item}”: the kind must be arx, armax, oe or n4sid` };
+    if (!spec) return { ok: false, message: `“${item}”: the kind must be arx, armax, oe, n4sid or link` };
     const parts = rest ? rest.split(",").map((s) => s.trim()) : [];
     const need = spec.names.length;
     if (parts.length !== need && !(spec.optional !== undefined && parts.length <= need)) {
-      return { ok: false, message: `“${item}”: write ${kind}:${spec.names.join(",")}` };
+      return { ok: false, message: need ? `“${item}”: write ${kind}:${spec.names.join(",")}` : `“${item}”: write ${kind} alone` };
     }
     const values: Record<string, number> = {};
     for (let i = 0; i < need; i++) {
@@ -104,4 +106,24 @@ export function modelBody(plantId: string, out: IdentOut, index: number, source:
     kind: m.kind,
     fit: m.fit.headline,
   };
+}
+
+/** What each physical ratio of a link model is (docs/identification.md). */
+export const LINK_PARAMETERS: [name: string, meaning: string, unit: string][] = [
+  ["a", "K_s/J_eq: link stiffness over servo inertia", "1/s²"],
+  ["b", "K_s/J_l: link stiffness over link inertia", "1/s²"],
+  ["c", "B_eq/J_eq: servo viscous damping (with the back-EMF)", "1/s"],
+  ["g", "k_u/J_eq: motor torque per volt over servo inertia", "1/(V s²)"],
+  ["f", "τ_c/J_eq: Coulomb friction", "1/s²"],
+  ["u_dead", "the motor's dead zone", "V"],
+  ["beta", "B_l/J_eq: link damping over servo inertia", "1/s"],
+  ["beta_l", "B_l/J_l: link damping over link inertia", "1/s"],
+  ["sigma", "the strain gauge's true gain over its calibration", ""],
+];
+
+/** A link model's physical ratios as table rows: name, estimate ± standard deviation, meaning. */
+export function linkRows(m: IdentModelOut): [string, string, string][] {
+  const p = m.parameters as Record<string, number | null | Record<string, number | null>>;
+  const std = (p.std ?? {}) as Record<string, number | null>;
+  return LINK_PARAMETERS.map(([name, meaning, unit]) => [name, `${fmt(p[name] as number | null)} ± ${fmt(std[name], 2)}${unit ? " " + unit : ""}`, meaning]);
 }

@@ -109,6 +109,7 @@ export interface ElabProtocol {
   LQRRequest?: LQRRequest;
   "LTIControllerModel-Input"?: LTIControllerModel;
   "LTIControllerModel-Output"?: LTIControllerModelOut;
+  LinkSpec?: LinkSpec;
   LoopOut?: LoopOut;
   LoopRequest?: LoopRequest;
   MarginsOut?: MarginsOut;
@@ -1198,7 +1199,7 @@ export interface IdentOut {
  */
 export interface IdentModelOut {
   name: string;
-  kind: "arx" | "armax" | "oe" | "n4sid";
+  kind: "arx" | "armax" | "oe" | "n4sid" | "link";
   orders: {
     [k: string]: number;
   };
@@ -1317,7 +1318,7 @@ export interface IdentRequest {
   /**
    * @maxItems 10
    */
-  models?: (ArxSpec | ArmaxSpec | OeSpec | N4SidSpec)[];
+  models?: (ArxSpec | ArmaxSpec | OeSpec | N4SidSpec | LinkSpec)[];
 }
 /**
  * The recording of a run (columns by channel name, e.g. ``u`` and ``theta``).
@@ -1370,6 +1371,16 @@ export interface N4SidSpec {
    * block rows; 0: the default
    */
   horizon?: number;
+}
+/**
+ * The rotary flexible link's physics (input u; outputs θ then α, in rad; detrend
+ * none): docs/identification.md.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "LinkSpec".
+ */
+export interface LinkSpec {
+  kind: "link";
 }
 /**
  * A kept model: anyone with its id may read it and design on it; its owner or an

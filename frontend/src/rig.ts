@@ -72,13 +72,13 @@ export function startBlocker(q: RigQueueInfo): string | null {
     case "running":
       return "Your run is on the rig: stop it (or wait for its end) before starting another.";
     case "start":
-      return q.settling || q.rig.settling ? "The rig is settling after the last run (0 V until the link is still, then it re-zeroes): Start in a few seconds." : null;
+      return q.settling || q.rig.settling ? "The rig is settling (after every run and when it connects: 0 V until the link is still, then it re-zeroes): Start in a few seconds." : null;
   }
 }
 
 /** What the server's refusal of a rig run means for the user, and what to do. */
 export function startRefusal(status: number, message: string): string {
-  if (status === 409 && /settl/i.test(message)) return `The rig is settling after the last run (${message}). Press Start again in a few seconds.`;
+  if (status === 409 && /settl/i.test(message)) return `The rig is settling (${message}). Press Start again in a few seconds.`;
   if (status === 409) return `${message}. Join the queue and arm the rig (steps 1 and 2), then Start.`;
   if (status === 503) return `The rig is not connected (${message}). Run in simulation, or try again when the rig status says online.`;
   return message;
@@ -140,12 +140,12 @@ export function rigSummary(q: RigQueueInfo): { condition: RigCondition; headline
   const headline = {
     offline: `Offline: ${q.rig.problem ?? "the rig does not answer"}`,
     out_of_service: `Out of service: ${q.out_of_service ?? "no reason given"}`,
-    settling: "Settling after the last run (0 V until still, then re-zero)",
+    settling: "Settling (after a run or on connecting: 0 V until still, then re-zero)",
     in_use: `In use by ${holder ?? "someone"} (${doing})`,
     free: "Online and free",
   }[condition];
   const details: string[] = [];
-  if (condition === "in_use" && q.settling) details.push("settling after the last run");
+  if (condition === "in_use" && q.settling) details.push("settling");
   details.push(q.waiting ? `${q.waiting} waiting` : "nobody waiting");
   const latency = latencyText(q.rig);
   if (q.rig.connected && latency) details.push(`loop latency ${latency} (last 10 s)`);

@@ -21,7 +21,7 @@ from elab.api.auth import identity
 from elab.api.state import lab
 from elab.errors import InvalidInput
 from elab.ident import IdData
-from elab.ident.data import MAX_SAMPLES
+from elab.ident.data import MAX_SAMPLES, fill_gaps
 from elab.ident.files import Table
 from elab.plants import get_plant
 
@@ -119,17 +119,21 @@ async def _dataset(
             f"a run with recorded samples in the range (it has {record.n_stored})",
         )
     col = {n: i for i, n in enumerate(names)}
+    picked = rows[:, [col[n] for n in [*outputs, *src.input]]]
+    picked, filled = _prefixed(prefix, lambda: fill_gaps(picked, record.Ts, f"run {record.id}"))
+    ny = len(outputs)
     data = _prefixed(
         prefix,
         lambda: IdData(
-            rows[:, [col[n] for n in outputs]],
-            rows[:, [col[n] for n in src.input]],
+            picked[:, :ny],
+            picked[:, ny:],
             record.Ts,
             output_names=tuple(outputs),
             input_names=tuple(src.input),
             output_units=tuple(units[n] for n in outputs),
             input_units=tuple(units[n] for n in src.input),
             k0=k0,
+            filled=filled,
         ),
     )
     return data, convert.requested(record).sine_hz

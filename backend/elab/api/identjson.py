@@ -23,6 +23,7 @@ from elab.ident.nonparametric import Correlation, SineResponse, Spectrum
 from elab.ident.parameters import (
     ArmaxParameters,
     ArxParameters,
+    LinkParameters,
     MimoArxParameters,
     ModelParameters,
     N4sidParameters,
@@ -37,7 +38,7 @@ MAX_POINTS = 5000
 Num = float | None
 #: a model parameter as the wire takes it (``IdentModelOut.parameters``)
 Parameter = list[Num] | list[list[Num]] | bool | int | Num | str | dict[str, Num]
-Kind = Literal["arx", "armax", "oe", "n4sid"]
+Kind = Literal["arx", "armax", "oe", "n4sid", "link"]
 
 
 def identify(
@@ -289,6 +290,21 @@ def _structure(
                     "reflected": [[_num(z) for z in pair] for pair in p.reflected],
                     **choice,
                     "kalman": p.kalman,
+                },
+            )
+        case LinkParameters():
+            names = ("a", "b", "c", "g", "f", "u_dead", "beta", "beta_l", "sigma")
+            return (
+                "link",
+                {},
+                {
+                    **{name: _num(getattr(p, name)) for name in names},
+                    "std": {name: _num(p.std[name]) for name in names},
+                    "samples": p.samples,
+                    "moving_samples": p.moving_samples,
+                    "bandwidth": _num(p.bandwidth),
+                    "residual_rms": [_num(p.residual_rms[0]), _num(p.residual_rms[1])],
+                    "input_delay": _num(p.input_delay),
                 },
             )
         case None:

@@ -184,6 +184,16 @@ def _polynomials(p: ModelParameters | None) -> list[str]:
             ]
         case kinds.N4sidParameters() | None:
             return []
+        case kinds.LinkParameters():
+            ratios = ("a", "b", "c", "g", "f", "beta", "beta_l")
+            return [
+                "  "
+                + ", ".join(f"{k} = {getattr(p, k):.5g} ± {p.std[k]:.2g}" for k in ratios)
+                + " (a = K_s/J_eq, b = K_s/J_l, c = B_eq/J_eq, g = k_u/J_eq, f = tau_c/J_eq, "
+                "beta = B_l/J_eq, beta_l = B_l/J_l)",
+                f"  dead zone {p.u_dead:.3g} V, gauge gain {p.sigma:.4g} of its calibration; "
+                f"servo fitted on {p.moving_samples} of {p.samples} samples",
+            ]
         case _:
             assert_never(p)
 

@@ -228,8 +228,8 @@ class RigEngine(HostLoop):
             raise Unavailable(f"the rig is out of service: {settle.message}")
         if settle is not None:
             raise Conflict(
-                "the rig is settling after the last run (0 V until the link is still, "
-                "then it re-zeroes); try again in a few seconds"
+                "the rig is settling (after every run and when it connects: 0 V until the "
+                "link is still, then it re-zeroes); try again in a few seconds"
             )
 
     def control(self, run_id: str, action: Action, reason: str | None = None) -> Future[int]:

@@ -60,6 +60,7 @@ from elab.store.base import RunRecord, RunStore
 EXO_BLOCK = 1000  # samples of reference and excitation computed at once
 ENABLE_EVERY = 50  # samples between two requests to enable a disabled amplifier
 ENABLE_PATIENCE = 1000  # samples a new run waits for the amplifier before it fails
+MAX_GAP = 1000  # samples: a longer gap in the sequence numbers is a restart, not a loss
 
 log = logging.getLogger(__name__)
 
@@ -128,6 +129,8 @@ class ActiveRun:
     exo: Array | None = None
     exo_k0: int = 0
     stop: tuple[RunState, str | None, Future[int] | None] | None = None
+    u: float = 0.0  # V, the last voltage applied: what the amplifier holds through a gap
+    dropped: int = 0  # samples the rig did not send (gaps in its sequence numbers)
 
     @property
     def run(self) -> CompiledRun:
@@ -180,6 +183,7 @@ class HostLoop:
         self.settle_limits = SettleLimits(still_for=settings.still_for)
         self.settle: Settle | None = None  # after a run, until the rig is ready again
         self._t = 0.0  # s, the rig's clock: samples since connecting times Ts
+        self._seq: int | None = None  # the last sample's sequence number
         self._theta_dot = Differentiator(settings.omega_c)
         self._alpha_dot = Differentiator(settings.omega_c)
         self._taking: str | None = None  # the run being added
@@ -228,6 +232,9 @@ class HostLoop:
             self.identity, self.problem = None, str(exc)
             return None
         self.problem = None
+        self._seq = None
+        with self._lock:  # still and zeroed before its first run, as after every run
+            self.settle = begin_settle(self._t)
         log.warning(
             "rig %s connected (firmware %s%s)",
             self.identity.rig_id,
@@ -247,8 +254,9 @@ class HostLoop:
     def _sample(self, s: RigSample) -> float:
         """The voltage that answers sample ``s``."""
         Ts = self.identity.Ts if self.identity is not None else 1e-3
-        theta_dot = self._theta_dot.next(s.theta, Ts)
-        alpha_dot = self._alpha_dot.next(s.alpha, Ts)
+        gap = self._gap(s.seq)
+        theta_dot = self._theta_dot.next(s.theta, Ts * (gap + 1))
+        alpha_dot = self._alpha_dot.next(s.alpha, Ts * (gap + 1))
         enabled = s.status & Status.MOTOR_ENABLED and not s.status & Status.WATCHDOG_TRIPPED
         with self._lock:
             waiting = self._pending
@@ -264,8 +272,9 @@ class HostLoop:
                 self._theta_dot.reset(s.theta)
                 self._alpha_dot.reset(s.alpha)
                 theta_dot = alpha_dot = 0.0
+                gap = 0  # a gap before a run's first sample is not the run's
             active, swaps, self._swaps = self._active, self._swaps, []
-        self._t += Ts
+        self._t += Ts * (gap + 1)
         if enabled:
             self._disabled = 0
         for run, applied in swaps:
@@ -286,6 +295,11 @@ class HostLoop:
             if fut is not None:
                 fut.set_result(active.k)
             return 0.0
+        if gap:
+            self._dropped(active, gap)
+            if active.k >= active.run.n_samples:
+                self._finish(active, RunState.FINISHED, None)
+                return 0.0
         run, k = active.run, active.k
         t = k * run.Ts
         r, e = active.exogenous(k)
@@ -313,6 +327,7 @@ class HostLoop:
         latency = (time.monotonic_ns() - s.received_ns) * 1e-9
         self._row(active, [r, u, s.theta, s.alpha, theta_dot, alpha_dot, latency])
         active.k += 1
+        active.u = u
         if decision.trip is not None:
             self._finish(active, RunState.FAILED, tripped(decision.trip))
             return 0.0
@@ -335,6 +350,26 @@ class HostLoop:
             waiting, self._pending = self._pending, None
         if waiting is not None:
             self._end(waiting, RunState.FAILED, "the rig's amplifier could not be enabled")
+
+    def _gap(self, seq: int) -> int:
+        """Samples the rig skipped before ``seq`` (it fell behind its clock, or lost them);
+        none after a (re)connection."""
+        last, self._seq = self._seq, seq
+        if last is None:
+            return 0
+        gap = (seq - last - 1) % 2**32
+        return gap if gap < MAX_GAP else 0
+
+    def _dropped(self, active: ActiveRun, gap: int) -> None:
+        """The samples the rig skipped, recorded where they belong on the rig's clock: the
+        reference, the voltage the amplifier held, and NaN for what nobody measured (a
+        recording's sample k stays at t = k·Ts)."""
+        nan = math.nan
+        for _ in range(min(gap, active.run.n_samples - active.k)):
+            r, _e = active.exogenous(active.k)
+            self._row(active, [r, active.u, nan, nan, nan, nan, nan])
+            active.k += 1
+            active.dropped += 1
 
     def _settling(self, theta_dot: float, alpha_dot: float) -> float:
         """Between runs: 0 V; after one, settle and re-zero."""

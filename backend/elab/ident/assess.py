@@ -15,6 +15,7 @@ from elab.ident.models import LinearModel, d2c
 from elab.ident.parameters import (
     ArmaxParameters,
     ArxParameters,
+    LinkParameters,
     MimoArxParameters,
     N4sidParameters,
     OeParameters,
@@ -101,6 +102,8 @@ def model_notes(name: str, m: LinearModel) -> list[str]:
             return notes
         case ArxParameters() | MimoArxParameters() | OeParameters() | None:
             return _unstable(name, m)
+        case LinkParameters():
+            return []  # its integrator is the servo's, on the unit circle by construction
         case _:
             assert_never(p)
 

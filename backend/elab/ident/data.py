@@ -55,6 +55,9 @@ class IdData:
     #: index of the first sample in the experiment the data came from
     k0: int = 0
     trend: Literal["none", "mean", "linear"] = field(default="none")
+    #: samples the source did not have (a rig's dropped samples), filled by linear
+    #: interpolation before they got here (:func:`fill_gaps`); said in the notes
+    filled: int = 0
 
     def __post_init__(self) -> None:
         y, u = _columns("y", self.y), _columns("u", self.u)
@@ -195,6 +198,11 @@ def suspicious(z: IdData) -> list[str]:
     value in runs: saturation of an actuator, a sensor's range, a converter's). Signals of
     a few levels (a PRBS, steps) sit at their extremes by design and are not suspected."""
     notes = []
+    if z.filled:
+        notes.append(
+            f"{z.filled} of {z.N} samples were missing from the record (a rig drops a sample "
+            "when it falls behind its clock) and were filled by linear interpolation"
+        )
     span = max(FROZEN, z.N // 20)
     moving = np.any(np.diff(z.u, axis=0) != 0, axis=1)  # the input changes between t, t+1
     for j, name in enumerate(z.output_names or [f"y{j + 1}" for j in range(z.ny)]):
@@ -236,3 +244,37 @@ def _longest_run(x: Array, value: float | None = None) -> tuple[int, int]:
         starts, lengths = starts[keep], lengths[keep]
     k = int(np.argmax(lengths))
     return int(starts[k]), int(lengths[k])
+
+
+MAX_FILL = 10  # samples in one gap that interpolation may fill
+MAX_FILL_SHARE = 0.01  # of a record's samples
+
+
+def fill_gaps(rows: Array, Ts: float, what: str) -> tuple[Array, int]:
+    """``rows`` with short runs of NaN rows (samples a rig dropped) filled by linear
+    interpolation in each column, and how many rows were filled. A gap longer than
+    :data:`MAX_FILL` samples, or gaps over :data:`MAX_FILL_SHARE` of the record, at its
+    start or end, are refused naming where (``what``: the record, in words): choose a
+    span without them."""
+    bad = ~np.all(np.isfinite(rows), axis=1)
+    if not bad.any():
+        return rows, 0
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(np.int8), [0]])))
+    starts, stops = edges[::2], edges[1::2]
+    worst = int(np.argmax(stops - starts))
+    too_long = stops[worst] - starts[worst] > MAX_FILL
+    at_edge = bad[0] or bad[-1]
+    if too_long or at_edge or bad.mean() > MAX_FILL_SHARE:
+        first = int(starts[worst])
+        raise InvalidInput(
+            "data",
+            f"{what}: {int(bad.sum())} samples missing, {int(stops[worst] - starts[worst])} "
+            f"in a row from t = {first * Ts:g} s",
+            f"at most {MAX_FILL} missing samples in a row, {MAX_FILL_SHARE:.0%} in all and "
+            "none at the ends: choose t_from and t_to around them",
+        )
+    index = np.arange(rows.shape[0])
+    filled = rows.copy()
+    for j in range(rows.shape[1]):
+        filled[bad, j] = np.interp(index[bad], index[~bad], rows[~bad, j])
+    return filled, int(bad.sum())

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
-from elab.ident.data import MAX_SAMPLES, TS_RANGE, IdData
+from elab.ident.data import MAX_SAMPLES, TS_RANGE, IdData, fill_gaps
 
 Array = NDArray[np.float64]
 
@@ -56,11 +56,15 @@ class Table:
             )
         u = np.column_stack([self.column(n, "input") for n in inputs])
         y = np.column_stack([self.column(n, "output") for n in outputs])
+        # a sample nobody measured (NaN in CSV, null in E-Lab's JSON): short gaps filled
+        both, filled = fill_gaps(np.column_stack([y, u]), ts, "the file")
+        y, u = both[:, : y.shape[1]], both[:, y.shape[1] :]
         unit = dict(zip(self.names, self.units, strict=True))
         return IdData(
             y,
             u,
             ts,
+            filled=filled,
             output_names=tuple(outputs),
             input_names=tuple(inputs),
             output_units=tuple(unit[n] for n in outputs),

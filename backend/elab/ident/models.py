@@ -23,6 +23,7 @@ from elab.ident.data import IdData
 from elab.ident.parameters import (
     ArmaxParameters,
     ArxParameters,
+    LinkParameters,
     MimoArxParameters,
     ModelParameters,
     N4sidParameters,
@@ -116,7 +117,7 @@ class LinearModel(StateSpaceShape):
         object.__setattr__(self, "noise_variance", lam)
 
     @property
-    def kind(self) -> Literal["arx", "armax", "oe", "n4sid", "linear"]:
+    def kind(self) -> Literal["arx", "armax", "oe", "n4sid", "link", "linear"]:
         """The model structure its parameters are of (``"linear"``: none, a state space)."""
         match self.parameters:
             case ArxParameters() | MimoArxParameters():
@@ -127,6 +128,8 @@ class LinearModel(StateSpaceShape):
                 return "oe"
             case N4sidParameters():
                 return "n4sid"
+            case LinkParameters():
+                return "link"
             case None:
                 return "linear"
             case _:

@@ -144,6 +144,39 @@ class N4sidParameters:
         return bool(self.reflected)
 
 
+@dataclass(frozen=True)
+class LinkParameters:
+    """A rotary flexible link's physics (:func:`~elab.ident.physical.link`), as the ratios
+    its signals determine: ``a`` = K_s/J_eq, ``b`` = K_s/J_l, ``c`` = B_eq/J_eq, ``g`` =
+    k_u/J_eq, ``f`` = τ_c/J_eq, ``beta`` = B_l/J_eq, ``beta_l`` = B_l/J_l (1/s² or 1/s,
+    V⁻¹ s⁻² for ``g``), the dead zone ``u_dead`` (V) and ``sigma``, the strain gauge's
+    true gain over its calibration; ``std`` their standard deviations; the servo equation
+    fitted on ``moving_samples`` of ``samples``; ``residual_rms`` of the servo and link
+    equations (rad/s²); ``input_delay``, s after its sample that the voltage took effect
+    (the best fit's)."""
+
+    a: float
+    b: float
+    c: float
+    g: float
+    f: float
+    u_dead: float
+    beta: float
+    beta_l: float
+    sigma: float
+    std: Mapping[str, float]
+    samples: int
+    moving_samples: int
+    bandwidth: float
+    residual_rms: tuple[float, float]
+    input_delay: float
+
+
 ModelParameters = (
-    ArxParameters | MimoArxParameters | ArmaxParameters | OeParameters | N4sidParameters
+    ArxParameters
+    | MimoArxParameters
+    | ArmaxParameters
+    | OeParameters
+    | N4sidParameters
+    | LinkParameters
 )

@@ -25,6 +25,7 @@ from elab.ident.data import IdData, require_varying, suspicious
 from elab.ident.models import LinearModel
 from elab.ident.nonparametric import cra, sine_response, spa
 from elab.ident.pem import armax, oe
+from elab.ident.physical import link
 from elab.ident.polynomial import arx, arxstruc, selstruc, struc
 from elab.ident.results import AnalysedData, Analyses, ArxOrderSearch, ModelResult, Result
 from elab.ident.subspace import OrderChoice, Subspace, choose_order, decompose, n4sid
@@ -37,6 +38,7 @@ KINDS = {
     "armax": ("na", "nb", "nc", "nk"),
     "oe": ("nb", "nf", "nk"),
     "n4sid": ("order", "horizon"),
+    "link": (),
 }
 
 
@@ -45,13 +47,13 @@ class ModelRequest:
     """A model to estimate: ``kind`` with its orders (n4sid: ``order`` 0 = choose by MDL
     over ``Plan.n4sid_orders``; ``horizon`` 0 = the default)."""
 
-    kind: Literal["arx", "armax", "oe", "n4sid"]
+    kind: Literal["arx", "armax", "oe", "n4sid", "link"]
     orders: dict[str, int]
 
     @property
     def name(self) -> str:
         given = [k for k in KINDS[self.kind] if self.kind != "n4sid" or self.orders.get(k)]
-        return f"{self.kind} " + " ".join(str(self.orders[k]) for k in given)
+        return " ".join([self.kind, *(str(self.orders[k]) for k in given)])
 
 
 @dataclass(frozen=True)
@@ -72,7 +74,8 @@ class Plan:
 
 def parse_model(text: str) -> ModelRequest:
     """``arx:4,4,3``, ``armax:2,2,2,3``, ``oe:2,2,3``, ``n4sid:4`` or ``n4sid:4,16`` or
-    ``n4sid`` (order chosen from the singular values)."""
+    ``n4sid`` (order chosen from the singular values), ``link`` (the flexible link's
+    physics)."""
     kind, _, rest = text.strip().partition(":")
     if kind not in KINDS:
         raise InvalidInput("model", text, f"kind:orders with kind one of {', '.join(KINDS)}")
@@ -301,6 +304,13 @@ def _estimate(
     ze: IdData, r: ModelRequest, sub: Subspace | None, best: int, horizon: int | None, i: int
 ) -> LinearModel:
     o = r.orders
+    if r.kind == "link" and ze.trend != "none":
+        raise InvalidInput(
+            f"models[{i}].kind",
+            r.kind,
+            "another kind, or detrend none: a link model needs the voltage and speeds as they "
+            "are (the dead zone and friction act on them, not on deviations from a mean)",
+        )
     if r.kind in ("armax", "oe") and (ze.ny != 1 or ze.nu != 1):
         raise InvalidInput(
             f"models[{i}].kind",
@@ -321,6 +331,8 @@ def _estimate(
                 if sub is None or (own is not None and own != sub.horizon):
                     sub = decompose(ze, own or horizon)
                 return n4sid(ze, o.get("order") or best, sub=sub)
+            case "link":
+                return link(ze)
             case _:
                 assert_never(r.kind)
     except InvalidInput as exc:

@@ -186,7 +186,8 @@ def _clean_times(t: np.ndarray, Ts: float) -> np.ndarray:
 def to_json(data: Table | Recording) -> bytes:
     """UTF-8 JSON: header, Ts, k0, channels, t, data by channel name, parameter changes.
 
-    Raises :class:`InvalidInput` if a value is NaN or infinite (JSON has neither).
+    A NaN (a sample nobody measured: one a rig dropped) is ``null``; an infinite value
+    raises :class:`InvalidInput` (JSON has none).
     """
     return b"".join(iter_json(_recording(data)))
 
@@ -332,19 +333,22 @@ def _json_numbers(parts: Iterable[Array]) -> Iterator[bytes]:
     first = True
     for values in parts:
         if values.size:
-            yield (b"" if first else b",") + ",".join(map(repr, values.tolist())).encode()
+            text = ",".join(map(repr, values.tolist()))
+            if np.isnan(values).any():
+                text = ",".join("null" if v != v else repr(v) for v in values.tolist())
+            yield (b"" if first else b",") + text.encode()
             first = False
 
 
 def _finite(rec: Recording, values: Array, i0: int, name: str) -> Array:
-    bad = np.flatnonzero(~np.isfinite(values))
+    bad = np.flatnonzero(np.isinf(values))
     if bad.size:
         i = i0 + int(bad[0])
         raise InvalidInput(
             f"data.{name}",
             float(values[bad[0]]),
             f"finite values (at t = {float(rec.t(i, i + 1)[0]):g} s; JSON has no "
-            "NaN or infinity, export CSV or .mat instead)",
+            "infinity, export CSV or .mat instead)",
         )
     return values
 

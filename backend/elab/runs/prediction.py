@@ -150,10 +150,12 @@ def compare(
     Ts: float,
 ) -> tuple[int, tuple[Gap, ...]]:
     """Samples compared (the first ``min(n, predicted)`` of the recording, ``names`` its
-    columns, ``read(k0, k1)`` its rows) and the gap of each predicted channel recorded."""
+    columns, ``read(k0, k1)`` its rows) and the gap of each predicted channel recorded,
+    over the samples measured (not those a rig dropped)."""
     m = min(n, predicted.values.shape[0])
     cols = [(j, names.index(name)) for j, name in enumerate(predicted.names) if name in names]
     sq = np.zeros(len(cols))
+    seen = np.zeros(len(cols))  # samples measured (a rig's dropped ones are NaN)
     worst = np.zeros(len(cols))
     where = np.zeros(len(cols), dtype=np.int64)
     for k0 in range(0, m, PART):
@@ -161,7 +163,9 @@ def compare(
         k1 = k0 + rows.shape[0]
         for i, (j, c) in enumerate(cols):
             d = rows[:, c] - predicted.values[k0:k1, j]
-            d = np.where(np.isfinite(d), d, 0.0)
+            finite = np.isfinite(d)
+            seen[i] += int(finite.sum())
+            d = np.where(finite, d, 0.0)
             sq[i] += float(d @ d)
             if d.size == 0:
                 continue
@@ -171,7 +175,7 @@ def compare(
     gaps = tuple(
         Gap(
             predicted.names[j],
-            math.sqrt(sq[i] / m) if m else 0.0,
+            math.sqrt(sq[i] / seen[i]) if seen[i] else 0.0,
             float(worst[i]),
             float(where[i] * Ts),
         )

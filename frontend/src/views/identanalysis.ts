@@ -5,7 +5,7 @@
 import { api, ApiError, identify } from "../api";
 import { fill, h } from "../dom";
 import { FieldSet, NumberField } from "../forms";
-import { columnNames, dataSummary, fileRecord, modelBody, parseModels, tooLarge } from "../ident";
+import { columnNames, dataSummary, fileRecord, linkRows, modelBody, parseModels, tooLarge } from "../ident";
 import { chart, purge, type Series } from "../plot";
 import type { FileData, IdentModelOut, IdentOut, IdentRequest, ModelCreate, PlantDetail, RunData } from "../protocol.gen";
 import { fmt } from "../units";
@@ -76,7 +76,7 @@ export class IdentAnalysis {
       this.validation.root,
       h("div.grid", split.root, h("div.field.span2", h("label", { for: `${pre}-detrend` }, "Detrend (each part)"), this.detrend)),
       h("fieldset", h("legend", "Analyses"), corrLabel, specLabel, arxLabel, h("div.grid", num("arx_search.na.0", "na from", 1, 0, 50), num("arx_search.na.1", "na to", 10, 0, 50), num("arx_search.nb.0", "nb from", 1, 1, 50), num("arx_search.nb.1", "nb to", 10, 1, 50), num("arx_search.nk.0", "nk from", 1, 0, 50), num("arx_search.nk.1", "nk to", 10, 0, 50)), n4sidLabel, h("div.grid", num("n4sid_orders.0", "order from", 1, 1, 99), num("n4sid_orders.1", "order to", 10, 1, 99), num("horizon", "horizon s (0: default)", 0, 0, 100))),
-      h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values); separate with ;"), this.modelsMsg),
+      h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values) · link (the flexible link's physics: outputs θ, α; detrend none); separate with ;"), this.modelsMsg),
       h("div.actions", h("button.primary", { type: "submit" }, "Identify"), this.progress, this.stage),
       this.msg,
     );
@@ -253,6 +253,16 @@ export class IdentAnalysis {
       (fitted ? m.simulated_x0 : m.simulated).forEach((y, i) => series.push({ x: tv, y: y.slice(0, tv.length), name: `${m.name}${d.output_names.length > 1 ? " " + d.output_names[i] : ""}${fitted ? " (x₀ fitted)" : ""}`, dash: "dash" }));
     }
     const why = models.filter((m) => m.fit.headline_x0 === "estimated").map((m) => h("li", `${m.name}: ${m.fit.headline_why}.`));
+    const physics = models
+      .filter((m) => m.kind === "link")
+      .map((m) =>
+        h(
+          "div",
+          h("h3", `${m.name}: the flexible link's physics`),
+          h("table.params", { "data-testid": "link-parameters" }, h("thead", h("tr", h("th", "ratio"), h("th", "estimate ± σ"), h("th", "what it is"))), h("tbody", ...linkRows(m).map(([n, v, what]) => h("tr", h("th", { scope: "row" }, n), h("td.mono", v), h("td", what))))),
+          h("p.hint", `The servo equation fitted where the servo turned faster than 1 rad/s (${Number(m.parameters.moving_samples).toLocaleString("en")} of ${Number(m.parameters.samples).toLocaleString("en")} samples); the fits above are of its linear part, without friction or dead zone.`),
+        ),
+      );
     const residDivs: HTMLElement[] = [];
     const residBlocks = models.flatMap((m) => {
       const r = m.residuals;
@@ -280,6 +290,7 @@ export class IdentAnalysis {
       h("table.params", { "data-testid": "ident-models" }, h("thead", h("tr", h("th", "model"), h("th", "fit, simulated (x₀ = 0)"), h("th", "fit, simulated (x₀ fitted)"), h("th", "fit, one step ahead"), h("th", "poles"), h("th", ""))), h("tbody", ...rows)),
       h("p.hint", `Fit = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) on the ${d.validation === "record" ? "separate validation record" : "validation part"}; the bold one is each model's headline, and the one plotted: from x₀ = 0 when every mode decays within the record, else from the fitted initial state. Use this model: the server keeps it and opens its design page, a link you can share, where LQR, pole placement and PID are designed on it and run on the plant.`),
       why.length ? h("ul.hint", { "data-testid": "ident-headline-why" }, ...why) : "",
+      ...physics,
       compareDiv,
       ...residBlocks,
     );

@@ -9,6 +9,8 @@ engine process of a server is; tests/unit/rig/test_closed_loop.py says the same)
 from __future__ import annotations
 
 import math
+import os
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -127,7 +129,8 @@ def _until(ok: Callable[[], bool], what: str, timeout: float = 30.0) -> None:
 def _drive(engine: RigEngine, order: RunOrder, user: str = "a-student") -> RunRecord:
     """Add ``order`` as its driver would: in the rig's queue, armed, the run seated (after
     the last run the rig settles first), then the engine takes it."""
-    _until(lambda: _seat(engine, order.id, user), "the rig seats the run")
+    # (still and zeroed first: after every run and when the rig connects)
+    _until(lambda: engine.ready() and _seat(engine, order.id, user), "the rig seats the run")
     return engine.add(order)
 
 
@@ -150,6 +153,7 @@ def _order(run_id: str, spec: RunSpec) -> RunOrder:
 
 
 SQUARE = RunSpec(PLANT, PLANT.predefined, Square(math.radians(20), 2.0), duration=2.0)
+SQUARE_R = compile_run(SQUARE).exogenous(0, 2000)[:, 0]
 
 
 def test_the_predefined_lqr_runs_on_the_rig_recorded_and_close_to_its_simulation(
@@ -410,5 +414,35 @@ def test_the_engine_stops_a_run_whose_driver_left_the_queue(tmp_path: Path, rig:
         ended = heard.wait_ended("r-14")
         assert ended.state is RunState.STOPPED and ended.n < 2000, ended
         assert ended.error is not None and "slot" in ended.error, ended.error
+    finally:
+        engine.close()
+
+
+def test_samples_the_rig_skipped_keep_their_place_on_its_clock(
+    tmp_path: Path, rig: Running
+) -> None:
+    """The emulator stopped for 60 ms mid-run falls behind its clock: it integrates the
+    periods it missed and sends only the newest sample (a gap in the sequence numbers).
+    The recording keeps sample k at t = k·Ts: a row for each skipped sample with its
+    reference and the voltage the amplifier held, NaN for what nobody measured."""
+    heard = Heard()
+    engine = _engine(tmp_path, rig, heard)
+    try:
+        _drive(engine, _order("r-gap", SQUARE))
+        _until(lambda: engine.store.get_run("r-gap").n_stored > 500, "the run goes")
+        os.kill(rig.proc.pid, signal.SIGSTOP)
+        time.sleep(0.06)
+        os.kill(rig.proc.pid, signal.SIGCONT)
+        ended = heard.wait_ended("r-gap")
+        assert (ended.state, ended.n) == (RunState.FINISHED, 2000)
+        data = engine.store.read("r-gap", 0, 2000)
+        lost = np.flatnonzero(np.isnan(data[:, 2]))
+        assert 40 <= lost.size <= 200, lost.size  # about 60 (a loaded machine adds some)
+        assert np.all(np.isnan(data[lost, 3])) and np.all(np.isfinite(data[lost, :2]))
+        # the reference of every row is the one at its time on the rig's clock
+        assert np.array_equal(data[:, 0], SQUARE_R[:2000])
+        # held: the voltage of each skipped row is the one before it
+        first = lost[0]
+        assert data[first, 1] == data[first - 1, 1]
     finally:
         engine.close()

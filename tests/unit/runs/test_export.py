@@ -162,13 +162,21 @@ def test_json_round_trip_is_exact() -> None:
     ]
 
 
-@pytest.mark.parametrize("bad", [float("nan"), float("inf")])
-def test_json_refuses_non_finite_values(bad: float) -> None:
+@pytest.mark.parametrize("bad", [float("inf"), float("-inf")])
+def test_json_refuses_infinite_values(bad: float) -> None:
     data = np.zeros((10, 4))
     data[7, 2] = bad
     with pytest.raises(InvalidInput, match=r"t = 0\.07 s") as err:
         to_json(Table({}, 0.01, 0, CHANNELS, data))
     assert err.value.field == "data.theta"
+
+
+def test_json_writes_a_sample_nobody_measured_as_null() -> None:
+    data = np.ones((10, 4))
+    data[7, 2:] = np.nan  # a sample a rig dropped: its reference and voltage are known
+    doc = json.loads(to_json(Table({}, 0.01, 0, CHANNELS, data)))
+    assert doc["data"]["theta"][7] is None and doc["data"]["u"][7] == 1.0
+    assert doc["data"]["theta"][6] == 1.0
 
 
 # -- MATLAB ----------------------------------------------------------------------

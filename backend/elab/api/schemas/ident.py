@@ -74,7 +74,16 @@ class N4sidSpec(Model):
     horizon: int = Field(0, ge=0, le=100, description="block rows; 0: the default")
 
 
-ModelSpec = Annotated[ArxSpec | ArmaxSpec | OeSpec | N4sidSpec, Field(discriminator="kind")]
+class LinkSpec(Model):
+    """The rotary flexible link's physics (input u; outputs θ then α, in rad; detrend
+    none): docs/identification.md."""
+
+    kind: Literal["link"]
+
+
+ModelSpec = Annotated[
+    ArxSpec | ArmaxSpec | OeSpec | N4sidSpec | LinkSpec, Field(discriminator="kind")
+]
 
 
 class ArxSearch(Model):
@@ -252,7 +261,7 @@ class ResidualsOut(Model):
 
 class IdentModelOut(Model):
     name: str
-    kind: Literal["arx", "armax", "oe", "n4sid"]
+    kind: Literal["arx", "armax", "oe", "n4sid", "link"]
     orders: dict[str, int]
     parameters: dict[str, list[Num] | list[list[Num]] | bool | int | Num | str | dict[str, Num]] = (
         Field(

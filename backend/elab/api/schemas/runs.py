@@ -73,14 +73,15 @@ class RecordingParamChange(Model):
 class RecordingOut(Model):
     """A recording downloaded as JSON (``GET /runs/{id}/data?format=json``): the CSV's
     header lines as ``header``, the time column ``t`` (s) and one column per channel in
-    ``data``, in SI units as ``channels`` says."""
+    ``data``, in SI units as ``channels`` says; ``null`` where nobody measured (a sample
+    a rig dropped: its reference and the voltage held are there, its measurements not)."""
 
     header: dict[str, str]
     Ts: float
     k0: int = Field(description="the index of the first sample")
     channels: list[ChannelInfo]
     t: list[float]
-    data: dict[str, list[float]]
+    data: dict[str, list[float | None]]
     param_changes: list[RecordingParamChange]
 
 
