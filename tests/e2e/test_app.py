@@ -161,7 +161,7 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     panel = page.get_by_test_id("ident-run")
     panel.locator("#id-models").fill("arx:4,4,1; bj:1,1")
     panel.get_by_role("button", name="Identify").click()
-    expect(panel.get_by_test_id("models-error")).to_contain_text("arx, armax, oe or n4sid")
+    expect(panel.get_by_test_id("models-error")).to_contain_text("arx, armax, oe, n4sid or link")
     panel.locator("#id-models").fill("arx:4,4,1; n4sid:4")
     panel.get_by_role("button", name="Identify").click()
     table = panel.get_by_test_id("ident-models")

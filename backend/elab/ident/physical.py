@@ -47,8 +47,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import signal
-from scipy.ndimage import minimum_filter1d
 
 from elab.errors import InvalidInput
 from elab.ident.data import IdData
@@ -70,6 +68,8 @@ def link(data: IdData) -> LinearModel:
     """The flexible link's physical parameters from ``data`` (input u in V, outputs θ then
     α in rad, not detrended), as a :class:`LinearModel` of its linear part whose
     ``parameters`` are :class:`LinkParameters`."""
+    from scipy.ndimage import minimum_filter1d  # (scipy's imports: when a link is asked for)
+
     u, theta, alpha, Ts = _signals(data)
     F = _Filters(Ts)
     skip = int(SETTLE / BANDWIDTH / Ts) + 1
@@ -148,7 +148,10 @@ class _Filters:
     """The state-variable filter's derivatives s^k λ³/(s+λ)³ of sampled signals."""
 
     def __init__(self, Ts: float) -> None:
+        from scipy import signal
+
         self.Ts = Ts
+        self.signal = signal
 
     def smooth(self, x: Array, k: int) -> Array:
         """Of a continuous signal sampled (first-order hold)."""
@@ -161,14 +164,15 @@ class _Filters:
     def speed(self, theta: Array) -> Array:
         """θ̇, smoothed forwards and backwards (no delay: the record is whole), for its sign
         and size only."""
-        b, a = signal.butter(2, SPEED_FILTER / (np.pi / self.Ts))
-        return np.asarray(signal.filtfilt(b, a, np.gradient(theta, self.Ts)), dtype=np.float64)
+        b, a = self.signal.butter(2, SPEED_FILTER / (np.pi / self.Ts))
+        smooth = self.signal.filtfilt(b, a, np.gradient(theta, self.Ts))
+        return np.asarray(smooth, dtype=np.float64)
 
     def _filter(self, x: Array, k: int, method: str, lam: float) -> Array:
         num = np.zeros(k + 1)
         num[0] = lam**3
-        b, a, _ = signal.cont2discrete((num, np.poly([-lam] * 3)), self.Ts, method=method)
-        return np.asarray(signal.lfilter(np.ravel(b), a, x), dtype=np.float64)
+        b, a, _ = self.signal.cont2discrete((num, np.poly([-lam] * 3)), self.Ts, method=method)
+        return np.asarray(self.signal.lfilter(np.ravel(b), a, x), dtype=np.float64)
 
 
 def _late(filtered: Array, d: float) -> Array:
@@ -218,6 +222,8 @@ def _signals(data: IdData) -> tuple[Array, Array, Array, float]:
 def _model(p: LinkParameters, data: IdData) -> LinearModel:
     """The linear part (no friction, no dead zone) in states θ, α_m, θ̇, α̇_m, held at
     ``data``'s sample time; its noise variance that of its simulation's error on ``data``."""
+    from scipy import signal
+
     sig = p.sigma
     A = np.array(
         [
