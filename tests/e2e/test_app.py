@@ -324,3 +324,30 @@ def test_runs_list_filters_by_plant_and_opens_a_run(
     rows.first.get_by_role("link").click()
     expect(page).to_have_url(re.compile(r"/runs/r-[0-9a-f]+$"))
     expect(page.locator(".run-panel .badge")).to_have_text("finished")
+
+
+def test_the_link_model_reads_the_models_physics_from_an_identification_run(
+    page: Page, shots: Path
+) -> None:
+    """The chapter's experiment in simulation (a ±40° square, the page's PRBS at the
+    input), then the link model on both outputs, kept as recorded: the page shows the
+    physical ratios, and on the simulated plant they are the model's own."""
+    page.goto("/plants/flexible_link/identification")
+    expect(page.locator("#signal-kind")).to_have_value("step")  # 0: the old experiment
+    page.locator("#signal-kind").select_option("square")
+    page.locator("#f-signal-amplitude").fill("40")
+    page.locator("#f-signal-period").fill("2")
+    page.locator("#f-duration").fill("12")
+    page.get_by_role("button", name="Start").click()
+    expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=60_000)
+    panel = page.get_by_test_id("ident-run")
+    panel.locator("#id-output").select_option("*")
+    panel.locator("#id-detrend").select_option("none")
+    panel.locator("#id-models").fill("link")
+    panel.get_by_role("button", name="Identify").click()
+    table = panel.get_by_test_id("link-parameters")
+    expect(table).to_contain_text("K_s/J_l", timeout=60_000)
+    b = table.locator("tr", has_text="K_s/J_l").locator("td").first.inner_text()
+    value = float(b.split("±")[0])
+    assert abs(value / 355.31 - 1) < 0.01, b  # the seed's A: −(A[3,1] + A[2,1])
+    table.screenshot(path=shots / "ident-link.png")

@@ -23,6 +23,9 @@ type Loop = "closed-input" | "closed-reference" | "open";
 class IdentificationView {
   readonly root: HTMLElement;
   private excitation!: SignalForm;
+  /** the reference the predefined controller tracks with the excitation at the input (the
+   * chapter's experiment for the link model: a square of tens of degrees) */
+  private reference: SignalForm | null = null;
   private readonly runFields = new FieldSet();
   private readonly startOptions = new StartOptions();
   private readonly where: RigModeChoice;
@@ -83,13 +86,16 @@ class IdentificationView {
     const unit = loop === "closed-reference" ? (p.outputs.find((o) => o.name === p.reference_output)?.unit ?? "") : (p.inputs[0]?.unit ?? "V");
     const initial = loop === "closed-reference" ? { kind: "prbs" as const, amplitude: (5 * Math.PI) / 180, order: 10, band: 0.05, offset: 0 } : { kind: "prbs" as const, amplitude: 1, order: 10, band: 0.05, offset: 0 };
     this.excitation = new SignalForm("excitation", loop === "open" ? "Input signal" : "Excitation", ["prbs", "sine", "step"], unit, initial, undefined, undefined, p.Ts);
-    fill(this.excitationSlot, this.excitation.root);
+    const refUnit = p.outputs.find((o) => o.name === p.reference_output)?.unit ?? "";
+    this.reference = loop === "closed-input" ? new SignalForm("signal", "Reference (what the controller tracks meanwhile)", ["step", "square"], refUnit, { kind: "step", amplitude: 0, offset: 0, t0: 0 }, undefined, undefined, p.Ts) : null;
+    fill(this.excitationSlot, this.excitation.root, this.reference?.root ?? null);
   }
 
   private request(): RunCreate | null {
     const excitation = this.excitation.value();
     const v = this.runFields.values();
-    if (!excitation || !v) return null;
+    const reference = this.reference ? this.reference.value() : { kind: "step" as const, amplitude: 0 };
+    if (!excitation || !v || !reference) return null;
     const mode = this.where.mode;
     // the server's default for simulated identification: realistic; the rig's sensors are real
     const realistic = mode === "simulation" && this.realistic.checked;
@@ -97,7 +103,7 @@ class IdentificationView {
     const base = { plant: this.plant.id, mode, experiment: "identification" as const, duration: v.get("duration")!, pace: "realtime" as const, private: this.startOptions.private, ...sensors };
     const loop = this.loop.value as Loop;
     if (loop === "open") return { ...base, controller: { kind: "open_loop" }, signal: excitation };
-    return { ...base, controller: { kind: "predefined" }, signal: { kind: "step", amplitude: 0 }, excitation, excitation_at: loop === "closed-input" ? "input" : "reference" };
+    return { ...base, controller: { kind: "predefined" }, signal: reference, excitation, excitation_at: loop === "closed-input" ? "input" : "reference" };
   }
 
   private async start(): Promise<void> {
@@ -121,7 +127,7 @@ class IdentificationView {
       fill(this.analysisSlot);
       history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
     } catch (err) {
-      showApiError(err, [this.excitation.fields, this.runFields], this.formMsg);
+      showApiError(err, [this.excitation.fields, ...(this.reference ? [this.reference.fields] : []), this.runFields], this.formMsg);
       if (req.mode === "rig") this.where.refused(err);
       return;
     }
