@@ -122,7 +122,7 @@ def test_a_rig_run_streams_live_and_records_every_sample(srv: Server) -> None:
     cols = asyncio.run(watch())
     # the square's first half-period: θ follows the reference +20° (within 4°)
     k = slice(800, 1000)
-    assert abs(np.degrees(np.mean(cols["theta"][k] - cols["r"][k]))) < 4.0
+    assert abs(np.degrees(np.nanmean(cols["theta"][k] - cols["r"][k]))) < 4.0
     csv = call(srv, "GET", f"/runs/{run['id']}/data?format=csv")
     assert csv.status_code == 200 and "mode: rig" in csv.text
     st = srv.status()["rig"]

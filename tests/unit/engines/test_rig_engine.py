@@ -172,12 +172,14 @@ def test_the_predefined_lqr_runs_on_the_rig_recorded_and_close_to_its_simulation
         theta_rig, theta_sim = data[:, 2], sim.y[:, 0]
         # the emulated rig differs from the model (its hidden parameters, friction, a dead
         # zone): the same law tracks the same square wave within 3° RMS of the simulation
-        rms = math.degrees(float(np.sqrt(np.mean((theta_rig - theta_sim) ** 2))))
+        # (over the samples measured: a sample the rig dropped is NaN)
+        rms = math.degrees(float(np.sqrt(np.nanmean((theta_rig - theta_sim) ** 2))))
         assert rms < 3.0, rms  # 2.0° measured quiet
         # and ends near the reference (−20° after the square's second half-period)
         assert abs(math.degrees(theta_rig[-1] - data[-1, 0])) < 4.0
         assert np.all(np.abs(data[:, 1]) <= 10.0)  # the supervisor's clip
-        assert np.all(data[:, 6] < 0.5)  # every answer's latency recorded, in s
+        answered = data[np.isfinite(data[:, 6]), 6]
+        assert answered.size > 1900 and np.all(answered < 0.5)  # latencies recorded, in s
     finally:
         engine.close()
 
@@ -197,7 +199,8 @@ def test_an_unstable_law_trips_the_angle_limit_and_the_motor_stops(
         assert ended.state is RunState.FAILED
         assert ended.error is not None and "safety trip (angle)" in ended.error, ended.error
         data = engine.store.read("r-2", 0, ended.n)
-        assert ended.n < 10_000 and np.all(np.abs(data[-10:, 2]) > math.radians(120))
+        last = data[-10:, 2][np.isfinite(data[-10:, 2])]
+        assert ended.n < 10_000 and np.all(np.abs(last) > math.radians(120))
         assert data[-1, 1] == 0.0  # the tripping sample was answered with 0 V
         _until(lambda: engine.store.get_run("r-2").status == "failed", "the end is stored")
         assert "angle" in (engine.store.get_run("r-2").error or "")
