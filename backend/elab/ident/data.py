@@ -246,8 +246,10 @@ def _longest_run(x: Array, value: float | None = None) -> tuple[int, int]:
     return int(starts[k]), int(lengths[k])
 
 
-MAX_FILL = 10  # samples in one gap that interpolation may fill
-MAX_FILL_SHARE = 0.01  # of a record's samples
+#: samples in one gap that interpolation may fill: 25 ms at 1 kHz, an eighth of the flexible
+#: link's fastest period (a rig beside two CPU hogs dropped 13 in a row)
+MAX_FILL = 25
+MAX_FILL_SHARE = 0.02  # of a record's samples
 
 
 def fill_gaps(rows: Array, Ts: float, what: str) -> tuple[Array, int]:

@@ -156,7 +156,7 @@ def test_samples_a_rig_dropped_are_filled_when_few_and_refused_when_many() -> No
     assert n == 3 and np.max(np.abs(filled - rows)) < 1e-4  # a straight line over 2 ms
     assert fill_gaps(rows, Ts, "run r") == (rows, 0)
     long = rows.copy()
-    long[700:720] = np.nan
+    long[700:730] = np.nan
     with pytest.raises(InvalidInput) as exc:
         fill_gaps(long, Ts, "run r")
     assert exc.value.field == "data" and "from t = 0.7 s" in str(exc.value.value)
