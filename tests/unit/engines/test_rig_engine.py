@@ -129,9 +129,22 @@ def _until(ok: Callable[[], bool], what: str, timeout: float = 30.0) -> None:
 def _drive(engine: RigEngine, order: RunOrder, user: str = "a-student") -> RunRecord:
     """Add ``order`` as its driver would: in the rig's queue, armed, the run seated (after
     the last run the rig settles first), then the engine takes it."""
-    # (still and zeroed first: after every run and when the rig connects)
+    # (still and zeroed first: after every run and when the rig connects, and again if
+    # a loaded machine made the rig look silent and the engine reconnected meanwhile)
     _until(lambda: engine.ready() and _seat(engine, order.id, user), "the rig seats the run")
-    return engine.add(order)
+    added: list[RunRecord] = []
+
+    def add() -> bool:
+        try:
+            added.append(engine.add(order))
+        except Conflict as exc:
+            if "settling" not in str(exc):
+                raise
+            return False
+        return True
+
+    _until(add, "the engine takes the run")
+    return added[0]
 
 
 def _seat(engine: RigEngine, run_id: str, user: str) -> bool:
