@@ -19,7 +19,7 @@ import asyncio
 import math
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable, Hashable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -66,18 +66,7 @@ def predict(
 ) -> Predicted:
     """The prediction of the first ``min(limit, its length)`` samples of ``spec``'s run
     with ``changes`` replayed; ``spec``'s sensors are made ideal here."""
-    ideal = RunSpec(
-        plant=spec.plant,
-        law=spec.law,
-        reference=spec.reference,
-        duration=spec.duration,
-        Ts=spec.Ts,
-        excitation=spec.excitation,
-        excitation_at=spec.excitation_at,
-        saturate=spec.saturate,
-        u_max=spec.u_max,
-        x0=spec.x0,
-    )
+    ideal = replace(spec, noise_seed=None, quantize=False)
     run = compile_run(ideal)
     n = run.n_samples if limit is None else min(limit, run.n_samples)
     p = spec.plant
