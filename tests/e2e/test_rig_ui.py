@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -18,6 +17,7 @@ from playwright.sync_api import Browser, Page, expect
 
 from tests.api.server import Server, until
 from tests.api.test_access import PASSWORD, instructor, instructors_file
+from tests.e2e.test_access_ui import person
 
 SAMPLES = "Number(document.querySelector('.run-panel .progress')?.dataset.samples ?? 0)"
 GUEST = r"guest [0-9a-f]{4}"
@@ -50,20 +50,6 @@ def free_rig(server: Server) -> Iterator[None]:
         prof.post("/rig/takeover")
         prof.post("/rig/clear")
         assert prof.delete("/rig/queue").json()["driver"] is None
-
-
-@contextmanager
-def person(browser: Browser, server: Server) -> Iterator[Page]:
-    """A browser context of its own: another person, with another anonymous identity."""
-    context = browser.new_context(viewport={"width": 1280, "height": 800}, base_url=server.url)
-    page = context.new_page()
-    errors: list[str] = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    try:
-        yield page
-    finally:
-        context.close()
-    assert not errors, f"errors in the page: {errors}"
 
 
 def choose_rig(page: Page) -> None:
