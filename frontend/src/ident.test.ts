@@ -41,7 +41,7 @@ describe("modelBody", () => {
     const ss = { A: [[0.5]], B: [[1]], C: [[1]], D: [[0]], K: [[0.1]], Ts: 0.08 };
     const out = {
       data: { Ts: 0.08, input_names: ["c1"], input_units: [""], output_names: ["c2"], output_units: ["V"] },
-      models: [{ name: "arx 1 1 1", kind: "arx", ss, fit: { headline: [89.5] } }],
+      models: [{ name: "arx 1 1 1", kind: "arx", ss, fit: { headline: [89.5] }, verdicts: [{ topic: "fit", level: "poor", finding: "validation fit 31.7 %", advice: "try other orders" }] }],
     } as unknown as IdentOut;
     expect(modelBody("flexible_link", out, 0, "dryer.dat")).toEqual({
       plant: "flexible_link",
@@ -56,6 +56,7 @@ describe("modelBody", () => {
       source: "dryer.dat",
       kind: "arx",
       fit: [89.5],
+      verdicts: [{ topic: "fit", level: "poor", finding: "validation fit 31.7 %", advice: "try other orders" }],
     });
   });
 });

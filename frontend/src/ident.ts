@@ -105,6 +105,7 @@ export function modelBody(plantId: string, out: IdentOut, index: number, source:
     source: source.slice(0, 200),
     kind: m.kind,
     fit: m.fit.headline,
+    verdicts: m.verdicts.map((v) => ({ topic: v.topic, level: v.level, finding: v.finding, advice: v.advice ?? null })),
   };
 }
 

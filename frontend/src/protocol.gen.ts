@@ -192,6 +192,8 @@ export interface ElabProtocol {
   TransferFunctionOut?: TransferFunctionOut;
   UploadedController?: UploadedController;
   UploadedControllerList?: UploadedControllerList;
+  VerdictIn?: VerdictIn;
+  VerdictOut?: VerdictOut;
 }
 /**
  * Those asked for (and possible: the first four need one input and one output).
@@ -1192,6 +1194,10 @@ export interface IdentOut {
   analyses: AnalysesOut;
   models: IdentModelOut[];
   notes: string[];
+  /**
+   * on the data (and the ARX order search)
+   */
+  verdicts: VerdictOut[];
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -1244,6 +1250,11 @@ export interface IdentModelOut {
   simulated_x0: (number | null)[][];
   one_step: (number | null)[][];
   residuals: ResidualsOut | null;
+  verdicts: VerdictOut[];
+  /**
+   * its worst verdict's: 'poor' is not to be designed on as it is
+   */
+  level: "good" | "caution" | "poor";
 }
 /**
  * The innovations form x⁺ = A x + B u + K e, y = C x + D u + e (discrete, Ts).
@@ -1282,6 +1293,24 @@ export interface ResidualsOut {
   bound: number | null;
   white: boolean;
   independent: boolean;
+}
+/**
+ * A verdict in plain words (docs/identification.md, "Verdicts").
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "VerdictOut".
+ */
+export interface VerdictOut {
+  /**
+   * on the data: feedback, excitation, noise, quantisation, delay, length, order_search; on a model: stability, integrator, fit, residuals, order
+   */
+  topic: string;
+  level: "good" | "caution" | "poor";
+  finding: string;
+  /**
+   * what to change; null when nothing needs to
+   */
+  advice: string | null;
 }
 /**
  * Identification on a run's data or an uploaded table. ``split``: the estimation
@@ -1410,6 +1439,7 @@ export interface IdentifiedModel {
   source: string;
   kind: string;
   fit: (number | null)[];
+  verdicts: VerdictOut[];
   /**
    * z
    */
@@ -1642,6 +1672,12 @@ export interface ModelCreate {
    * @maxItems 8
    */
   fit?: (number | null)[];
+  /**
+   * identification's verdicts on it, shown beside its fit
+   *
+   * @maxItems 20
+   */
+  verdicts?: VerdictIn[];
 }
 export interface ModelChannel1 {
   name: string;
@@ -1649,6 +1685,18 @@ export interface ModelChannel1 {
    * SI: rad, m, V, …
    */
   unit?: string;
+}
+/**
+ * A verdict of identification's (:class:`VerdictOut`) as a model to keep carries it.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "VerdictIn".
+ */
+export interface VerdictIn {
+  topic: string;
+  level: "good" | "caution" | "poor";
+  finding: string;
+  advice?: string | null;
 }
 /**
  * A design on a kept model. ``controller`` is what ``POST /runs`` takes (with ``Ts`` =

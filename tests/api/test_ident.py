@@ -57,7 +57,11 @@ def test_dryer_upload_reproduces_the_published_results(server: Server) -> None:
         [39.13, 9.925, 2.132], rel=1.5e-3
     )
     assert len(a["spectral"]["omega"]) == 128
+    said = {v["topic"]: v for v in out["verdicts"]}  # on the data: open loop, a good record
+    assert said["feedback"]["level"] == "good" and said["delay"]["finding"].startswith("delay 3")
+    assert all(v["level"] == "good" for v in out["verdicts"] if v["topic"] != "order_search")
     arx, ss = out["models"]
+    assert arx["level"] in ("good", "caution") and ss["level"] in ("good", "caution")
     assert arx["name"] == "arx 2 2 3"
     assert arx["parameters"]["A"] == pytest.approx([1, -1.2765, 0.3967], abs=5e-4)
     assert arx["fit"]["validation_simulation"][0] == pytest.approx(89.55, abs=0.3)

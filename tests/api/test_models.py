@@ -101,6 +101,7 @@ def identified(c: httpx.Client) -> dict[str, Any]:
         "source": f"run {run['id']}",
         "kind": m["kind"],
         "fit": m["fit"]["headline"],
+        "verdicts": m["verdicts"],
     }
 
 
@@ -116,8 +117,12 @@ def test_a_model_from_a_prbs_run_is_shared_by_link_and_deleted_by_its_owner(
         assert kept["mine"] and kept["can_delete"] and kept["not_runnable"] is None
         assert kept["page"] == f"/plants/flexible_link/design?model={mid}"
         assert kept["url"] == f"/api/v1/models/{mid}"
-        # numbers as identification gave them, bit for bit
+        # numbers as identification gave them, bit for bit, and its verdicts: an ARX
+        # model of the integrating θ fitted with the means removed is told so
         assert [kept[k] for k in "ABCD"] == [body[k] for k in "ABCD"] and kept["Ts"] == Ts
+        assert kept["verdicts"] == body["verdicts"]
+        said = {v["topic"]: v for v in kept["verdicts"]}
+        assert said["integrator"]["level"] == "caution" and "detrend" in said["integrator"]["advice"]
         # poles of the ARX model of an integrating plant: one at z ≈ 1
         assert max(abs(complex(p["re"], p["im"])) for p in kept["poles"]) == pytest.approx(
             1, abs=5e-3
@@ -162,6 +167,9 @@ def test_bad_models_and_designs_get_a_4xx_naming_the_field(server: Server) -> No
             ({"plant": "nope"}, "plant"),
             ({"Ts": -1.0}, "Ts"),
             ({"A": [[0.0] * 21] * 21}, "A"),  # huge: over 20 states
+            ({"verdicts": [{"topic": "fit", "level": "awful", "finding": "x"}]}, "verdicts"),
+            ({"verdicts": [{"topic": "fit", "level": "poor", "finding": "x" * 1001}]}, "verdicts"),
+            ({"verdicts": [{"topic": "fit", "level": "good", "finding": "x"}] * 21}, "verdicts"),
         ]
         for change, field in cases:
             err = error(c.post("/models", json={**good, **change}))

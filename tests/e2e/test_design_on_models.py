@@ -37,9 +37,20 @@ def identify_from_a_prbs_run(page: Page) -> str:
     panel.locator("#id-models").fill("arx:4,4,1")
     panel.get_by_role("button", name="Identify").click()
     expect(panel.get_by_test_id("ident-models")).to_contain_text("arx 4 4 1", timeout=60_000)
-    panel.get_by_test_id("use-model-0").click()
+    # the verdicts: on the data (the run's feedback among them) and on the model
+    expect(panel.get_by_test_id("data-verdicts").locator("[data-topic=feedback]")).to_have_count(1)
+    level = panel.get_by_test_id("model-level-0").inner_text()
+    use = panel.get_by_test_id("use-model-0")
+    use.click()
+    if level == "poor":  # kept only on a second click, after the warning says why
+        expect(page.get_by_test_id("poor-model-warning")).to_contain_text("arx 4 4 1 is a poor")
+        expect(use).to_have_text("Use it anyway")
+        expect(page).to_have_url(re.compile(r"/identification(\?run=r-[0-9a-f]+)?$"))
+        use.click()
     expect(page).to_have_url(re.compile(r"/plants/flexible_link/design\?model=m-[0-9a-f]{12}$"))
     expect(page.get_by_test_id("identified-model")).to_contain_text("Identified model: arx 4 4 1")
+    if level != "good":  # the design page shows what identification said of it
+        expect(page.get_by_test_id("model-warnings")).to_contain_text(level)
     return page.url
 
 

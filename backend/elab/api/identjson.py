@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from elab.api import schemas as s
 from elab.ident import IdData
 from elab.ident import workflow as wf
+from elab.ident.advice import Verdict
 from elab.ident.nonparametric import Correlation, SineResponse, Spectrum
 from elab.ident.parameters import (
     ArmaxParameters,
@@ -63,7 +64,12 @@ def ident_out(result: Result) -> s.IdentOut:
         analyses=_analyses(result),
         models=[_model(m) for m in result.models],
         notes=list(result.notes),
+        verdicts=[_verdict(v) for v in result.verdicts],
     )
+
+
+def _verdict(v: Verdict) -> s.VerdictOut:
+    return s.VerdictOut(topic=v.topic, level=v.level, finding=v.finding, advice=v.advice)
 
 
 def _data(d: AnalysedData) -> s.IdentDataOut:
@@ -178,6 +184,8 @@ def _model(r: ModelResult) -> s.IdentModelOut:
         simulated_x0=_thin(r.fits.validation_simulation_x0.yhat),
         one_step=_thin(r.fits.validation_one_step.yhat),
         residuals=None if r.residuals is None else _residuals(r.residuals),
+        verdicts=[_verdict(v) for v in r.verdicts],
+        level=r.level,
     )
 
 

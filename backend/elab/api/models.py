@@ -120,6 +120,7 @@ def _document(req: s.ModelCreate) -> dict[str, Any]:
         "source": req.source,
         "kind": req.kind,
         "fit": list(req.fit),
+        "verdicts": [v.model_dump() for v in req.verdicts],
     }
 
 
@@ -325,6 +326,7 @@ def model_out(kept: StoredModel, who: Identity) -> s.IdentifiedModel:
         source=m.get("source", ""),
         kind=m.get("kind", ""),
         fit=m.get("fit", []),
+        verdicts=[s.VerdictOut.model_validate(v) for v in m.get("verdicts", [])],
         poles=convert.complex_list(z),
         poles_s=convert.complex_list(np.log(z.astype(complex)) / m["Ts"]) if has_log else None,
         stable=bool(np.all(np.abs(z) < 1)),

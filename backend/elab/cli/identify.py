@@ -13,6 +13,7 @@ import numpy as np
 from elab.errors import InvalidInput
 
 if TYPE_CHECKING:
+    from elab.ident.advice import Verdict
     from elab.ident.parameters import Array, ModelParameters
     from elab.ident.results import Result
 
@@ -158,8 +159,15 @@ def _identify_text(data: Any, result: Result) -> str:
             + (f" ({fit.headline.why})" if estimated else "")
         )
         lines += _polynomials(m.model.parameters)
+        lines += [f"  {_verdict(v)}" for v in m.verdicts if v.level != "good"]
+        lines.append(f"  verdict: {m.level}")
+    lines += [f"data: {_verdict(v)}" for v in result.verdicts]
     lines += [f"note: {n}" for n in result.notes]
     return "\n".join(lines)
+
+
+def _verdict(v: Verdict) -> str:
+    return f"{v.level}: {v.finding}" + (f"; {v.advice}" if v.advice else "")
 
 
 def _polynomials(p: ModelParameters | None) -> list[str]:

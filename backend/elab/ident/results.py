@@ -11,6 +11,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from elab.ident.advice import Level, Verdict, worst
 from elab.ident.data import IdData
 from elab.ident.models import ContinuousModel, LinearModel
 from elab.ident.nonparametric import Correlation, SineResponse, Spectrum
@@ -98,14 +99,22 @@ class ModelResult:
     fits: Fits
     residuals: Residuals | None
     continuous: ContinuousModel | None
+    verdicts: tuple[Verdict, ...] = ()  # :func:`elab.ident.advice.on_model`
+
+    @property
+    def level(self) -> Level:
+        """Its worst verdict's level: ``poor`` is not to be designed on as it is."""
+        return worst(self.verdicts)
 
 
 @dataclass(frozen=True)
 class Result:
-    """Everything an identification found, and the notes a reader must see (suspicious
-    data, analyses skipped, unstable or reflected models, …)."""
+    """Everything an identification found, the verdicts on the data (and on the ARX order
+    search) and the notes a reader must see (suspicious data, analyses skipped, unstable
+    or reflected models, …)."""
 
     data: AnalysedData
     analyses: Analyses
     models: tuple[ModelResult, ...]
     notes: tuple[str, ...]
+    verdicts: tuple[Verdict, ...] = ()

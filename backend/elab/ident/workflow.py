@@ -20,6 +20,7 @@ from typing import Literal, TypeVar, assert_never
 import numpy as np
 
 from elab.errors import InvalidInput
+from elab.ident import advice
 from elab.ident.assess import assess, model_notes
 from elab.ident.data import IdData, require_varying, suspicious
 from elab.ident.models import LinearModel
@@ -111,12 +112,65 @@ def run(
     searches = () if plan.arx_search is None else _arx_search(ze, zv, plan.arx_search, report)
     sub, orders = _order_table(ze, plan, report)
     models, said = _models(ze, zv, plan, sub, orders, report)
+    parameters, order = _largest(plan, ze, orders)
+    verdicts = advice.on_data(ze, parameters, order, nonparametric.correlation)
+    if plan.arx_search is not None:
+        verdicts += tuple(_search_verdict(x, plan.arx_search) for x in searches)
     report("done", 1.0)
     return Result(
         data=AnalysedData(z, ze.N, "split" if validation is None else "record"),
         analyses=replace(nonparametric, arx_search=searches, n4sid_orders=orders),
         models=models,
         notes=(*notes, *skipped, *said),
+        verdicts=verdicts,
+    )
+
+
+def _largest(plan: Plan, ze: IdData, orders: OrderChoice | None) -> tuple[int, int]:
+    """The most parameters per output and the highest dynamic order among the models
+    asked for (an n4sid order to be chosen counts as its range's top)."""
+    parameters, order = 0, 0
+    for r in plan.models:
+        o = r.orders
+        match r.kind:
+            case "arx":
+                p, n = o["na"] + o["nb"] * ze.nu, max(o["na"], o["nb"])
+            case "armax":
+                p, n = o["na"] + o["nb"] + o["nc"], max(o["na"], o["nb"])
+            case "oe":
+                p, n = o["nb"] + o["nf"], max(o["nf"], o["nb"])
+            case "n4sid":
+                n = o.get("order") or (
+                    max(r.order for r in orders.rows) if orders is not None else 0
+                )
+                p = n * (ze.nu + ze.ny) + ze.nu * ze.ny
+            case "link":
+                p, n = 8, 3
+            case _:
+                assert_never(r.kind)
+        parameters, order = max(parameters, p), max(order, n)
+    return parameters, order
+
+
+def _search_verdict(x: ArxOrderSearch, ranges: tuple[range, range, range]) -> advice.Verdict:
+    """The ARX order search's choice, at the top of a range or inside them."""
+    na, nb, nk = x.best
+    top = [
+        name
+        for name, v, r in zip(("na", "nb", "nk"), x.best, ranges, strict=True)
+        if len(r) > 1 and v == max(r)
+    ]
+    if top:
+        return advice.Verdict(
+            "order_search",
+            "caution",
+            f"the ARX search for {x.output} chose [{na} {nb} {nk}], at the top of its range "
+            f"in {' and '.join(top)}: a corner of the search is no answer",
+            "widen the range; if it climbs again, suspect feedback, a drift or nonlinearity "
+            "rather than a high order",
+        )
+    return advice.Verdict(
+        "order_search", "good", f"the ARX search for {x.output} chose [{na} {nb} {nk}]"
     )
 
 
@@ -241,7 +295,20 @@ def _models(
     results = []
     for i, request in enumerate(plan.models):
         model = _estimate(ze, request, sub, best, plan.horizon, i)
-        results.append(assess(_name(request, model), model, ze, zv))
+        result = assess(_name(request, model), model, ze, zv)
+        chosen = request.kind == "n4sid" and not request.orders.get("order")
+        top = chosen and orders is not None and model.nx == max(r.order for r in orders.rows)
+        fit = result.fits.headline_fit.fit
+        fit = fit[np.isfinite(fit)]
+        verdicts = advice.on_model(
+            model.poles,
+            float(np.min(fit)) if fit.size else math.nan,
+            result.fits.headline.x0,
+            result.residuals,
+            plan.detrend,
+            top,
+        )
+        results.append(replace(result, verdicts=verdicts))
         notes += model_notes(results[-1].name, model)
         report(f"model {request.name}", 0.6 + 0.4 * (i + 1) / len(plan.models))
     return tuple(results), notes

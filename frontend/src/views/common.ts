@@ -2,7 +2,7 @@
 import { api, ApiError } from "../api";
 import { csv, fill, h, link, saveText } from "../dom";
 import type { FieldSet } from "../forms";
-import type { PlantDetail } from "../protocol.gen";
+import type { PlantDetail, VerdictOut } from "../protocol.gen";
 
 const plants = new Map<string, Promise<PlantDetail>>();
 
@@ -94,4 +94,15 @@ export function showApiError(err: unknown, sets: FieldSet[], out: HTMLElement): 
 /** A button that saves a plot's data as CSV. */
 export function downloadButton(filename: string, header: string[], columns: ArrayLike<number | null>[]): HTMLButtonElement {
   return h("button.download.link", { type: "button", onclick: () => saveText(filename, csv(header, columns)) }, `Download data (${filename})`);
+}
+
+const LEVEL_WORDS: Record<VerdictOut["level"], string> = { good: "good", caution: "caution", poor: "poor" };
+
+/** Identification's verdicts as a list: each finding with its level and what to change. */
+export function verdictList(verdicts: VerdictOut[], testid: string): HTMLElement {
+  return h(
+    "ul.verdicts",
+    { "data-testid": testid },
+    ...verdicts.map((v) => h(`li.verdict-${v.level}`, { "data-topic": v.topic }, h("strong", `${LEVEL_WORDS[v.level]}: `), v.finding, v.advice ? h("span.advice", ` — ${v.advice}`) : "")),
+  );
 }

@@ -10,7 +10,7 @@ import { tex } from "../markdown";
 import { chart, purge, type Series } from "../plot";
 import type { IdentifiedModel, ModelDesignOut, ModelDesignRequest, PlantDetail, StepOut } from "../protocol.gen";
 import { display, fmt, quantity } from "../units";
-import { errorText, loading } from "./common";
+import { errorText, loading, verdictList } from "./common";
 import type { DesignResult, Shown } from "./designresult";
 
 type Method = "lqr" | "place" | "pid";
@@ -60,6 +60,7 @@ export class ModelDesign {
   private describe(m: IdentifiedModel): (HTMLElement | null)[] {
     const out = m.outputs.map((o) => `${o.name} (${o.unit || "–"})`).join(", ");
     const fit = m.fit.length ? `; validation fit ${m.fit.map((f) => `${fmt(f)} %`).join(", ")}` : "";
+    const warned = m.verdicts.filter((v) => v.level !== "good");
     const tfs = m.tf.map((t, i) => {
       const el = h("div.math");
       el.innerHTML = tex(`G_{\\mathrm{${m.outputs[i].name.replace(/_/g, "\\_")}}}(z) = \\frac{${poly(t.num)}}{${poly(t.den)}}`, true);
@@ -72,6 +73,7 @@ export class ModelDesign {
     return [
       h("h2", `Identified model: ${m.name}`),
       h("p", `From ${m.source || "an upload"}${m.kind ? ` (${m.kind})` : ""}: input ${m.input.name} (${m.input.unit || "–"}), output${m.outputs.length > 1 ? "s" : ""} ${out}; Ts = ${fmt(m.Ts * 1000)} ms${fit}. Kept by ${m.mine ? "you" : m.owner}.`),
+      warned.length ? h("div.warnings", h("h4", "Identification's verdicts on this model"), verdictList(warned, "model-warnings")) : null,
       ...tfs,
       h("p", "Poles z: ", h("span.mono", m.poles.map(complexText).join(", ")), h("br"), "as continuous poles s = ln(z)/Ts: ", h("span.mono", m.poles_s ? m.poles_s.map(complexText).join(", ") : "none (a pole at z ≤ 0 has no continuous equivalent)")),
       h("p.share", "Link to this page, for anyone: ", h("a.mono", { href: m.page, "data-link": "", "data-testid": "model-link" }, url), " ", copy),

@@ -9,7 +9,7 @@ import { columnNames, dataSummary, fileRecord, linkRows, modelBody, parseModels,
 import { chart, purge, type Series } from "../plot";
 import type { FileData, IdentModelOut, IdentOut, IdentRequest, ModelCreate, PlantDetail, RunData } from "../protocol.gen";
 import { fmt } from "../units";
-import { downloadButton, errorText, showApiError } from "./common";
+import { downloadButton, errorText, showApiError, verdictList } from "./common";
 import { ValidationFile } from "./identvalidation";
 
 /** Where the data come from: a run (channels by name) or a file chosen in the panel. */
@@ -186,6 +186,7 @@ export class IdentAnalysis {
     d.u.forEach((u, i) => dataSeries.push({ x: d.t, y: u, name: `${d.input_names[i]} (${d.input_units[i] || "–"})`, axis: 2 }));
     const ys = d.y.flat();
     dataSeries.push({ x: [split, split], y: [Math.min(...ys), Math.max(...ys)], name: "estimation | validation", dash: "dot" });
+    if (out.verdicts.length) sections.push(h("section.panel.wide", h("h2", "Verdicts on the data"), verdictList(out.verdicts, "data-verdicts")));
     if (out.notes.length) sections.push(h("section.panel.wide", h("h2", "Notes"), ...out.notes.map((n) => h("p", n))));
     // non-parametric
     if (a.correlation) {
@@ -239,7 +240,8 @@ export class IdentAnalysis {
         h(m.fit.headline_x0 === "estimated" ? "td.headline" : "td", { "data-testid": `fit-x0-${i}`, title: m.fit.headline_x0 === "estimated" ? m.fit.headline_why : "" }, m.fit.validation_simulation_x0.map((x) => `${fmt(x)} %`).join(", ")),
         h("td", m.fit.validation_one_step.map((x) => `${fmt(x)} %`).join(", ")),
         h("td", m.stable ? "stable" : "unstable"),
-        h("td", h("button.button", { type: "button", "data-testid": `use-model-${i}`, title: "Keep this model on the server and design a controller on it (a page you can share)", onclick: (ev: Event) => void this.useModel(ev.currentTarget as HTMLButtonElement, modelBody(this.plant.id, out, i, source)) }, "Use this model"), " ", h("button.link", { type: "button", onclick: () => this.saveModel(m) }, "JSON")),
+        h(`td.level-${m.level}`, { "data-testid": `model-level-${i}` }, m.level),
+        h("td", h("button.button", { type: "button", "data-testid": `use-model-${i}`, title: "Keep this model on the server and design a controller on it (a page you can share)", onclick: (ev: Event) => void this.useModel(ev.currentTarget as HTMLButtonElement, modelBody(this.plant.id, out, i, source), m) }, "Use this model"), " ", h("button.link", { type: "button", onclick: () => this.saveModel(m) }, "JSON")),
       ),
     );
     const compareDiv = this.chartBox("ident-compare");
@@ -287,17 +289,29 @@ export class IdentAnalysis {
     return h(
       "section.panel.wide",
       h("h2", "Models on the validation data"),
-      h("table.params", { "data-testid": "ident-models" }, h("thead", h("tr", h("th", "model"), h("th", "fit, simulated (x₀ = 0)"), h("th", "fit, simulated (x₀ fitted)"), h("th", "fit, one step ahead"), h("th", "poles"), h("th", ""))), h("tbody", ...rows)),
+      h("table.params", { "data-testid": "ident-models" }, h("thead", h("tr", h("th", "model"), h("th", "fit, simulated (x₀ = 0)"), h("th", "fit, simulated (x₀ fitted)"), h("th", "fit, one step ahead"), h("th", "poles"), h("th", "verdict"), h("th", ""))), h("tbody", ...rows)),
       h("p.hint", `Fit = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) on the ${d.validation === "record" ? "separate validation record" : "validation part"}; the bold one is each model's headline, and the one plotted: from x₀ = 0 when every mode decays within the record, else from the fitted initial state. Use this model: the server keeps it and opens its design page, a link you can share, where LQR, pole placement and PID are designed on it and run on the plant.`),
       why.length ? h("ul.hint", { "data-testid": "ident-headline-why" }, ...why) : "",
+      ...models.map((m, i) => {
+        const said = m.verdicts.filter((v) => v.level !== "good");
+        return said.length ? h("div", h("h3", `${m.name}: ${m.level}`), verdictList(said, `model-verdicts-${i}`)) : "";
+      }),
       ...physics,
       compareDiv,
       ...residBlocks,
     );
   }
 
-  /** Keep the model on the server, then open its design page (its shareable link). */
-  private async useModel(button: HTMLButtonElement, body: ModelCreate): Promise<void> {
+  /** Keep the model on the server, then open its design page (its shareable link). A
+   * model the verdicts call poor is kept only on a second click, after the warning. */
+  private async useModel(button: HTMLButtonElement, body: ModelCreate, m: IdentModelOut): Promise<void> {
+    if (m.level === "poor" && button.dataset.warned !== "yes") {
+      button.dataset.warned = "yes";
+      button.textContent = "Use it anyway";
+      const why = m.verdicts.filter((v) => v.level === "poor").map((v) => v.finding);
+      fill(this.msg, h("span", { "data-testid": "poor-model-warning" }, `${m.name} is a poor model: ${why.join("; ")}. A controller designed on it is designed for another plant. Click “Use it anyway” to keep it regardless.`));
+      return;
+    }
     button.disabled = true;
     fill(this.msg);
     try {

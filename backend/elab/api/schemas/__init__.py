@@ -91,6 +91,7 @@ from elab.api.schemas.ident import (
     SpectralOut,
     StateSpaceOut,
     TransferFunctionOut,
+    VerdictOut,
 )
 from elab.api.schemas.laws import (
     Controller,
@@ -316,4 +317,5 @@ __all__ = [
     "UploadedController",
     "UploadedControllerList",
     "UploadsInfo",
+    "VerdictOut",
 ]

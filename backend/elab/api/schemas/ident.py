@@ -259,6 +259,18 @@ class ResidualsOut(Model):
     independent: bool
 
 
+class VerdictOut(Model):
+    """A verdict in plain words (docs/identification.md, "Verdicts")."""
+
+    topic: str = Field(
+        description="on the data: feedback, excitation, noise, quantisation, delay, length, "
+        "order_search; on a model: stability, integrator, fit, residuals, order",
+    )
+    level: Literal["good", "caution", "poor"]
+    finding: str
+    advice: str | None = Field(description="what to change; null when nothing needs to")
+
+
 class IdentModelOut(Model):
     name: str
     kind: Literal["arx", "armax", "oe", "n4sid", "link"]
@@ -290,6 +302,11 @@ class IdentModelOut(Model):
     simulated_x0: list[list[Num]] = Field(description="the same from the estimated state")
     one_step: list[list[Num]]
     residuals: ResidualsOut | None = None
+    verdicts: list[VerdictOut] = Field(default_factory=list)
+    level: Literal["good", "caution", "poor"] = Field(
+        default="good",
+        description="its worst verdict's: 'poor' is not to be designed on as it is",
+    )
 
 
 class IdentOut(Model):
@@ -299,6 +316,9 @@ class IdentOut(Model):
     analyses: AnalysesOut
     models: list[IdentModelOut]
     notes: list[str]
+    verdicts: list[VerdictOut] = Field(
+        default_factory=list, description="on the data (and the ARX order search)"
+    )
 
 
 class IdentProgress(Model):

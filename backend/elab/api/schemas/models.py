@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import Field
 
 from elab.api.schemas.base import Complex, Finite, Matrix, Model, Num
-from elab.api.schemas.ident import TransferFunctionOut
+from elab.api.schemas.ident import TransferFunctionOut, VerdictOut
 
 MAX_MODEL_STATES = 20  # elab.design.model.MAX_STATES
 ModelNumber = Annotated[Finite, Field(ge=-1e12, le=1e12)]
@@ -18,6 +18,15 @@ ModelMatrix = Annotated[list[ModelRow], Field(min_length=1, max_length=MAX_MODEL
 class ModelChannel(Model):
     name: str = Field(min_length=1, max_length=40)
     unit: str = Field("", max_length=20, description="SI: rad, m, V, …")
+
+
+class VerdictIn(Model):
+    """A verdict of identification's (:class:`VerdictOut`) as a model to keep carries it."""
+
+    topic: str = Field(max_length=30)
+    level: Literal["good", "caution", "poor"]
+    finding: str = Field(max_length=1000)
+    advice: str | None = Field(None, max_length=1000)
 
 
 class ModelCreate(Model):
@@ -38,6 +47,9 @@ class ModelCreate(Model):
     kind: str = Field("", max_length=20, description="arx, armax, oe, n4sid, …")
     fit: list[Finite | None] = Field(
         [], max_length=8, description="validation fit per output (%), as identification said"
+    )
+    verdicts: list[VerdictIn] = Field(
+        [], max_length=20, description="identification's verdicts on it, shown beside its fit"
     )
 
 
@@ -62,6 +74,7 @@ class IdentifiedModel(Model):
     source: str
     kind: str
     fit: list[Num]
+    verdicts: list[VerdictOut]
     poles: list[Complex] = Field(description="z")
     poles_s: list[Complex] | None = Field(
         description="continuous equivalents ln(z)/Ts (null: a pole at z ≤ 0 has none)"

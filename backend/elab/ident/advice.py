@@ -1,0 +1,391 @@
+"""Verdicts in plain words on identification data and on each model, each with what to
+change (as MATLAB's ``advice``, ``feedback`` and ``pexcit``; Ljung 1999, ch. 13–16).
+
+On the data, before any fit is believed: feedback from the output to the input, how many
+parameters the input can excite (persistence of excitation), the signal-to-noise ratio,
+quantisation, the delay and whether the record is long enough for the models asked. On a
+model: stability (and an integrator with its record's means removed), the validation
+fit (an absurd one explained), the residual tests, and an order at the top of its range.
+
+A verdict's ``level`` is ``good``, ``caution`` (usable, with the caveat said) or ``poor``
+(do not design on it as it is); a model's level is its worst verdict's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from elab.ident.data import IdData
+from elab.ident.nonparametric import Correlation
+from elab.ident.validation import Residuals
+
+Array = NDArray[np.float64]
+Poles = NDArray[np.complex128]
+Level = Literal["good", "caution", "poor"]
+RANK: dict[Level, int] = {"good": 0, "caution": 1, "poor": 2}
+
+FEEDBACK_LAGS = 10  # past samples of u and y in the feedback test
+FEEDBACK_SHARE = 0.02  # of the input's unpredicted variance the outputs explain
+PE_TOLERANCE = 1e-3  # of the input covariance's largest eigenvalue: not excited below
+PE_MAX = 40  # the largest order of excitation looked for
+SNR_ORDER = 10  # the ARX model whose residual stands for the noise
+SNR_GOOD_DB, SNR_POOR_DB = 20.0, 10.0
+LEVELS_FEW = 100  # output levels over its range: quantised
+FIT_GOOD, FIT_POOR, FIT_ABSURD = 80.0, 50.0, -100.0
+PARAMETERS_GOOD, PARAMETERS_POOR = 10, 3  # samples per parameter
+NEAR_ONE = 5e-3  # a pole this close to z = 1 integrates (200 samples or more)
+P_POOR = 1e-4  # residuals this dependent on past inputs: the model misses dynamics
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """One finding: ``topic`` (``feedback``, ``excitation``, ``noise``, ``quantisation``,
+    ``delay``, ``length``, ``order_search``; for a model ``stability``, ``integrator``,
+    ``fit``, ``residuals``, ``order``), its ``level``, what was found and what to change
+    (``advice``, ``None`` when nothing needs to)."""
+
+    topic: str
+    level: Level
+    finding: str
+    advice: str | None = None
+
+
+def worst(verdicts: tuple[Verdict, ...]) -> Level:
+    """The worst level among ``verdicts`` (``good`` for none)."""
+    return max((v.level for v in verdicts), key=RANK.__getitem__, default="good")
+
+
+def on_data(
+    ze: IdData, parameters: int, order: int, correlation: Correlation | None
+) -> tuple[Verdict, ...]:
+    """The estimation data ``ze`` (as detrended) for models of up to ``parameters``
+    parameters per output and a dynamic ``order`` (0: none asked); ``correlation``: its
+    correlation analysis, if made."""
+    fb = feedback(ze)
+    out = [
+        _feedback(ze, fb),
+        _excitation(ze, order),
+        _noise(ze),
+        *_quantisation(ze),
+        *_delay(correlation, fb > FEEDBACK_SHARE),
+    ]
+    if parameters:
+        out.append(_length(ze.N, parameters))
+    return tuple(v for v in out if v is not None)
+
+
+def feedback(z: IdData, lags: int = FEEDBACK_LAGS) -> float:
+    """The largest share, over the inputs, of an input's variance not predicted by its
+    own past that the outputs (now and ``lags`` samples back) predict, by least squares;
+    0 where that share is not significant (F test at 0.1 %). About 0 in open loop, large
+    where a controller makes the input from the output."""
+    from scipy.special import fdtrc  # F's survival function (scipy.stats: 0.4 s to import)
+
+    rows = z.N - lags
+    added = (lags + 1) * z.ny
+    if rows <= 4 * (lags + added):
+        return 0.0
+    share = 0.0
+    for j in range(z.nu):
+        u = z.u[lags:, j]
+        own = _lagged(z.u[:, j : j + 1], lags)
+        both = np.hstack([own, _lagged(z.y, lags + 1, include_now=True)])
+        rss_own = _rss(own, u)
+        if rss_own <= 1e-12 * float(u @ u):  # the input is its own past: nothing to test
+            continue
+        rss_both = _rss(both, u)
+        dof = rows - both.shape[1]
+        ratio = (rss_own - rss_both) / added / max(rss_both / dof, 1e-300)
+        if fdtrc(added, dof, ratio) < 0.001:
+            share = max(share, 1.0 - rss_both / rss_own)
+    return share
+
+
+def excitation_order(u: Array, most: int = PE_MAX) -> int:
+    """The order of persistent excitation of ``u`` (N, nu): the largest n ≤ ``most`` whose
+    n-lag covariance matrix has no eigenvalue below :data:`PE_TOLERANCE` of its largest
+    (MATLAB's ``pexcit``). A step excites about 1, a sine 2, a PRBS or white noise all."""
+    x = u - u.mean(axis=0)
+    most = min(most, max((x.shape[0] - 1) // 2, 0))
+    found = 0
+    for n in range(1, most + 1):
+        R = _lagged(x, n, include_now=True)
+        eig = np.linalg.eigvalsh(R.T @ R / R.shape[0])
+        if eig[-1] <= 0 or eig[0] < PE_TOLERANCE * eig[-1]:
+            break
+        found = n
+    return found
+
+
+def snr_db(z: IdData, order: int = SNR_ORDER) -> float | None:
+    """The output's signal-to-noise ratio in dB, the noise being the residual of an ARX
+    model of ``order`` (na = nb = order, nk = 1) on ``z``: the worst output. ``None`` where
+    the record is too short for that model."""
+    n = min(order, max(z.N // 20, 1))
+    if z.N - n <= 4 * n * (z.ny + z.nu):
+        return None
+    X = np.hstack([_lagged(z.y, n), _lagged(z.u, n)])
+    worst_db = math.inf
+    for i in range(z.ny):
+        y = z.y[n:, i]
+        noise = _rss(X, y) / y.size
+        signal = float(np.var(y)) - noise
+        if noise <= 0:
+            continue
+        worst_db = min(worst_db, 10 * math.log10(max(signal, 1e-300) / noise))
+    return None if math.isinf(worst_db) else worst_db
+
+
+def _feedback(ze: IdData, share: float) -> Verdict:
+    if share > FEEDBACK_SHARE:
+        return Verdict(
+            "feedback",
+            "caution",
+            f"the input depends on past outputs ({100 * share:.0f} % of its unpredicted "
+            "variance): the data were recorded in closed loop. Correlation and spectral "
+            "analysis from the input then show the controller as much as the plant, and "
+            "ARX and output-error fits are biased unless the noise is small next to the "
+            "excitation",
+            "excite at the reference or add a large excitation at the plant input, and fit "
+            "with a noise model (armax, n4sid); or record open loop where the plant allows",
+        )
+    return Verdict("feedback", "good", "no feedback from the output to the input was found")
+
+
+def _excitation(ze: IdData, order: int) -> Verdict:
+    pe = excitation_order(ze.u)
+    need = 2 * order
+    if order and pe < need:
+        return Verdict(
+            "excitation",
+            "poor" if pe < order else "caution",
+            f"the input is persistently exciting of order {pe}: it can pin down models of "
+            f"about order {pe // 2}, and order {order} was asked",
+            "excite with a broadband signal (a PRBS or a chirp over the plant's band), or "
+            f"ask for order {max(pe // 2, 1)} or less",
+        )
+    return Verdict(
+        "excitation",
+        "good",
+        f"the input is persistently exciting of order {pe}"
+        + (" or more" if pe >= min(PE_MAX, (ze.N - 1) // 2) else ""),
+    )
+
+
+def _noise(ze: IdData) -> Verdict | None:
+    db = snr_db(ze)
+    if db is None:
+        return None
+    found = f"signal-to-noise ratio about {db:.0f} dB (the residual of an ARX model of order 10)"
+    if db >= SNR_GOOD_DB:
+        return Verdict("noise", "good", found)
+    rms = float(np.sqrt(np.mean(ze.u**2)))
+    more = 10 ** ((SNR_GOOD_DB - db) / 20)
+    return Verdict(
+        "noise",
+        "poor" if db < SNR_POOR_DB else "caution",
+        found,
+        f"raise the excitation about {more:.1f}× (its RMS is {rms:.3g} now) or record "
+        "longer, within the actuator's limits",
+    )
+
+
+def _quantisation(ze: IdData) -> list[Verdict]:
+    out = []
+    for j, name in enumerate(ze.output_names or [f"y{j + 1}" for j in range(ze.ny)]):
+        levels = np.unique(ze.y[:, j])
+        if levels.size < 3:
+            continue
+        step = float(np.min(np.diff(levels)))
+        span = float(levels[-1] - levels[0])
+        if step > 0 and span / step < LEVELS_FEW:
+            out.append(
+                Verdict(
+                    "quantisation",
+                    "caution",
+                    f"{name} moves in steps of {step:.3g} ({span / step:.0f} steps over its "
+                    "range): quantisation is a large share of its noise",
+                    "raise the excitation so the output spans many more steps",
+                )
+            )
+    return out
+
+
+def _delay(c: Correlation | None, closed: bool) -> list[Verdict]:
+    if c is None:
+        return []
+    if closed:
+        return [
+            Verdict(
+                "delay",
+                "caution",
+                "the delay from correlation analysis is not to be trusted on closed-loop "
+                "data" + ("" if c.delay is None else f" (it reads {c.delay} samples)"),
+                "take the delay from an open-loop experiment or the plant's physics",
+            )
+        ]
+    if c.delay is None:
+        return [
+            Verdict(
+                "delay",
+                "caution",
+                "no delay found: no impulse-response coefficient stands out of its "
+                f"±{c.band:.3g} band",
+                "excite more strongly or longer",
+            )
+        ]
+    return [
+        Verdict(
+            "delay",
+            "good",
+            f"delay {c.delay} samples: the first impulse-response coefficient outside its "
+            f"±{c.band:.3g} band ({c.k_sigma:g} σ)",
+        )
+    ]
+
+
+def _length(N: int, parameters: int) -> Verdict:
+    per = N / parameters
+    found = f"{N} estimation samples for {parameters} parameters ({per:.0f} per parameter)"
+    if per >= PARAMETERS_GOOD:
+        return Verdict("length", "good", found)
+    return Verdict(
+        "length",
+        "poor" if per < PARAMETERS_POOR else "caution",
+        found,
+        f"record at least {PARAMETERS_GOOD * parameters} samples for the estimation part, "
+        "or ask for lower orders",
+    )
+
+
+def on_model(
+    poles: Poles,
+    fit: float,
+    fit_from: str,
+    residuals: Residuals | None,
+    detrend: str,
+    order_top: bool,
+) -> tuple[Verdict, ...]:
+    """A model with ``poles`` whose headline validation ``fit`` (%, the worst output;
+    simulated ``fit_from`` a zero or an estimated state), residual analysis (``None``: not
+    made), fitted to data detrended by ``detrend``; ``order_top``: its order was chosen at
+    the top of its search range."""
+    out = [_stability(poles), *_integrator(poles, detrend), _fit(fit, fit_from)]
+    out += _residuals(residuals)
+    if order_top:
+        out.append(
+            Verdict(
+                "order",
+                "caution",
+                "the order was chosen at the top of its search range: the data may want more, "
+                "or the extra states fit noise or the feedback path",
+                "widen the range and compare the validation fits; check the feedback verdict",
+            )
+        )
+    return tuple(out)
+
+
+def _stability(poles: Poles) -> Verdict:
+    top = float(np.max(np.abs(poles))) if poles.size else 0.0
+    if top > 1.0 + 1e-9:
+        return Verdict(
+            "stability",
+            "poor",
+            f"unstable: a pole at |z| = {top:.4g}; its simulation grows without bound, and a "
+            "controller designed on it is designed for another plant",
+            "try a lower order, n4sid with the model kept stable, or check for feedback",
+        )
+    return Verdict("stability", "good", f"stable (the largest pole at |z| = {top:.4g})")
+
+
+def _integrator(poles: Poles, detrend: str) -> list[Verdict]:
+    if detrend == "none" or not np.any(np.abs(poles - 1.0) < NEAR_ONE):
+        return []
+    return [
+        Verdict(
+            "integrator",
+            "caution",
+            f"a pole at z ≈ 1 (an integrator) on data whose {detrend}s were removed: "
+            "removing the input's mean from an integrating plant adds a ramp the plant "
+            "never made",
+            "identify with detrend 'none' (record from rest)",
+        )
+    ]
+
+
+def _fit(fit: float, start: str) -> Verdict:
+    how = f"simulated from {'a zero' if start == 'zero' else 'the estimated'} initial state"
+    if not math.isfinite(fit):
+        return Verdict(
+            "fit",
+            "poor",
+            f"no validation fit ({how}): the simulation overflowed, or the validation "
+            "output is constant",
+        )
+    if fit < FIT_ABSURD:
+        return Verdict(
+            "fit",
+            "poor",
+            f"validation fit below −100 % ({how}): the model's output is more than twice as "
+            "far from the data as their own mean is; it does not describe this plant",
+            "check the delay, the order and the feedback verdict; a model that is unstable "
+            "or has the wrong gain fits like this",
+        )
+    found = f"validation fit {fit:.1f} % ({how})"
+    if fit >= FIT_GOOD:
+        return Verdict("fit", "good", found)
+    return Verdict(
+        "fit",
+        "poor" if fit < FIT_POOR else "caution",
+        found,
+        "try other orders or model kinds, and see the data verdicts",
+    )
+
+
+def _residuals(r: Residuals | None) -> list[Verdict]:
+    if r is None:
+        return []
+    independent = r.p_independent
+    if not r.independent:
+        return [
+            Verdict(
+                "residuals",
+                "poor" if independent < P_POOR else "caution",
+                "the residuals correlate with past inputs (p = "
+                f"{independent:.2g}): the model misses part of the dynamics from input to "
+                "output",
+                "raise the order or check the delay",
+            )
+        ]
+    if not r.white:
+        return [
+            Verdict(
+                "residuals",
+                "caution",
+                f"the residuals are not white (p = {r.p_white:.2g}): the noise is coloured and the "
+                "model's noise description does not match it (its predictions are not the "
+                "best possible)",
+                "try armax or n4sid, which model the noise",
+            )
+        ]
+    return [Verdict("residuals", "good", "white residuals, independent of past inputs")]
+
+
+def _lagged(x: Array, n: int, include_now: bool = False) -> Array:
+    """Rows t = n … N−1 of [x(t−1) … x(t−n)]; ``include_now``: rows t = n−1 … N−1 of
+    [x(t) … x(t−n+1)]."""
+    N = x.shape[0]
+    if include_now:
+        return np.hstack([x[n - 1 - k : N - k] for k in range(n)])
+    return np.hstack([x[n - k : N - k] for k in range(1, n + 1)])
+
+
+def _rss(X: Array, y: Array) -> float:
+    coef = np.linalg.lstsq(X, y, rcond=None)[0]
+    r = y - X @ coef
+    return float(r @ r)

@@ -1,0 +1,151 @@
+"""Verdicts on identification data and models (elab.ident.advice), checked against what
+is known of the data by construction: open or closed loop, the input's excitation, the
+noise added, a model's stability and fit; the residual tests' false alarms at their
+stated level."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from elab.ident.advice import FEEDBACK_SHARE, excitation_order, feedback, on_data, snr_db, worst
+from elab.ident.data import IdData
+from elab.ident.polynomial import arx
+from elab.ident.validation import resid
+from elab.ident.workflow import ModelRequest, Plan, run
+
+REFERENCE = Path(__file__).parents[2] / "reference" / "ident"
+N = 2000
+
+
+def prbs(rng: np.random.Generator, hold: int = 5) -> np.ndarray:
+    return np.repeat(np.sign(rng.standard_normal(N // hold + 1)), hold)[:N]
+
+
+def first_order(
+    rng: np.random.Generator, noise: float, gain: float | None = None, equation: bool = False
+) -> tuple[IdData, float]:
+    """y = 0.5 q⁻¹ / (1 − 0.9 q⁻¹) u + e (a sensor's white noise; ``equation``: the ARX
+    form y(t) = 0.9 y(t−1) + 0.5 u(t−1) + e(t)), in open loop (``gain`` None: u a PRBS)
+    or closed by u = r − gain·y with r the PRBS; and the true signal-to-noise ratio (dB)."""
+    r, e = prbs(rng), noise * rng.standard_normal(N)
+    y, clean, u = np.zeros(N), np.zeros(N), np.zeros(N)
+    for t in range(N):
+        if t:
+            clean[t] = 0.9 * clean[t - 1] + 0.5 * u[t - 1]
+            carried = y[t - 1] if equation else y[t - 1] - e[t - 1]
+            y[t] = 0.9 * carried + 0.5 * u[t - 1] + e[t]
+        else:
+            y[t] = e[t]
+        u[t] = r[t] if gain is None else r[t] - gain * y[t]
+    if gain is None:
+        snr = 10 * math.log10(np.var(clean) / noise**2) if noise else math.inf
+    else:
+        snr = math.nan
+    return IdData(y[:, None], u[:, None], 0.01, ("y",), ("u",)), snr
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_feedback_is_found_in_closed_loop_and_not_in_open_loop(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    open_loop, _ = first_order(rng, 0.2)
+    closed, _ = first_order(rng, 0.2, gain=1.5)
+    assert feedback(open_loop) < FEEDBACK_SHARE  # not significant, or too small to bias
+    assert on_data(open_loop, 0, 0, None)[0].level == "good"
+    assert feedback(closed) > 0.1
+    verdict = on_data(closed, 0, 0, None)[0]
+    assert verdict.topic == "feedback" and verdict.level == "caution"
+    assert "closed loop" in verdict.finding and verdict.advice
+
+
+def test_the_order_of_excitation_is_that_of_the_signal() -> None:
+    rng = np.random.default_rng(1)
+    k = np.arange(N)
+    assert excitation_order(rng.standard_normal((N, 1))) == 40  # all it looks for
+    assert excitation_order(prbs(rng)[:, None]) == 40
+    assert excitation_order(np.sin(0.5 * k)[:, None]) == 2
+    assert excitation_order(np.sin(0.5 * k)[:, None] + np.sin(2.0 * k)[:, None]) == 4
+    assert excitation_order((k >= N // 2).astype(float)[:, None]) <= 2
+    assert excitation_order(np.ones((N, 1))) == 0
+
+
+def test_a_step_cannot_pin_down_a_fourth_order_model_and_the_verdict_says_so() -> None:
+    rng = np.random.default_rng(2)
+    z, _ = first_order(rng, 0.01)
+    step = IdData(z.y, (np.arange(N) >= 100).astype(float)[:, None], z.Ts, ("y",), ("u",))
+    excitation = next(v for v in on_data(step, 20, 4, None) if v.topic == "excitation")
+    assert excitation.level == "poor" and "order 4 was asked" in excitation.finding
+    assert excitation.advice is not None and "PRBS" in excitation.advice
+
+
+@pytest.mark.parametrize("noise", [0.02, 0.1, 0.5])
+def test_the_signal_to_noise_ratio_is_within_2_db_of_the_truth(noise: float) -> None:
+    z, truth = first_order(np.random.default_rng(3), noise)
+    estimate = snr_db(z)
+    assert estimate is not None and abs(estimate - truth) < 2.0, (estimate, truth)
+    level = next(v for v in on_data(z, 0, 0, None) if v.topic == "noise").level
+    assert level == ("good" if truth >= 20 else "caution" if truth >= 10 else "poor")
+
+
+def test_residual_tests_fail_a_right_model_about_one_time_in_a_hundred() -> None:
+    """The band test ("every lag inside 99 %") failed one good model in three; the χ²
+    tests fail at their level: at most 3 of 40 right models here, and every wrong one."""
+    wrong_ones, false_alarms = 0, 0
+    for seed in range(40):
+        z, _ = first_order(np.random.default_rng(100 + seed), 0.3, equation=True)
+        ze, zv = z.split(0.5)
+        right = resid(arx(ze, 1, 1, 1), zv)
+        false_alarms += not (right.white and right.independent)
+        wrong = resid(arx(ze, 1, 1, 2), zv)  # the wrong delay
+        wrong_ones += not wrong.independent
+    assert false_alarms <= 3 and wrong_ones == 40
+
+
+def dryer() -> IdData:
+    table = np.loadtxt(REFERENCE / "dryer.dat")
+    return IdData(table[:, [1]], table[:, [0]], 0.08, ("y",), ("u",))
+
+
+def test_the_textbook_dryer_models_get_the_verdicts_their_fits_earn() -> None:
+    plan = Plan(
+        models=(
+            ModelRequest("arx", {"na": 4, "nb": 4, "nk": 3}),
+            ModelRequest("arx", {"na": 1, "nb": 1, "nk": 1}),
+        ),
+        arx_search=(range(1, 4), range(1, 4), range(1, 4)),
+    )
+    result = run(dryer(), plan)
+    good, poor = result.models
+    assert good.level == "good", good.verdicts
+    assert poor.level == "poor"
+    topics = {v.topic: v for v in poor.verdicts}
+    assert topics["fit"].level == "poor" and topics["residuals"].level == "poor"
+    assert all(v.advice for v in poor.verdicts if v.level != "good")
+    data = {v.topic: v for v in result.verdicts}
+    assert data["feedback"].level == "good" and data["delay"].finding.startswith("delay 3")
+    # the search's best [3 3 3] is at the top of a 1 … 3 range: no answer
+    assert data["order_search"].level == "caution" and "top of its range" in (
+        data["order_search"].finding
+    )
+
+
+def test_an_unstable_model_an_absurd_fit_and_an_integrator_without_its_means() -> None:
+    rng = np.random.default_rng(4)
+    u = prbs(rng)
+    y = np.cumsum(np.r_[0.0, u[:-1]]) * 0.01 + 0.001 * rng.standard_normal(N)  # integrates
+    z = IdData(y[:, None], u[:, None], 0.01, ("θ",), ("u",))
+    request = ModelRequest("arx", {"na": 1, "nb": 1, "nk": 1})
+    means = run(z, Plan(models=(request,), correlation=False, spectral=False)).models[0]
+    assert "integrator" in {v.topic for v in means.verdicts}
+    kept = run(z, Plan(models=(request,), detrend="none", correlation=False, spectral=False))
+    assert "integrator" not in {v.topic for v in kept.models[0].verdicts}
+    assert kept.models[0].level == "good", kept.models[0].verdicts
+    # noise alone as the output: nothing to fit, and the verdict explains what it prints
+    junk = IdData(rng.standard_normal((N, 1)), u[:, None], 0.01, ("y",), ("u",))
+    high = ModelRequest("arx", {"na": 8, "nb": 8, "nk": 1})
+    model = run(junk, Plan(models=(high,), correlation=False, spectral=False)).models[0]
+    assert model.level == "poor"
+    assert worst(model.verdicts) == "poor"
