@@ -2051,6 +2051,10 @@ export interface PlantDetail {
   sensors: {
     [k: string]: number[];
   };
+  /**
+   * a pole at s = 0: an output integrates the input (identification keeps its runs' data as recorded by default: removing the input's mean would add a ramp the plant never made)
+   */
+  integrating: boolean;
   description: string;
 }
 /**

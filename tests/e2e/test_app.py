@@ -159,6 +159,9 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     assert req["excitation"]["kind"] == "prbs" and req["excitation_at"] == "input"
     # the analysis of this run, in the page, equals the API's answer to the same request
     panel = page.get_by_test_id("ident-run")
+    # the link integrates and its runs start at rest: its data are kept as recorded
+    expect(panel.locator("#id-detrend")).to_have_value("none")
+    expect(panel.get_by_test_id("detrend-why")).to_contain_text("a ramp the plant never made")
     panel.locator("#id-models").fill("arx:4,4,1; bj:1,1")
     panel.get_by_role("button", name="Identify").click()
     expect(panel.get_by_test_id("models-error")).to_contain_text("arx, armax, oe, n4sid or link")
@@ -171,6 +174,7 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
         timeout=60,
         json={
             "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
+            "detrend": "none",
             "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]},
             "n4sid_orders": [1, 10],
             "models": [

@@ -37,6 +37,7 @@ if TYPE_CHECKING:  # imported where used: python-control costs about a second of
 Array = NDArray[np.float64]
 X0_RCOND = 1e-8  # singular values of the observability matrix below this share are cut
 X0_GROWTH = 1e100  # an unstable model's free response is fitted while Aᵗ grows less
+MODAL_COND = 1e10  # x₀ is fitted in modal coordinates too where A's eigenvectors allow
 
 
 def observability(A: Array, C: Array, N: int) -> Array:
@@ -67,7 +68,35 @@ def initial_state(A: Array, C: Array, free: Array) -> Array:
     T = N if rho <= 1.0 else max(n, min(N, int(math.log(X0_GROWTH) / math.log(rho))))
     with np.errstate(over="ignore", invalid="ignore"):
         Ob = observability(A, C, T)
-    return fit_state(Ob, free[:T])
+    return _modal_refit(A, C, free[:T], fit_state(Ob, free[:T]))
+
+
+def _modal_refit(A: Array, C: Array, free: Array, x0: Array) -> Array:
+    """``x0``, or the x₀ fitted on the modes λᵢᵗ (C vᵢ) where that fits ``free`` better.
+    Powers of A by repeated squaring lose the free response to round-off when A's own
+    basis is ill-conditioned: an ARX model's companion form of an integrating plant at
+    1 kHz, fitted on 30,000 samples, "fitted" data it had simulated itself at −2,000 %.
+    The modes are powers of numbers, exact to round-off, and both candidates are judged
+    on them."""
+    lam, V = np.linalg.eig(A)
+    if not np.all(np.isfinite(lam)) or np.linalg.cond(V) > MODAL_COND:
+        return x0
+    T, n = free.shape[0], A.shape[0]
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+        modes = lam[None, :] ** np.arange(T)[:, None]
+    ok = np.isfinite(free).all(axis=1) & np.isfinite(modes).all(axis=1)
+    if not ok.any():
+        return x0
+    M = (modes[ok][:, None, :] * (C @ V)[None, :, :]).reshape(-1, n)
+    f = free[ok].reshape(-1)
+    xi, *_ = np.linalg.lstsq(M, f.astype(complex), rcond=X0_RCOND)
+    modal = np.real(V @ xi)
+
+    def misfit(x: Array) -> float:
+        r = f - np.real(M @ np.linalg.solve(V, x.astype(complex)))
+        return float(r @ r)
+
+    return modal if misfit(modal) < misfit(x0) else x0
 
 
 def fit_state(Ob: Array, free: Array) -> Array:

@@ -50,6 +50,12 @@ class PlantDetail(PlantSummary):
         "(null: the operating point)",
     )
     sensors: dict[str, list[float]]
+    integrating: bool = Field(
+        False,
+        description="a pole at s = 0: an output integrates the input (identification "
+        "keeps its runs' data as recorded by default: removing the input's mean would "
+        "add a ramp the plant never made)",
+    )
     description: str
 
 
