@@ -122,7 +122,8 @@ def test_a_model_from_a_prbs_run_is_shared_by_link_and_deleted_by_its_owner(
         assert [kept[k] for k in "ABCD"] == [body[k] for k in "ABCD"] and kept["Ts"] == Ts
         assert kept["verdicts"] == body["verdicts"]
         said = {v["topic"]: v for v in kept["verdicts"]}
-        assert said["integrator"]["level"] == "caution" and "detrend" in said["integrator"]["advice"]
+        integrator = said["integrator"]
+        assert integrator["level"] == "caution" and "detrend" in integrator["advice"]
         # poles of the ARX model of an integrating plant: one at z ≈ 1
         assert max(abs(complex(p["re"], p["im"])) for p in kept["poles"]) == pytest.approx(
             1, abs=5e-3
