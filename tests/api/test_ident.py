@@ -134,6 +134,11 @@ def test_a_recorded_identification_run(server: Server) -> None:
     )
     assert r.status_code == 200, r.text
     assert r.json()["data"]["output_names"] == ["theta"]
+    # the run had the predefined controller: the verdict knows it ran in closed loop, and
+    # the delay from correlation analysis is not to be trusted there
+    said = {v["topic"]: v for v in r.json()["verdicts"]}
+    assert "closed loop" in said["feedback"]["finding"]
+    assert said["delay"]["level"] == "caution" and "closed-loop" in said["delay"]["finding"]
 
 
 def _error(r: Any, status: int = 422) -> dict[str, Any]:

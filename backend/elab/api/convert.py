@@ -162,14 +162,16 @@ class Requested:
     """What a run's stored request says about how it ran, read in this one place and
     leniently (a run recorded by an earlier version may lack any of it): its controller
     and signal as asked (``None``: the plant's), the noise's ``seed`` (``None``: no
-    noise), whether outputs were quantised, and the frequency (Hz) of a sine that
-    excited it (its excitation's, else its signal's)."""
+    noise), whether outputs were quantised, the frequency (Hz) of a sine that excited
+    it (its excitation's, else its signal's), and whether it ran in closed loop (any
+    controller but an open-loop one: its own, an uploaded one, the plant's predefined)."""
 
     controller: JsonObject | None
     signal: JsonObject | None
     seed: int | None
     quantize: bool
     sine_hz: float | None
+    closed_loop: bool
 
 
 def requested(record: RunRecord) -> Requested:
@@ -186,6 +188,8 @@ def requested(record: RunRecord) -> Requested:
         seed=spec.get("seed") if noise else None,
         quantize=bool(spec.get("quantize")),
         sine_hz=sines[0] if sines else None,
+        # its own controller, an uploaded one, or the plant's predefined feedback
+        closed_loop=(spec.get("controller") or {}).get("kind") != "open_loop",
     )
 
 

@@ -29,6 +29,7 @@ from starlette.responses import Response, StreamingResponse
 from elab.api import identjson
 from elab.api import schemas as s
 from elab.api.auth import identity
+from elab.api.convert import Requested
 from elab.api.http import endpoint, error_detail, read_model
 from elab.api.identdata import records
 from elab.api.state import lab
@@ -73,8 +74,8 @@ async def identify(request: Request) -> Response:
     slot = _slots(request).take(identity(request).id)
     mine: Callable[[], None] | None = slot
     try:
-        data, validation, sine = await records(request, req, partial(_parse, request))
-        plan = _plan(req, sine)
+        data, validation, ran = await records(request, req, partial(_parse, request))
+        plan = _plan(req, ran)
         if "application/x-ndjson" in request.headers.get("accept", ""):
             mine = None  # given back when the stream ends, however it ends
             lines = _progress_lines(jobs(request), (data, plan, validation), slot)
@@ -205,7 +206,7 @@ async def _parse(request: Request, text: bytes, fmt: str, max_rows: int, why: st
     return table
 
 
-def _plan(req: s.IdentRequest, sine: float | None) -> wf.Plan:
+def _plan(req: s.IdentRequest, ran: Requested | None) -> wf.Plan:
     def span(name: str, v: list[int]) -> range:
         if v[0] > v[1]:
             raise InvalidInput(name, v, "[lowest, highest] with lowest ≤ highest")
@@ -242,8 +243,9 @@ def _plan(req: s.IdentRequest, sine: float | None) -> wf.Plan:
         correlation=req.correlation,
         max_lag=req.max_lag,
         spectral=req.spectral,
-        sine_hz=req.sine_hz if req.sine_hz is not None else sine,
+        sine_hz=req.sine_hz if req.sine_hz is not None else ran.sine_hz if ran else None,
         arx_search=search,
         n4sid_orders=orders,
         horizon=req.horizon,
+        closed_loop=None if ran is None else ran.closed_loop,
     )

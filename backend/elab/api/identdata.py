@@ -33,18 +33,18 @@ Parse = Callable[[bytes, str, int, str], Awaitable[Table]]
 
 async def records(
     request: Request, req: s.IdentRequest, parse: Parse
-) -> tuple[IdData, IdData | None, float | None]:
-    """The data, the validation record (``None``: the data are split) and, for a run
-    excited by a sine, its frequency (Hz)."""
-    data, sine = await _dataset(request, req.data, "data", parse)
+) -> tuple[IdData, IdData | None, convert.Requested | None]:
+    """The data, the validation record (``None``: the data are split) and, for a run,
+    what its request says of how it ran (a sine's frequency, closed loop)."""
+    data, ran = await _dataset(request, req.data, "data", parse)
     if req.validation is None:
-        return data, None, sine
+        return data, None, ran
     room = (
         MAX_SAMPLES - data.N,
         f" (with the data's {data.N:,}, at most {MAX_SAMPLES:,} in all)",
     )
     validation, _ = await _dataset(request, req.validation, "validation", parse, room)
-    return data, _like(data, validation), sine
+    return data, _like(data, validation), ran
 
 
 def _like(data: IdData, validation: IdData) -> IdData:
@@ -76,9 +76,9 @@ async def _dataset(
     prefix: str,
     parse: Parse,
     room: tuple[int, str] = (MAX_SAMPLES, ""),
-) -> tuple[IdData, float | None]:
-    """The data set of the request's field ``prefix`` and, for a run excited by a sine,
-    its frequency (Hz); a file of more samples than ``room`` allows (with why) is refused
+) -> tuple[IdData, convert.Requested | None]:
+    """The data set of the request's field ``prefix`` and, for a run, what its request
+    says of how it ran; a file of more samples than ``room`` allows (with why) is refused
     before it is parsed."""
     if isinstance(src, s.FileData):
         try:
@@ -136,7 +136,7 @@ async def _dataset(
             filled=filled,
         ),
     )
-    return data, convert.requested(record).sine_hz
+    return data, convert.requested(record)
 
 
 def _prefixed(prefix: str, make: Callable[[], T]) -> T:

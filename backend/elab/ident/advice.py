@@ -61,18 +61,24 @@ def worst(verdicts: tuple[Verdict, ...]) -> Level:
 
 
 def on_data(
-    ze: IdData, parameters: int, order: int, correlation: Correlation | None
+    ze: IdData,
+    parameters: int,
+    order: int,
+    correlation: Correlation | None,
+    closed_loop: bool | None = None,
 ) -> tuple[Verdict, ...]:
     """The estimation data ``ze`` (as detrended) for models of up to ``parameters``
     parameters per output and a dynamic ``order`` (0: none asked); ``correlation``: its
-    correlation analysis, if made."""
+    correlation analysis, if made; ``closed_loop``: how the data were recorded, where
+    the source knows (a run), else found from the data."""
     fb = feedback(ze)
+    closed = fb > FEEDBACK_SHARE if closed_loop is None else closed_loop
     out = [
-        _feedback(ze, fb),
+        _feedback(fb, closed_loop),
         _excitation(ze, order),
         _noise(ze),
         *_quantisation(ze),
-        *_delay(correlation, fb > FEEDBACK_SHARE),
+        *_delay(correlation, closed),
     ]
     if parameters:
         out.append(_length(ze.N, parameters))
@@ -141,18 +147,28 @@ def snr_db(z: IdData, order: int = SNR_ORDER) -> float | None:
     return None if math.isinf(worst_db) else worst_db
 
 
-def _feedback(ze: IdData, share: float) -> Verdict:
+def _feedback(share: float, closed_loop: bool | None) -> Verdict:
+    known = "the run had a controller: " if closed_loop else ""
     if share > FEEDBACK_SHARE:
         return Verdict(
             "feedback",
             "caution",
-            f"the input depends on past outputs ({100 * share:.0f} % of its unpredicted "
-            "variance): the data were recorded in closed loop. Correlation and spectral "
-            "analysis from the input then show the controller as much as the plant, and "
-            "ARX and output-error fits are biased unless the noise is small next to the "
-            "excitation",
-            "excite at the reference or add a large excitation at the plant input, and fit "
+            f"{known}the input depends on past outputs ({100 * share:.0f} % of its "
+            "unpredicted variance): the data were recorded in closed loop, with the "
+            "output's noise fed back. Correlation and spectral analysis from the input "
+            "then show the controller as much as the plant, and ARX and output-error fits "
+            "are biased",
+            "excite at the reference or add a larger excitation at the plant input, and fit "
             "with a noise model (armax, n4sid); or record open loop where the plant allows",
+        )
+    if closed_loop:
+        return Verdict(
+            "feedback",
+            "good",
+            "recorded in closed loop (the run had a controller), but the output's noise "
+            f"hardly reaches the input ({100 * share:.1f} % of its unpredicted variance): "
+            "fits from u to y are nearly unbiased; correlation and spectral analysis from "
+            "u still describe the plant only as far as the excitation drives u",
         )
     return Verdict("feedback", "good", "no feedback from the output to the input was found")
 

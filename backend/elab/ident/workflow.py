@@ -71,6 +71,8 @@ class Plan:
     arx_search: tuple[range, range, range] | None = None
     n4sid_orders: range | None = None
     horizon: int | None = None
+    #: whether the data were recorded in closed loop, where the source knows (a run)
+    closed_loop: bool | None = None
 
 
 def parse_model(text: str) -> ModelRequest:
@@ -113,7 +115,7 @@ def run(
     sub, orders = _order_table(ze, plan, report)
     models, said = _models(ze, zv, plan, sub, orders, report)
     parameters, order = _largest(plan, ze, orders)
-    verdicts = advice.on_data(ze, parameters, order, nonparametric.correlation)
+    verdicts = advice.on_data(ze, parameters, order, nonparametric.correlation, plan.closed_loop)
     if plan.arx_search is not None:
         verdicts += tuple(_search_verdict(x, plan.arx_search) for x in searches)
     report("done", 1.0)
