@@ -4,6 +4,9 @@
 # either fails; pytest's "no tests collected" (exit code 5) is a failure too.
 set -u
 cd "$(dirname "$0")/.."
+# one BLAS thread per process: two test workers on two cores, each with OpenBLAS's own
+# spinning threads, ran the identification tests 2.5x slower (docs/benchmarks.md)
+export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 checks=$(mktemp)
 ( make --no-print-directory lint typecheck frontend-test >"$checks" 2>&1; echo $? >"$checks.rc" ) &
 .venv/bin/python -m pytest -n "${ELAB_TEST_WORKERS:-2}" --dist loadscope --no-loadscope-reorder "$@"

@@ -10,6 +10,17 @@ directory starts a ``Server`` of its own."""
 
 from __future__ import annotations
 
+import os
+import sys
+
+# One BLAS thread per process, as `elab` runs (elab/__init__.py), set before numpy loads
+# where it can be: OpenBLAS's own threads on a 2-core machine already running two test
+# workers spin against each other (tests/unit/ident took 116 s with them, 47 s without).
+# scripts/test.sh sets it for every process; this is for a bare `pytest`.
+if "numpy" not in sys.modules:
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+
 from collections.abc import Iterator
 
 import pytest

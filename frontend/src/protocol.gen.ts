@@ -99,6 +99,7 @@ export interface ElabProtocol {
   Frame?: Frame;
   Hello?: Hello;
   IdentDataOut?: IdentDataOut;
+  IdentDefaultsInfo?: IdentDefaultsInfo;
   IdentLine?: IdentLine;
   IdentModelOut?: IdentModelOut;
   IdentOut?: IdentOut;
@@ -1165,6 +1166,18 @@ export interface IdentDataOut {
   output_units: string[];
 }
 /**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IdentDefaultsInfo".
+ */
+export interface IdentDefaultsInfo {
+  /**
+   * the CLI's syntax: arx:4,4,1; n4sid:4
+   */
+  models: string;
+  decimate: number;
+  why: string;
+}
+/**
  * One line of the NDJSON answer: progress while it works, then the result or an error.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -1344,6 +1357,10 @@ export interface IdentRequest {
   arx_search?: ArxSearch | null;
   n4sid_orders?: [number, number] | null;
   horizon?: number | null;
+  /**
+   * keep every n-th sample after an anti-aliasing filter (1: all); the analysis runs at n·Ts
+   */
+  decimate?: number;
   /**
    * @maxItems 10
    */
@@ -2055,6 +2072,7 @@ export interface PlantDetail {
    * a pole at s = 0: an output integrates the input (identification keeps its runs' data as recorded by default: removing the input's mean would add a ramp the plant never made)
    */
   integrating: boolean;
+  identification: IdentDefaultsInfo1;
   description: string;
 }
 /**
@@ -2091,6 +2109,17 @@ export interface SineSignalOut {
   frequency: number;
   phase: number;
   offset: number;
+}
+/**
+ * what the identification page proposes for this plant's runs, and why
+ */
+export interface IdentDefaultsInfo1 {
+  /**
+   * the CLI's syntax: arx:4,4,1; n4sid:4
+   */
+  models: string;
+  decimate: number;
+  why: string;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

@@ -162,6 +162,9 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     # the link integrates and its runs start at rest: its data are kept as recorded
     expect(panel.locator("#id-detrend")).to_have_value("none")
     expect(panel.get_by_test_id("detrend-why")).to_contain_text("a ramp the plant never made")
+    expect(panel.locator("#id-models")).to_have_value("oe:4,4,1; n4sid:4")
+    expect(panel.locator("#id-decimate")).to_have_value("10")
+    expect(panel.get_by_test_id("ident-proposed-why")).to_contain_text("resonance is at 3 Hz")
     panel.locator("#id-models").fill("arx:4,4,1; bj:1,1")
     panel.get_by_role("button", name="Identify").click()
     expect(panel.get_by_test_id("models-error")).to_contain_text("arx, armax, oe, n4sid or link")
@@ -175,6 +178,7 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
         json={
             "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
             "detrend": "none",
+            "decimate": 10,  # the link's proposal: every 10th sample of its 1 kHz run
             "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]},
             "n4sid_orders": [1, 10],
             "models": [
@@ -351,6 +355,7 @@ def test_the_link_model_reads_the_models_physics_from_an_identification_run(
     panel = page.get_by_test_id("ident-run")
     panel.locator("#id-output").select_option("*")
     panel.locator("#id-detrend").select_option("none")
+    panel.locator("#id-decimate").fill("1")  # the link model reads every recorded sample
     panel.locator("#id-models").fill("link")
     panel.get_by_role("button", name="Identify").click()
     table = panel.get_by_test_id("link-parameters")

@@ -248,4 +248,5 @@ def _plan(req: s.IdentRequest, ran: Requested | None) -> wf.Plan:
         n4sid_orders=orders,
         horizon=req.horizon,
         closed_loop=None if ran is None else ran.closed_loop,
+        decimate=req.decimate,
     )

@@ -74,6 +74,11 @@ async def get_plant_detail(request: Request) -> Response:
             default_duration=p.signal.duration,
             default_x0=None if p.signal.x0 is None else list(p.signal.x0),
             sensors={"quantum": list(p.sensors.quantum), "noise_std": list(p.sensors.noise_std)},
+            identification=s.IdentDefaultsInfo(
+                models=p.identification.models,
+                decimate=p.identification.decimate,
+                why=p.identification.why,
+            ),
             integrating=bool(np.min(np.abs(np.linalg.eigvals(p.A))) < 1e-9),
             description=p.description,
         )

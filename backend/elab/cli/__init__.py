@@ -178,6 +178,12 @@ def _add_identify(sub: Any) -> None:
     )
     p.add_argument("--detrend", default="mean", choices=["mean", "linear", "none"])
     p.add_argument("--horizon", type=int, help="subspace block rows")
+    p.add_argument(
+        "--decimate",
+        type=int,
+        default=1,
+        help="keep every n-th sample after an anti-aliasing filter (default 1: all)",
+    )
     p.add_argument("--sine", type=float, help="sine analysis at this frequency (Hz)")
     p.add_argument(
         "--analyses",

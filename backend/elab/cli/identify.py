@@ -73,6 +73,7 @@ def cmd_identify(args: argparse.Namespace) -> str:
         arx_search=arx_search,
         n4sid_orders=n4sid_orders,
         horizon=args.horizon,
+        decimate=args.decimate,
     )
     result = wf.run(data, plan, validation=validation)
     if args.json:  # the API's answer, validated against the same wire model

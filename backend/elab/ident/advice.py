@@ -308,7 +308,16 @@ def on_model(
 
 def _stability(poles: Poles) -> Verdict:
     top = float(np.max(np.abs(poles))) if poles.size else 0.0
-    if top > 1.0 + 1e-9:
+    if 1.0 + 1e-9 < top <= 1.0 + NEAR_ONE:
+        return Verdict(
+            "stability",
+            "caution",
+            f"a pole at |z| = {top:.4g}, a hair outside the unit circle: an integrator (the "
+            "plant's, if it integrates) estimated a little unstable; its simulation drifts "
+            "slowly over long records",
+            "if the plant integrates, this is its integrator; otherwise try a lower order",
+        )
+    if top > 1.0 + NEAR_ONE:
         return Verdict(
             "stability",
             "poor",

@@ -89,12 +89,17 @@ def _modal_refit(A: Array, C: Array, free: Array, x0: Array) -> Array:
         return x0
     M = (modes[ok][:, None, :] * (C @ V)[None, :, :]).reshape(-1, n)
     f = free[ok].reshape(-1)
-    xi, *_ = np.linalg.lstsq(M, f.astype(complex), rcond=X0_RCOND)
-    modal = np.real(V @ xi)
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not np.isfinite(M).all():
+            return x0
+        xi, *_ = np.linalg.lstsq(M, f.astype(complex), rcond=X0_RCOND)
+        modal = np.real(V @ xi)
 
     def misfit(x: Array) -> float:
-        r = f - np.real(M @ np.linalg.solve(V, x.astype(complex)))
-        return float(r @ r)
+        with np.errstate(over="ignore", invalid="ignore"):
+            r = f - np.real(M @ np.linalg.solve(V, x.astype(complex)))
+            e = float(r @ r)
+        return e if math.isfinite(e) else math.inf
 
     return modal if misfit(modal) < misfit(x0) else x0
 

@@ -73,6 +73,8 @@ class Plan:
     horizon: int | None = None
     #: whether the data were recorded in closed loop, where the source knows (a run)
     closed_loop: bool | None = None
+    #: keep every ``decimate``-th sample, anti-aliased (:meth:`IdData.decimate`)
+    decimate: int = 1
 
 
 def parse_model(text: str) -> ModelRequest:
@@ -104,6 +106,14 @@ def run(
     a separate record to validate on (``data`` is then all estimation, and ``split`` is
     not used)."""
     report = progress or _unreported
+    resampled = []
+    if plan.decimate != 1:
+        data = data.decimate(plan.decimate)
+        validation = None if validation is None else validation.decimate(plan.decimate)
+        resampled.append(
+            f"every {plan.decimate}th sample kept after an anti-aliasing filter (no phase "
+            f"shift): Ts = {data.Ts:g} s, {data.N} samples"
+        )
     ze, zv = _estimation_and_validation(data, plan, validation)
     z = _joined(data, ze, zv)
     notes = suspicious(data)  # on the data as given: detrending moves the edges
@@ -123,7 +133,7 @@ def run(
         data=AnalysedData(z, ze.N, "split" if validation is None else "record"),
         analyses=replace(nonparametric, arx_search=searches, n4sid_orders=orders),
         models=models,
-        notes=(*notes, *skipped, *said),
+        notes=(*resampled, *notes, *skipped, *said),
         verdicts=verdicts,
     )
 
@@ -296,7 +306,7 @@ def _models(
     best = 0 if orders is None else orders.best
     results = []
     for i, request in enumerate(plan.models):
-        model = _estimate(ze, request, sub, best, plan.horizon, i)
+        model = _estimate(ze, request, sub, best, plan.horizon, i, plan.decimate > 1)
         result = assess(_name(request, model), model, ze, zv)
         chosen = request.kind == "n4sid" and not request.orders.get("order")
         top = chosen and orders is not None and model.nx == max(r.order for r in orders.rows)
@@ -370,9 +380,22 @@ def _arx_search(
 
 
 def _estimate(
-    ze: IdData, r: ModelRequest, sub: Subspace | None, best: int, horizon: int | None, i: int
+    ze: IdData,
+    r: ModelRequest,
+    sub: Subspace | None,
+    best: int,
+    horizon: int | None,
+    i: int,
+    decimated: bool = False,
 ) -> LinearModel:
     o = r.orders
+    if r.kind == "link" and decimated:
+        raise InvalidInput(
+            f"models[{i}].kind",
+            r.kind,
+            "another kind, or decimate 1: a link model reads speeds and the voltage's "
+            "delay from every recorded sample",
+        )
     if r.kind == "link" and ze.trend != "none":
         raise InvalidInput(
             f"models[{i}].kind",

@@ -66,6 +66,16 @@ class SignalDefaults:
 
 
 @dataclass(frozen=True)
+class IdentDefaults:
+    """What the identification page proposes for a run of this plant: the models (the
+    CLI's syntax), how many samples to keep one of (``decimate``) and why."""
+
+    models: str = "arx:4,4,1; armax:2,2,2,1; n4sid"
+    decimate: int = 1
+    why: str = ""
+
+
+@dataclass(frozen=True)
 class Plant(StateSpaceShape):
     """A plant of the lab: continuous model :math:`\\dot x = A x + B u,\\; y = C x + D u`.
 
@@ -98,6 +108,7 @@ class Plant(StateSpaceShape):
     experiments: tuple[str, ...] = ("analysis", "identification", "design")
     modes: tuple[str, ...] = ("simulation",)
     notes: tuple[str, ...] = field(default=())
+    identification: IdentDefaults = IdentDefaults()
 
     @property
     def output_ranges(self) -> tuple[tuple[int, float, float], ...]:

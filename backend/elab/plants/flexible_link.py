@@ -14,6 +14,7 @@ import math
 from elab.laws import StateFeedback
 from elab.plants.base import (
     Channel,
+    IdentDefaults,
     Plant,
     Sensors,
     SignalDefaults,
@@ -53,4 +54,15 @@ PLANT = Plant(
     operating_point=frozen_matrix([[0, 0, 0, 0]])[0],
     velocity_filters=(VelocityFilter(2, 0, 150.0), VelocityFilter(3, 1, 50.0)),
     modes=("simulation", "rig"),
+    identification=IdentDefaults(
+        models="oe:4,4,1; n4sid:4",
+        decimate=10,
+        why="The link is sampled at 1 kHz and its resonance is at 3 Hz: every 10th sample "
+        "(anti-aliased) keeps the dynamics and drops the sensor noise above 50 Hz that ARX "
+        "and subspace fits would weight. An output-error model needs no noise model; in "
+        "closed loop it is nearly unbiased while the output's noise hardly reaches the "
+        "input (the feedback verdict says how much). On the page's default run both fit "
+        "their validation part to 92–96 % and lie within 0.5 dB and 3° of the physics "
+        "model from 2 to 60 rad/s (docs/identification.md).",
+    ),
 )

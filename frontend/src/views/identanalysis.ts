@@ -55,7 +55,9 @@ export class IdentAnalysis {
     const atRest = source.kind === "run" && plant.integrating && plant.operating_point.every((v) => v === 0);
     if (atRest) this.detrend.value = "none";
     const detrendWhy = atRest ? h("small.hint", { "data-testid": "detrend-why" }, "Kept as recorded by default: this plant integrates (a pole at s = 0) and its runs start at rest, so removing the input's mean would add a ramp the plant never made.") : "";
-    this.models = h("input.mono", { id: `${pre}-models`, value: "arx:4,4,1; armax:2,2,2,1; n4sid", spellcheck: false, autocomplete: "off", oninput: () => this.checkModels() });
+    // a run gets its plant's proposals (models, resampling) with the reason; a file the general ones
+    const proposed = source.kind === "run" ? plant.identification : { models: "arx:4,4,1; armax:2,2,2,1; n4sid", decimate: 1, why: "" };
+    this.models = h("input.mono", { id: `${pre}-models`, value: proposed.models, spellcheck: false, autocomplete: "off", oninput: () => this.checkModels() });
     const split = f.add(new NumberField({ idPrefix: pre, field: "split", label: "Estimation share (the rest validates)", value: 0.5, min: 0, max: 1, minExclusive: true, maxExclusive: true, step: 0.05 }));
     this.validation = new ValidationFile(pre, split, source.kind === "run" ? "columns u and the output(s) above at this run's sample time, e.g. another run's CSV download" : "the same columns and sample time as the data file");
     const sourceBox: HTMLElement[] = [];
@@ -80,8 +82,10 @@ export class IdentAnalysis {
       ...sourceBox,
       this.validation.root,
       h("div.grid", split.root, h("div.field.span2", h("label", { for: `${pre}-detrend` }, "Detrend (each part)"), this.detrend, detrendWhy)),
+      h("div.grid", num("decimate", "Keep every n-th sample (anti-aliased; 1: all)", proposed.decimate, 1, 100)),
+      proposed.why ? h("small.hint", { "data-testid": "ident-proposed-why" }, `Proposed for this plant: ${proposed.models}, every ${proposed.decimate}th sample. ${proposed.why}`) : "",
       h("fieldset", h("legend", "Analyses"), corrLabel, specLabel, arxLabel, h("div.grid", num("arx_search.na.0", "na from", 1, 0, 50), num("arx_search.na.1", "na to", 10, 0, 50), num("arx_search.nb.0", "nb from", 1, 1, 50), num("arx_search.nb.1", "nb to", 10, 1, 50), num("arx_search.nk.0", "nk from", 1, 0, 50), num("arx_search.nk.1", "nk to", 10, 0, 50)), n4sidLabel, h("div.grid", num("n4sid_orders.0", "order from", 1, 1, 99), num("n4sid_orders.1", "order to", 10, 1, 99), num("horizon", "horizon s (0: default)", 0, 0, 100))),
-      h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values) · link (the flexible link's physics: outputs θ, α; detrend none); separate with ;"), this.modelsMsg),
+      h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values) · link (the flexible link's physics: outputs θ, α; detrend none, every sample); separate with ;"), this.modelsMsg),
       h("div.actions", h("button.primary", { type: "submit" }, "Identify"), this.progress, this.stage),
       this.msg,
     );
@@ -111,6 +115,7 @@ export class IdentAnalysis {
       arx_search: this.checks.arx.checked ? { na: span("arx_search.na"), nb: span("arx_search.nb"), nk: span("arx_search.nk") } : null,
       n4sid_orders: this.checks.n4sid.checked ? span("n4sid_orders") : null,
       horizon: v.get("horizon")! > 0 ? v.get("horizon")! : null,
+      decimate: v.get("decimate")!,
       models: models.models,
     };
   }

@@ -118,6 +118,13 @@ class IdentRequest(Model):
     arx_search: ArxSearch | None = None
     n4sid_orders: Span | None = None
     horizon: int | None = Field(None, ge=2, le=100)
+    decimate: int = Field(
+        1,
+        ge=1,
+        le=100,
+        description="keep every n-th sample after an anti-aliasing filter (1: all); the "
+        "analysis runs at n·Ts",
+    )
     models: list[ModelSpec] = Field([], max_length=10)
 
 

@@ -26,6 +26,12 @@ class PlantChannel(Model):
     label: str
 
 
+class IdentDefaultsInfo(Model):
+    models: str = Field(description="the CLI's syntax: arx:4,4,1; n4sid:4")
+    decimate: int
+    why: str
+
+
 class PlantDetail(PlantSummary):
     A: list[list[float]]
     B: list[list[float]]
@@ -55,6 +61,9 @@ class PlantDetail(PlantSummary):
         description="a pole at s = 0: an output integrates the input (identification "
         "keeps its runs' data as recorded by default: removing the input's mean would "
         "add a ramp the plant never made)",
+    )
+    identification: IdentDefaultsInfo = Field(
+        description="what the identification page proposes for this plant's runs, and why"
     )
     description: str
 
