@@ -269,7 +269,13 @@ class _Fitted:
 
 
 def _fitted(sub: Subspace, n: int, stable: Stable, bd: BD) -> _Fitted:
-    """The model of order ``n`` under the ``stable`` policy (see :func:`n4sid`)."""
+    """The model of order ``n`` under the ``stable`` policy (see :func:`n4sid`).
+
+    The estimate and its reflection both take B, D and x₀ by ``bd``, so that "auto"
+    compares two sets of poles, not two ways to B and D. (Refitting the reflection's B, D
+    and x₀ by the simulation least squares fitted the estimation data better nearly
+    always, and the validation data worse where SLICOT's unreflected estimate was
+    nearly stable: heating_system's order 10, |z| = 1.0035, 2.5 points below it.)"""
     kept = _model(sub, *_shift(sub, n, False), bd)
     if stable is False or np.max(np.abs(np.linalg.eigvals(kept.A))) <= 1.0:
         return kept
