@@ -162,7 +162,7 @@ def n4sid(
         raise InvalidInput("stable", stable, "false, true or 'auto'")
     sub = decompose(data, horizon) if sub is None else sub
     if order is None:
-        order = choose_order(sub, orders or range(1, 11), bd).best
+        order = choose_order(sub, orders or range(1, 11), bd, stable).best
     if not isinstance(order, int) or isinstance(order, bool) or not 1 <= order <= sub.max_order:
         raise InvalidInput(
             "order",
@@ -188,18 +188,21 @@ def n4sid(
 @dataclass(frozen=True)
 class OrderRow:
     """One order's figures: the mean squared simulation error on the estimation data
-    (x₀ estimated) and the criteria log V + penalty (see :func:`choose_order`)."""
+    (x₀ estimated), the criteria log V + penalty, and the fit [%] of the record's last
+    third by the model of its first two thirds (NaN where not checked; see
+    :func:`choose_order`)."""
 
     order: int
     loss: float
     mdl: float
     aic: float
+    holdout: float = math.nan
 
 
 @dataclass(frozen=True)
 class OrderChoice:
-    """The order :func:`choose_order` chose at ``horizon``, why, every order's figures and
-    the singular values."""
+    """The order :func:`choose_order` chose for ``horizon``, why, every order's figures
+    and the singular values."""
 
     best: int
     reason: str
@@ -208,19 +211,34 @@ class OrderChoice:
     singular_values: Array
 
 
-def choose_order(sub: Subspace, orders: range, bd: BD = "subspace") -> OrderChoice:
+HOLDOUT = 1 / 3  # the share of the record the order is checked on (the last)
+
+
+def choose_order(
+    sub: Subspace, orders: range, bd: BD = "subspace", stable: Stable = "auto"
+) -> OrderChoice:
     """The order over ``orders``, every order's figures, and why it was chosen.
 
-    A gap in the singular values decides when there is one: the order after which they
-    fall :data:`GAP` times or more (the largest such fall). Otherwise the least MDL =
-    log V + d log(N) / N, where V is the mean squared simulation error on the data (x₀
-    estimated) and d = n (2 ny + nu) + ny nu the free parameters (Ljung 1999, sec. 16.4);
-    AIC = log V + 2 d / N, which penalises less, is in the rows and the reason too (MDL is
-    consistent for the order, AIC tends to overfit it).
-    (MDL alone picked 10 at one horizon and 6 at another for data whose singular values
-    fall 100× after order 4.) The losses are of the models as estimated: an order whose
-    estimate has a pole outside the unit circle is a sign of a spurious mode, and should
-    not win by its reflection (on the hair dryer, order 6's reflected model would)."""
+    1. A gap in the singular values decides when there is one: the order after which
+       they fall :data:`GAP` times or more (the largest such fall).
+    2. Otherwise cross-validation (Ljung 1999, sec. 16.4) where the record supports it:
+       models of each order from the first two thirds of the record (detrended, at the
+       horizon :func:`decompose` gives that part) simulate its last third from rest, and
+       the order whose simulation fits best wins. A record supports it when an input
+       moves in the last third and the first two thirds can be decomposed.
+    3. Otherwise the least MDL = log V + d log(N) / N, where V is the mean squared
+       simulation error on the data (x₀ estimated) and d = n (2 ny + nu) + ny nu the free
+       parameters; AIC = log V + 2 d / N, which penalises less, is in the rows and the
+       reason too (MDL is consistent for the order, AIC tends to overfit it). The losses
+       are of the models as estimated: an order whose estimate has a pole outside the
+       unit circle should not win by its reflection.
+
+    (On thirteen public data sets MDL chose an order whose validation fit was 2–8 points
+    below the best order's on five — robot arm, heating system, glass furnace, ball and
+    beam, evaporator — and cross-validation on two: the glass furnace, 2.3, and the
+    industrial dryer, 2.7, whose orders all fit below 17 %; the heating system's last
+    third holds its input constant, and MDL decides there. MDL alone picked 10 at one
+    horizon and 6 at another for data whose singular values fall 100× after order 4.)"""
     data = sub.data
     top = sub.max_order
     valid = [n for n in orders if 1 <= n <= top]
@@ -230,6 +248,7 @@ def choose_order(sub: Subspace, orders: range, bd: BD = "subspace") -> OrderChoi
             f"{orders.start} … {orders.stop - 1}",
             f"orders in 1 … {top} for horizon {sub.horizon}",
         )
+    held, check_horizon = _holdout_fits(data, valid, bd, stable)
     rows = []
     for n in valid:
         V = _fitted(sub, n, False, bd).loss
@@ -241,6 +260,7 @@ def choose_order(sub: Subspace, orders: range, bd: BD = "subspace") -> OrderChoi
                 loss=V,
                 mdl=logV + d * math.log(data.N) / data.N,
                 aic=logV + 2 * d / data.N,
+                holdout=held.get(n, math.nan),
             )
         )
     best = min(rows, key=lambda r: r.mdl).order
@@ -252,8 +272,45 @@ def choose_order(sub: Subspace, orders: range, bd: BD = "subspace") -> OrderChoi
         gap = max(falls, key=lambda n: falls[n])
         why = f"the singular values fall {falls[gap]:.3g}× after order {gap} ({others})"
         return OrderChoice(gap, why, tuple(rows), sub.horizon, sv)
-    why = f"least MDL (no fall of the singular values of {GAP:g}× or more; AIC: {aic})"
+    if held:
+        n = max(held, key=lambda k: held[k])
+        why = (
+            f"the best fit of the record's last third simulated from rest, {held[n]:.1f} %, "
+            f"by the models of its first two thirds (horizon {check_horizon}; no fall of "
+            f"the singular values of {GAP:g}× or more; {others})"
+        )
+        return OrderChoice(n, why, tuple(rows), sub.horizon, sv)
+    why = (
+        f"least MDL (no fall of the singular values of {GAP:g}× or more, and the record's "
+        f"last third cannot check the orders: {check_horizon}; AIC: {aic})"
+    )
     return OrderChoice(best, why, tuple(rows), sub.horizon, sv)
+
+
+def _holdout_fits(
+    data: IdData, orders: list[int], bd: BD, stable: Stable
+) -> tuple[dict[int, float], int | str]:
+    """Each order's fit [%] (mean over the outputs) of the record's last third,
+    simulated from rest by the model of its first two thirds, and that model's horizon;
+    or no fits and why."""
+    k = int(data.N * (1 - HOLDOUT))
+    first, last = data[:k].detrend(), data[k:].detrend()
+    if not np.any(np.ptp(last.u, axis=0) > 1e-12 * max(float(np.max(np.abs(data.u))), 1e-300)):
+        return {}, "its inputs do not move"
+    try:
+        part = decompose(first)
+    except InvalidInput as exc:
+        return {}, f"the first two thirds cannot be decomposed ({exc})"
+    fits = {}
+    spread = np.linalg.norm(last.y - last.y.mean(axis=0), axis=0)
+    for n in (n for n in orders if n <= part.max_order):
+        f = _fitted(part, n, stable, bd)
+        err = np.linalg.norm(
+            last.y - _simulate_fast(f.A, f.B, f.C, f.D, np.zeros(n), last.u), axis=0
+        )
+        fit = 100 * (1 - err / np.where(spread > 0, spread, np.inf))
+        fits[n] = float(np.mean(fit)) if np.all(np.isfinite(fit)) else -math.inf
+    return fits, part.horizon
 
 
 @dataclass(frozen=True)
