@@ -56,7 +56,7 @@ class Subspace:
     singular_values: Array
     U1: Array  # left singular vectors of L₃₂ (s·ny × s·ny)
     L: Array  # [U_f; U_p; Y_p; Y_f] = L Q, lower triangular
-    states_basis: Array  # U₁ᵀ L₃₂ L₂₂⁺ W_p: row i over √σᵢ is state i at times s … s+j−1
+    states_map: Array  # U₁ᵀ L₃₂ L₂₂⁺: times W_p, row i over √σᵢ is state i at s … s+j−1
 
     @property
     def max_order(self) -> int:
@@ -106,36 +106,76 @@ def decompose(data: IdData, horizon: int | None = None) -> Subspace:
                 f"order {2 * top} but not {2 * s} (a horizon s needs order 2s)",
             ) from None
         s = top  # the default: the largest horizon the input supports
-    j = N - 2 * s + 1
-
-    def hankel(x: Array, start: int) -> Array:  # s block rows, j columns
-        return np.vstack([x[start + i : start + i + j].T for i in range(s)])
-
-    Up, Uf = hankel(data.u, 0), hankel(data.u, s)
-    Yp, Yf = hankel(data.y, 0), hankel(data.y, s)
-    Wp = np.vstack([Up, Yp])
-    H = np.vstack([Uf, Wp, Yf])
-    L = _lq_factor(H)
+    L = _lq_factor(data, s)
     a, b = s * nu, s * (nu + ny) + s * nu
     L22, L32 = L[a:b, a:b], L[b:, a:b]
     U1, sv, _ = np.linalg.svd(L32)
-    states_basis = (U1.T @ L32 @ np.linalg.pinv(L22)) @ Wp
-    return Subspace(data, s, sv, U1, L, states_basis)
+    return Subspace(data, s, sv, U1, L, U1.T @ L32 @ np.linalg.pinv(L22))
 
 
-def _lq_factor(H: Array) -> Array:
-    """L of H = L Q: the Cholesky factor of H Hᵀ (SLICOT's default, the "Cholesky
-    algorithm applied to the correlation matrix"), or of a QR step when H Hᵀ is too
-    ill-conditioned for it."""
+def _rows(s: int, nu: int, ny: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The lag and the channel (of w = [u, y]) of each row of [U_f; U_p; Y_p; Y_f]."""
+    lag, channel = [], []
+    for first, chans in ((s, range(nu)), (0, range(nu)), (0, range(nu, nu + ny))):
+        lag += [first + i for i in range(s) for _ in chans]
+        channel += [c for _ in range(s) for c in chans]
+    lag += [s + i for i in range(s) for _ in range(ny)]
+    channel += [c for _ in range(s) for c in range(nu, nu + ny)]
+    return np.array(lag), np.array(channel)
+
+
+def _correlation(w: Array, s: int) -> Array:
+    """R[ℓ, m] = Σ_{t<j} w(t+ℓ) w(t+m)ᵀ for ℓ, m < 2s (j = N − 2s + 1), by the Hankel
+    structure (as SLICOT's IB01MD): R[ℓ+1, m+1] = R[ℓ, m] + w(ℓ+j) w(m+j)ᵀ − w(ℓ) w(m)ᵀ,
+    so only R[ℓ, 0] needs a pass over the data."""
+    N, p = w.shape
+    k = 2 * s
+    j = N - k + 1
+    R = np.empty((k, k, p, p))
+    lags = np.lib.stride_tricks.sliding_window_view(w, (j, p))[:, 0]  # (k, j, p)
+    R[:, 0] = np.einsum("ltp,tq->lpq", lags, w[:j], optimize=True)
+    end, start = w[j:], w[: k - 1]  # w(ℓ + j) and w(ℓ), ℓ < 2s − 1
+    step = np.einsum("lp,mq->lmpq", end, end) - np.einsum("lp,mq->lmpq", start, start)
+    for m in range(k - 1):
+        R[m + 1 :, m + 1] = R[m:-1, m] + step[m:, m]
+    upper = np.triu_indices(k, 1)
+    R[upper] = R[upper[1], upper[0]].transpose(0, 2, 1)
+    return R
+
+
+def _hankel(data: IdData, s: int) -> Array:
+    """[U_f; U_p; Y_p; Y_f]: s block rows each, j = N − 2s + 1 columns."""
+    j = data.N - 2 * s + 1
+
+    def block(x: Array, start: int) -> Array:
+        return np.vstack([x[start + i : start + i + j].T for i in range(s)])
+
+    return np.vstack([block(data.u, s), block(data.u, 0), block(data.y, 0), block(data.y, s)])
+
+
+def _past(data: IdData, s: int) -> Array:
+    """W_p = [U_p; Y_p] (s block rows each, j columns)."""
+    H = _hankel(data, s)
+    return H[s * data.nu : s * (2 * data.nu + data.ny)]
+
+
+def _lq_factor(data: IdData, s: int) -> Array:
+    """L of H = L Q, H = [U_f; U_p; Y_p; Y_f]: the Cholesky factor of H Hᵀ (SLICOT's
+    default, the "Cholesky algorithm applied to the correlation matrix", H Hᵀ from the
+    Hankel structure), or of a QR step when H Hᵀ is too ill-conditioned for it."""
+    lag, ch = _rows(s, data.nu, data.ny)
+    R = _correlation(np.hstack([data.u, data.y]), s)
     try:
-        L = scipy.linalg.cholesky(H @ H.T, lower=True, check_finite=False)
+        HHt = R[lag[:, None], lag[None, :], ch[:, None], ch[None, :]]
+        L = scipy.linalg.cholesky(HHt, lower=True, check_finite=False)
         d = np.abs(np.diag(L))
         if d.min() > 1e-6 * d.max():
             return np.asarray(L, dtype=np.float64)
     except np.linalg.LinAlgError:
         pass
-    R = scipy.linalg.qr(H.T, mode="r", check_finite=False)[0]
-    return np.asarray(R[: H.shape[0]].T, dtype=np.float64)
+    H = _hankel(data, s)
+    Rq = scipy.linalg.qr(H.T, mode="r", check_finite=False)[0]
+    return np.asarray(Rq[: H.shape[0]].T, dtype=np.float64)
 
 
 def n4sid(
@@ -347,8 +387,7 @@ def _fitted(sub: Subspace, n: int, stable: Stable, bd: BD) -> _Fitted:
 def _model(
     sub: Subspace, A: Array, C: Array, moved: tuple[tuple[float, float], ...], bd: BD
 ) -> _Fitted:
-    B, D, x0 = _bdx0(sub, A, C, bd)
-    err = sub.data.y - _simulate_fast(A, B, C, D, x0, sub.data.u)
+    B, D, x0, err = _bdx0(sub, A, C, bd)
     loss = float(np.mean(err**2)) if np.all(np.isfinite(err)) else math.inf
     return _Fitted(A, B, C, D, x0, loss, moved, None)
 
@@ -379,14 +418,18 @@ def _shift(
     return np.asarray(A, dtype=np.float64), C, moved
 
 
-def _bdx0(sub: Subspace, A: Array, C: Array, bd: BD) -> tuple[Array, Array, Array]:
-    """B, D and the estimation record's x₀ by ``bd``'s method."""
+def _bdx0(sub: Subspace, A: Array, C: Array, bd: BD) -> tuple[Array, Array, Array, Array]:
+    """B, D and the estimation record's x₀ by ``bd``'s method, and the simulation error
+    from that x₀ (one simulation: the error from rest less the free response)."""
+    u, y = sub.data.u, sub.data.y
     if bd == "simulation":
-        return _input_matrices(sub.data, A, C)
+        B, D, x0 = _input_matrices(sub.data, A, C)
+        return B, D, x0, y - _simulate_fast(A, B, C, D, x0, u)
     B, D = _subspace_bd(sub, A, C)
-    zero = np.zeros(A.shape[0])
-    x0 = initial_state(A, C, sub.data.y - _simulate_fast(A, B, C, D, zero, sub.data.u))
-    return B, D, x0
+    free = y - _simulate_fast(A, B, C, D, np.zeros(A.shape[0]), u)
+    x0 = initial_state(A, C, free)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return B, D, x0, free - observability(A, C, sub.data.N) @ x0
 
 
 def _subspace_bd(sub: Subspace, A: Array, C: Array) -> tuple[Array, Array]:
@@ -531,7 +574,7 @@ def _kalman_gain(
     data, s, n = sub.data, sub.horizon, A.shape[0]
     ny = data.ny
     # Γ_s = U₁ Σ₁^½ has orthogonal columns: X̂ = Γ_s⁺ (Γ_s X̂) = Σ₁^−½ U₁ᵀ (Γ_s X̂)
-    X = sub.states_basis[:n] / np.sqrt(sub.singular_values[:n])[:, None]  # times s … s+j−1
+    X = (sub.states_map[:n] / np.sqrt(sub.singular_values[:n])[:, None]) @ _past(data, s)
     j = X.shape[1]
     U, Y = data.u[s : s + j].T, data.y[s : s + j].T
     W = X[:, 1:] - A @ X[:, :-1] - B @ U[:, :-1]
