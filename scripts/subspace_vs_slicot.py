@@ -3,12 +3,18 @@ orders 1 … 10, horizon 20: the validation fits from a zero and from the estima
 state, each cell's shortfall, the automatically chosen order and the time per call.
 
     PYTHONPATH=backend:. python scripts/subspace_vs_slicot.py [--no-time]
+
+Both run with one BLAS thread (as ``elab`` sets it; Octave inherits the setting), so the
+times compare the algorithms, not the thread pools of a shared machine.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy loads; Octave inherits it
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
