@@ -17,9 +17,9 @@ A is kept as estimated, stable or not (a lightly damped plant's estimate may hav
 just outside the unit circle; the zero-padded estimate of Chui & Maciejowski 1996, once
 the default, pulled every pole inward and fitted 13 % where the estimate fitted 96.7 %).
 ``stable=True`` reflects only the poles outside the unit circle into it (λ → 1/λ̄), which
-keeps the others; ``parameters.reflected`` lists what moved. B, D and x₀ are the
-least-squares fit of the simulated output y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) +
-D u(t) — linear in them, with the Markov parameters convolved with the inputs by FFT.
+keeps the others; ``parameters.reflected`` lists what moved. B and D come from the R
+factor as SLICOT computes them for N4SID, or by the least squares of the simulated
+output (:mod:`elab.ident.input_matrices`); x₀ by least squares on the free response.
 The states X̂ = Γ_s⁺ L₃₂ L₂₂⁺ W_p give the residual covariances of the state equations,
 and the Kalman gain K solves the filter Riccati equation for them.
 """
