@@ -277,7 +277,7 @@ export interface N4SidOrdersOut {
   horizon: number;
   best: number;
   /**
-   * why that order: a gap in the singular values, or MDL
+   * why that order: a gap in the singular values, the best fit of the record's last third, or MDL
    */
   reason: string;
   orders: OrderRow[];
@@ -292,6 +292,10 @@ export interface OrderRow {
   loss: number | null;
   mdl: number | null;
   aic: number | null;
+  /**
+   * fit % of the estimation record's last third simulated from rest by the model of its first two thirds (null: not checked)
+   */
+  holdout: number | null;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

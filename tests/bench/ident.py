@@ -164,7 +164,8 @@ sub-block of its normal equations; the subspace path factorises the Hankel matri
 for every order. Octave's `n4sid` refactorises for each order, as a user calling it per
 order does.
 
-{bench_datasets(octave)}"""
+{bench_datasets(octave)}
+{bench_public_sets()}"""
 
 
 def _octave_version(octave: str) -> str:
@@ -250,4 +251,35 @@ def bench_datasets(octave: str) -> str:
         "`tests/unit/ident/test_octave.py`).\n\n"
         "| data set | E-Lab | Octave (SLICOT) | E-Lab time | Octave time | Octave / E-Lab |\n"
         "|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
+    )
+
+
+def bench_public_sets() -> str:
+    """Issue 26: every public data set of tests/unit/ident/public_sets.py at orders 1 … 10,
+    s = 20 — the cells where E-Lab's validation fit falls more than a point below SLICOT's,
+    and the mean time of one ``n4sid`` call (each decomposing afresh, as Octave's)."""
+    from tests.unit.ident.public_sets import SETS, cells, elab_seconds, run_slicot
+
+    run = run_slicot()
+    table = cells(run)
+    rows = []
+    for s in SETS:
+        mine = [c for c in table if c.name == s.name]
+        below = sum(c.shortfall > 1 for c in mine)
+        worst = max(c.shortfall for c in mine)
+        ours, theirs = elab_seconds(s), run.seconds[s.name]
+        ze, _ = s.records()
+        rows.append(
+            f"| {s.name} | {ze.nu} × {ze.ny} | {ze.N} | {below} | {worst:+.2f} | "
+            f"{ours * 1e3:.2f} ms | {theirs * 1e3:.2f} ms | {theirs / ours:.2f}× |"
+        )
+    return (
+        "### Public data sets at every order 1 … 10, s = 20 (issue 26)\n\n"
+        "Cells (orders) whose validation fit, from x₀ = 0 or from the fitted x₀, any output, "
+        "falls more than 1 point below SLICOT's, the largest shortfall (negative: E-Lab above "
+        "everywhere), and the mean time of one `n4sid` call over the ten orders (best of 3). "
+        "Table: `scripts/subspace_vs_slicot.py`; test: `tests/unit/ident/test_slicot_public.py`.\n\n"
+        "| data set | inputs × outputs | estimation samples | cells > 1 point below | worst | "
+        "E-Lab time | Octave time | Octave / E-Lab |\n"
+        "|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
     )

@@ -147,7 +147,10 @@ def _orders(o: OrderChoice) -> s.N4sidOrdersOut:
         horizon=o.horizon,
         best=o.best,
         reason=o.reason,
-        orders=[s.OrderRow(order=r.order, loss=r.loss, mdl=r.mdl, aic=r.aic) for r in o.rows],
+        orders=[
+            s.OrderRow(order=r.order, loss=r.loss, mdl=r.mdl, aic=r.aic, holdout=r.holdout)
+            for r in o.rows
+        ],
         singular_values=o.singular_values.tolist(),
     )
 

@@ -17,9 +17,9 @@ A is kept as estimated, stable or not (a lightly damped plant's estimate may hav
 just outside the unit circle; the zero-padded estimate of Chui & Maciejowski 1996, once
 the default, pulled every pole inward and fitted 13 % where the estimate fitted 96.7 %).
 ``stable=True`` reflects only the poles outside the unit circle into it (λ → 1/λ̄), which
-keeps the others; ``parameters.reflected`` lists what moved. B, D and x₀ are the
-least-squares fit of the simulated output y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) +
-D u(t) — linear in them, with the Markov parameters convolved with the inputs by FFT.
+keeps the others; ``parameters.reflected`` lists what moved. B and D come from the R
+factor as SLICOT computes them for N4SID, or by the least squares of the simulated
+output (:mod:`elab.ident.input_matrices`); x₀ by least squares on the free response.
 The states X̂ = Γ_s⁺ L₃₂ L₂₂⁺ W_p give the residual covariances of the state equations,
 and the Kalman gain K solves the filter Riccati equation for them.
 """
@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
 from elab.ident.data import IdData, require_exciting
+from elab.ident.input_matrices import simulate, simulation_bd, subspace_bd
 from elab.ident.models import LinearModel, initial_state, observability
 from elab.ident.parameters import N4sidParameters, UnstableChoice
 
@@ -56,7 +57,7 @@ class Subspace:
     singular_values: Array
     U1: Array  # left singular vectors of L₃₂ (s·ny × s·ny)
     L: Array  # [U_f; U_p; Y_p; Y_f] = L Q, lower triangular
-    states_basis: Array  # U₁ᵀ L₃₂ L₂₂⁺ W_p: row i over √σᵢ is state i at times s … s+j−1
+    states_map: Array  # U₁ᵀ L₃₂ L₂₂⁺: times W_p, row i over √σᵢ is state i at s … s+j−1
 
     @property
     def max_order(self) -> int:
@@ -106,36 +107,76 @@ def decompose(data: IdData, horizon: int | None = None) -> Subspace:
                 f"order {2 * top} but not {2 * s} (a horizon s needs order 2s)",
             ) from None
         s = top  # the default: the largest horizon the input supports
-    j = N - 2 * s + 1
-
-    def hankel(x: Array, start: int) -> Array:  # s block rows, j columns
-        return np.vstack([x[start + i : start + i + j].T for i in range(s)])
-
-    Up, Uf = hankel(data.u, 0), hankel(data.u, s)
-    Yp, Yf = hankel(data.y, 0), hankel(data.y, s)
-    Wp = np.vstack([Up, Yp])
-    H = np.vstack([Uf, Wp, Yf])
-    L = _lq_factor(H)
+    L = _lq_factor(data, s)
     a, b = s * nu, s * (nu + ny) + s * nu
     L22, L32 = L[a:b, a:b], L[b:, a:b]
     U1, sv, _ = np.linalg.svd(L32)
-    states_basis = (U1.T @ L32 @ np.linalg.pinv(L22)) @ Wp
-    return Subspace(data, s, sv, U1, L, states_basis)
+    return Subspace(data, s, sv, U1, L, U1.T @ L32 @ np.linalg.pinv(L22))
 
 
-def _lq_factor(H: Array) -> Array:
-    """L of H = L Q: the Cholesky factor of H Hᵀ (SLICOT's default, the "Cholesky
-    algorithm applied to the correlation matrix"), or of a QR step when H Hᵀ is too
-    ill-conditioned for it."""
+def _rows(s: int, nu: int, ny: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The lag and the channel (of w = [u, y]) of each row of [U_f; U_p; Y_p; Y_f]."""
+    lag, channel = [], []
+    for first, chans in ((s, range(nu)), (0, range(nu)), (0, range(nu, nu + ny))):
+        lag += [first + i for i in range(s) for _ in chans]
+        channel += [c for _ in range(s) for c in chans]
+    lag += [s + i for i in range(s) for _ in range(ny)]
+    channel += [c for _ in range(s) for c in range(nu, nu + ny)]
+    return np.array(lag), np.array(channel)
+
+
+def _correlation(w: Array, s: int) -> Array:
+    """R[ℓ, m] = Σ_{t<j} w(t+ℓ) w(t+m)ᵀ for ℓ, m < 2s (j = N − 2s + 1), by the Hankel
+    structure (as SLICOT's IB01MD): R[ℓ+1, m+1] = R[ℓ, m] + w(ℓ+j) w(m+j)ᵀ − w(ℓ) w(m)ᵀ,
+    so only R[ℓ, 0] needs a pass over the data."""
+    N, p = w.shape
+    k = 2 * s
+    j = N - k + 1
+    R = np.empty((k, k, p, p))
+    lags = np.lib.stride_tricks.sliding_window_view(w, (j, p))[:, 0]  # (k, j, p)
+    R[:, 0] = np.einsum("ltp,tq->lpq", lags, w[:j], optimize=True)
+    end, start = w[j:], w[: k - 1]  # w(ℓ + j) and w(ℓ), ℓ < 2s − 1
+    step = np.einsum("lp,mq->lmpq", end, end) - np.einsum("lp,mq->lmpq", start, start)
+    for m in range(k - 1):
+        R[m + 1 :, m + 1] = R[m:-1, m] + step[m:, m]
+    upper = np.triu_indices(k, 1)
+    R[upper] = R[upper[1], upper[0]].transpose(0, 2, 1)
+    return R
+
+
+def _hankel(data: IdData, s: int) -> Array:
+    """[U_f; U_p; Y_p; Y_f]: s block rows each, j = N − 2s + 1 columns."""
+    j = data.N - 2 * s + 1
+
+    def block(x: Array, start: int) -> Array:
+        return np.vstack([x[start + i : start + i + j].T for i in range(s)])
+
+    return np.vstack([block(data.u, s), block(data.u, 0), block(data.y, 0), block(data.y, s)])
+
+
+def _past(data: IdData, s: int) -> Array:
+    """W_p = [U_p; Y_p] (s block rows each, j columns)."""
+    H = _hankel(data, s)
+    return H[s * data.nu : s * (2 * data.nu + data.ny)]
+
+
+def _lq_factor(data: IdData, s: int) -> Array:
+    """L of H = L Q, H = [U_f; U_p; Y_p; Y_f]: the Cholesky factor of H Hᵀ (SLICOT's
+    default, the "Cholesky algorithm applied to the correlation matrix", H Hᵀ from the
+    Hankel structure), or of a QR step when H Hᵀ is too ill-conditioned for it."""
+    lag, ch = _rows(s, data.nu, data.ny)
+    R = _correlation(np.hstack([data.u, data.y]), s)
     try:
-        L = scipy.linalg.cholesky(H @ H.T, lower=True, check_finite=False)
+        HHt = R[lag[:, None], lag[None, :], ch[:, None], ch[None, :]]
+        L = scipy.linalg.cholesky(HHt, lower=True, check_finite=False)
         d = np.abs(np.diag(L))
         if d.min() > 1e-6 * d.max():
             return np.asarray(L, dtype=np.float64)
     except np.linalg.LinAlgError:
         pass
-    R = scipy.linalg.qr(H.T, mode="r", check_finite=False)[0]
-    return np.asarray(R[: H.shape[0]].T, dtype=np.float64)
+    H = _hankel(data, s)
+    Rq = scipy.linalg.qr(H.T, mode="r", check_finite=False)[0]
+    return np.asarray(Rq[: H.shape[0]].T, dtype=np.float64)
 
 
 def n4sid(
@@ -162,7 +203,7 @@ def n4sid(
         raise InvalidInput("stable", stable, "false, true or 'auto'")
     sub = decompose(data, horizon) if sub is None else sub
     if order is None:
-        order = choose_order(sub, orders or range(1, 11), bd).best
+        order = choose_order(sub, orders or range(1, 11), bd, stable).best
     if not isinstance(order, int) or isinstance(order, bool) or not 1 <= order <= sub.max_order:
         raise InvalidInput(
             "order",
@@ -188,18 +229,21 @@ def n4sid(
 @dataclass(frozen=True)
 class OrderRow:
     """One order's figures: the mean squared simulation error on the estimation data
-    (x₀ estimated) and the criteria log V + penalty (see :func:`choose_order`)."""
+    (x₀ estimated), the criteria log V + penalty, and the fit [%] of the record's last
+    third by the model of its first two thirds (NaN where not checked; see
+    :func:`choose_order`)."""
 
     order: int
     loss: float
     mdl: float
     aic: float
+    holdout: float = math.nan
 
 
 @dataclass(frozen=True)
 class OrderChoice:
-    """The order :func:`choose_order` chose at ``horizon``, why, every order's figures and
-    the singular values."""
+    """The order :func:`choose_order` chose for ``horizon``, why, every order's figures
+    and the singular values."""
 
     best: int
     reason: str
@@ -208,19 +252,34 @@ class OrderChoice:
     singular_values: Array
 
 
-def choose_order(sub: Subspace, orders: range, bd: BD = "subspace") -> OrderChoice:
+HOLDOUT = 1 / 3  # the share of the record the order is checked on (the last)
+
+
+def choose_order(
+    sub: Subspace, orders: range, bd: BD = "subspace", stable: Stable = "auto"
+) -> OrderChoice:
     """The order over ``orders``, every order's figures, and why it was chosen.
 
-    A gap in the singular values decides when there is one: the order after which they
-    fall :data:`GAP` times or more (the largest such fall). Otherwise the least MDL =
-    log V + d log(N) / N, where V is the mean squared simulation error on the data (x₀
-    estimated) and d = n (2 ny + nu) + ny nu the free parameters (Ljung 1999, sec. 16.4);
-    AIC = log V + 2 d / N, which penalises less, is in the rows and the reason too (MDL is
-    consistent for the order, AIC tends to overfit it).
-    (MDL alone picked 10 at one horizon and 6 at another for data whose singular values
-    fall 100× after order 4.) The losses are of the models as estimated: an order whose
-    estimate has a pole outside the unit circle is a sign of a spurious mode, and should
-    not win by its reflection (on the hair dryer, order 6's reflected model would)."""
+    1. A gap in the singular values decides when there is one: the order after which
+       they fall :data:`GAP` times or more (the largest such fall).
+    2. Otherwise cross-validation (Ljung 1999, sec. 16.4) where the record supports it:
+       models of each order from the first two thirds of the record (detrended, at the
+       horizon :func:`decompose` gives that part) simulate its last third from rest, and
+       the order whose simulation fits best wins. A record supports it when an input
+       moves in the last third and the first two thirds can be decomposed.
+    3. Otherwise the least MDL = log V + d log(N) / N, where V is the mean squared
+       simulation error on the data (x₀ estimated) and d = n (2 ny + nu) + ny nu the free
+       parameters; AIC = log V + 2 d / N, which penalises less, is in the rows and the
+       reason too (MDL is consistent for the order, AIC tends to overfit it). The losses
+       are of the models as estimated: an order whose estimate has a pole outside the
+       unit circle should not win by its reflection.
+
+    (On thirteen public data sets MDL chose an order whose validation fit was 2–8 points
+    below the best order's on five — robot arm, heating system, glass furnace, ball and
+    beam, evaporator — and cross-validation on two: the glass furnace, 2.3, and the
+    industrial dryer, 2.7, whose orders all fit below 17 %; the heating system's last
+    third holds its input constant, and MDL decides there. MDL alone picked 10 at one
+    horizon and 6 at another for data whose singular values fall 100× after order 4.)"""
     data = sub.data
     top = sub.max_order
     valid = [n for n in orders if 1 <= n <= top]
@@ -230,6 +289,7 @@ def choose_order(sub: Subspace, orders: range, bd: BD = "subspace") -> OrderChoi
             f"{orders.start} … {orders.stop - 1}",
             f"orders in 1 … {top} for horizon {sub.horizon}",
         )
+    held, check_horizon = _holdout_fits(data, valid, bd, stable)
     rows = []
     for n in valid:
         V = _fitted(sub, n, False, bd).loss
@@ -241,6 +301,7 @@ def choose_order(sub: Subspace, orders: range, bd: BD = "subspace") -> OrderChoi
                 loss=V,
                 mdl=logV + d * math.log(data.N) / data.N,
                 aic=logV + 2 * d / data.N,
+                holdout=held.get(n, math.nan),
             )
         )
     best = min(rows, key=lambda r: r.mdl).order
@@ -252,8 +313,43 @@ def choose_order(sub: Subspace, orders: range, bd: BD = "subspace") -> OrderChoi
         gap = max(falls, key=lambda n: falls[n])
         why = f"the singular values fall {falls[gap]:.3g}× after order {gap} ({others})"
         return OrderChoice(gap, why, tuple(rows), sub.horizon, sv)
-    why = f"least MDL (no fall of the singular values of {GAP:g}× or more; AIC: {aic})"
+    if held:
+        n = max(held, key=lambda k: held[k])
+        why = (
+            f"the best fit of the record's last third simulated from rest, {held[n]:.1f} %, "
+            f"by the models of its first two thirds (horizon {check_horizon}; no fall of "
+            f"the singular values of {GAP:g}× or more; {others})"
+        )
+        return OrderChoice(n, why, tuple(rows), sub.horizon, sv)
+    why = (
+        f"least MDL (no fall of the singular values of {GAP:g}× or more, and the record's "
+        f"last third cannot check the orders: {check_horizon}; AIC: {aic})"
+    )
     return OrderChoice(best, why, tuple(rows), sub.horizon, sv)
+
+
+def _holdout_fits(
+    data: IdData, orders: list[int], bd: BD, stable: Stable
+) -> tuple[dict[int, float], int | str]:
+    """Each order's fit [%] (mean over the outputs) of the record's last third,
+    simulated from rest by the model of its first two thirds, and that model's horizon;
+    or no fits and why."""
+    k = int(data.N * (1 - HOLDOUT))
+    first, last = data[:k].detrend(), data[k:].detrend()
+    if not np.any(np.ptp(last.u, axis=0) > 1e-12 * max(float(np.max(np.abs(data.u))), 1e-300)):
+        return {}, "its inputs do not move"
+    try:
+        part = decompose(first)
+    except InvalidInput as exc:
+        return {}, f"the first two thirds cannot be decomposed ({exc})"
+    fits = {}
+    spread = np.linalg.norm(last.y - last.y.mean(axis=0), axis=0)
+    for n in (n for n in orders if n <= part.max_order):
+        f = _fitted(part, n, stable, bd)
+        err = np.linalg.norm(last.y - simulate(f.A, f.B, f.C, f.D, np.zeros(n), last.u), axis=0)
+        fit = 100 * (1 - err / np.where(spread > 0, spread, np.inf))
+        fits[n] = float(np.mean(fit)) if np.all(np.isfinite(fit)) else -math.inf
+    return fits, part.horizon
 
 
 @dataclass(frozen=True)
@@ -269,7 +365,13 @@ class _Fitted:
 
 
 def _fitted(sub: Subspace, n: int, stable: Stable, bd: BD) -> _Fitted:
-    """The model of order ``n`` under the ``stable`` policy (see :func:`n4sid`)."""
+    """The model of order ``n`` under the ``stable`` policy (see :func:`n4sid`).
+
+    The estimate and its reflection both take B, D and x₀ by ``bd``, so that "auto"
+    compares two sets of poles, not two ways to B and D. (Refitting the reflection's B, D
+    and x₀ by the simulation least squares fitted the estimation data better nearly
+    always, and the validation data worse where SLICOT's unreflected estimate was
+    nearly stable: heating_system's order 10, |z| = 1.0035, 2.5 points below it.)"""
     kept = _model(sub, *_shift(sub, n, False), bd)
     if stable is False or np.max(np.abs(np.linalg.eigvals(kept.A))) <= 1.0:
         return kept
@@ -284,8 +386,7 @@ def _fitted(sub: Subspace, n: int, stable: Stable, bd: BD) -> _Fitted:
 def _model(
     sub: Subspace, A: Array, C: Array, moved: tuple[tuple[float, float], ...], bd: BD
 ) -> _Fitted:
-    B, D, x0 = _bdx0(sub, A, C, bd)
-    err = sub.data.y - _simulate_fast(A, B, C, D, x0, sub.data.u)
+    B, D, x0, err = _bdx0(sub, A, C, bd)
     loss = float(np.mean(err**2)) if np.all(np.isfinite(err)) else math.inf
     return _Fitted(A, B, C, D, x0, loss, moved, None)
 
@@ -316,137 +417,18 @@ def _shift(
     return np.asarray(A, dtype=np.float64), C, moved
 
 
-def _bdx0(sub: Subspace, A: Array, C: Array, bd: BD) -> tuple[Array, Array, Array]:
-    """B, D and the estimation record's x₀ by ``bd``'s method."""
+def _bdx0(sub: Subspace, A: Array, C: Array, bd: BD) -> tuple[Array, Array, Array, Array]:
+    """B, D and the estimation record's x₀ by ``bd``'s method, and the simulation error
+    from that x₀ (one simulation: the error from rest less the free response)."""
+    u, y = sub.data.u, sub.data.y
     if bd == "simulation":
-        return _input_matrices(sub.data, A, C)
-    B, D = _subspace_bd(sub, A, C)
-    zero = np.zeros(A.shape[0])
-    x0 = initial_state(A, C, sub.data.y - _simulate_fast(A, B, C, D, zero, sub.data.u))
-    return B, D, x0
-
-
-def _subspace_bd(sub: Subspace, A: Array, C: Array) -> tuple[Array, Array]:
-    """B and D from the R factor by N4SID's robust algorithm (Van Overschee & De Moor
-    1996, sec. 4.3.3; SLICOT IB01BD with METH = 'N', which GNU Octave's ``n4sid`` runs).
-
-    With Z_i = Y_f / [W_p; U_f] and Z_{i+1} = Y_f⁻ / [W_p⁺; U_f⁻] (orthogonal projections;
-    the minus drops the first block row, the plus adds it to the past),
-    Γ_s⁺ Z_i = X̂_i + Γ_s⁺ H_s U_f and Γ_{s−1}⁺ Z_{i+1} = X̂_{i+1} + Γ_{s−1}⁺ H_{s−1} U_f⁻,
-    H the block Toeplitz matrix of D, C B, C A B, …; so
-
-        [Γ_{s−1}⁺ Z_{i+1}; Y_{i|i}] − [A; C] Γ_s⁺ Z_i = 𝒦(B, D) U_f + residuals,
-        𝒦 = [[B, Γ_{s−1}⁺ H_{s−1}] − A Γ_s⁺ H_s;  [D, 0] − C Γ_s⁺ H_s],
-
-    linear in B and D. Every signal here lies in the row space of the Hankel matrix, so
-    the least squares runs on its coordinates in Q (the rows of L), not on the data."""
-    data, s = sub.data, sub.horizon
-    nu, ny, n = data.nu, data.ny, A.shape[0]
-    L = sub.L
-    a, b = s * nu, s * (nu + ny) + s * nu  # U_f | W_p | Y_f
-    Yf = L[b:]
-    Zi = Yf.copy()
-    Zi[:, b:] = 0.0  # onto [U_f; W_p]: the Q₁, Q₂ coordinates
-    Zi1 = Yf[ny:].copy()
-    Zi1[:, b + ny :] = 0.0  # onto [U_f; W_p; y_s]: y_s adds the first ny Q₃ rows
-    G = sub.U1[:, :n] * np.sqrt(sub.singular_values[:n])
-    G_plus = (sub.U1[:, :n] / np.sqrt(sub.singular_values[:n])).T  # orthogonal columns
-    G_minus_plus = np.linalg.pinv(G[:-ny])
-    Uf = L[:a]
-    P = np.vstack([G_minus_plus @ Zi1, Yf[:ny]]) - np.vstack([A, C]) @ (G_plus @ Zi)
-    powers = observability(A, C, max(s - 1, 1))  # C A^k, k = 0 … s−2: (s−1, ny, n)
-    lag = np.subtract.outer(np.arange(s), np.arange(s))  # r − c of block (r, c)
-    lower = (lag >= 0)[:, :, None, None]
-
-    def kappa(B: Array, D: Array) -> Array:
-        markov = np.concatenate([D[None], powers @ B])  # D, C B, C A B, …: (s, ny, nu)
-        blocks = markov[np.clip(lag, 0, s - 1)] * lower
-        H = blocks.transpose(0, 2, 1, 3).reshape(s * ny, s * nu)  # block (r, c) = M_{r−c}
-        top = np.hstack([B, G_minus_plus @ H[ny:, nu:]]) - A @ (G_plus @ H)
-        bottom = np.hstack([D, np.zeros((ny, (s - 1) * nu))]) - C @ (G_plus @ H)
-        return np.vstack([top, bottom])
-
-    d = ny * nu + n * nu
-    cols = np.empty((P.size, d))
-    for k in range(d):  # 𝒦 is linear in θ = [vec D; vec B]: one column per unknown
-        theta = np.zeros(d)
-        theta[k] = 1.0
-        cols[:, k] = (
-            kappa(theta[ny * nu :].reshape(n, nu), theta[: ny * nu].reshape(ny, nu)) @ Uf
-        ).ravel()
-    theta = np.asarray(scipy.linalg.lstsq(cols, P.ravel(), check_finite=False)[0], dtype=np.float64)
-    return theta[ny * nu :].reshape(n, nu), theta[: ny * nu].reshape(ny, nu)
-
-
-def _input_matrices(data: IdData, A: Array, C: Array) -> tuple[Array, Array, Array]:
-    """B, D and x₀ minimising ‖y − ŷ‖² of the simulated output, a linear least squares in
-    them: y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) + D u(t)."""
-    N, nu, ny, n = data.N, data.nu, data.ny, A.shape[0]
-    free, forced = _fft_regressors(A, C, data.u)
-    cols: list[Array] = [free.reshape(N * ny, n)]  # x₀
-    cols += [f.reshape(N * ny, n) for f in forced]  # B, input by input
-    for k in range(nu):  # D: u_k appears in output i
-        cols.append(np.asarray(np.kron(data.u[:, k][:, None], np.eye(ny)), dtype=np.float64))
-    M = np.hstack(cols)
-    theta = np.asarray(
-        scipy.linalg.lstsq(M, data.y.reshape(-1), lapack_driver="gelsy", check_finite=False)[0],
-        dtype=np.float64,
-    )
-    x0 = theta[:n]
-    B = theta[n : n + n * nu].reshape(nu, n).T
-    D = theta[n + n * nu :].reshape(nu, ny).T
-    return B, D, x0
-
-
-def _fft_regressors(A: Array, C: Array, u: Array) -> tuple[Array, list[Array]]:
-    """C Aᵗ (N, ny, n), and per input k the Markov parameters convolved with u_k one step
-    late, Σ_{j<t} C A^{t−1−j} u_k(j), by FFT."""
-    N, ny, n = u.shape[0], C.shape[0], A.shape[0]
-    h = observability(A, C, N)
-    L = _fast_len(2 * N - 1)
-    H = np.fft.rfft(h.reshape(N, ny * n), L, axis=0)
-    forced = []
-    for k in range(u.shape[1]):
-        Uk = np.fft.rfft(np.r_[0.0, u[:-1, k]], L)
-        forced.append(np.fft.irfft(H * Uk[:, None], L, axis=0)[:N].reshape(N, ny, n))
-    return h, forced
-
-
-def _fast_len(n: int) -> int:
-    """The least 2ᵃ 3ᵇ 5ᶜ ≥ ``n``: a length the FFT transforms fast, as
-    ``scipy.fft.next_fast_len(n, real=True)`` (numpy's FFT is the same pocketfft, and
-    scipy.fft costs 65 ms of imports through scipy.special)."""
-    best = 1 << max(n - 1, 0).bit_length()  # the power of 2
-    p5 = 1
-    while p5 < best:
-        p35 = p5
-        while p35 < best:
-            p = p35
-            while p < n:
-                p *= 2
-            best = min(best, p)
-            p35 *= 3
-        p5 *= 5
-    return best
-
-
-def _simulate_fast(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> Array:
-    """The simulated output (an unstable model's may overflow to inf or nan)."""
+        B, D, x0 = simulation_bd(sub.data, A, C)
+        return B, D, x0, y - simulate(A, B, C, D, x0, u)
+    B, D = subspace_bd(sub, A, C)
+    free = y - simulate(A, B, C, D, np.zeros(A.shape[0]), u)
+    x0 = initial_state(A, C, free)
     with np.errstate(over="ignore", invalid="ignore"):
-        return _convolved(A, B, C, D, x0, u)
-
-
-def _convolved(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> Array:
-    N = u.shape[0]
-    h = observability(A, C, N)
-    y = h @ x0 + u @ D.T
-    L = _fast_len(2 * N - 1)  # as scipy.signal.fftconvolve pads
-    for k in range(u.shape[1]):
-        hb = h @ B[:, k]  # (N, ny) impulse response C A^t b_k
-        Uk = np.fft.rfft(u[:, k], L)
-        conv = np.fft.irfft(np.fft.rfft(hb, L, axis=0) * Uk[:, None], L, axis=0)[:N]
-        y[1:] += conv[:-1]
-    return np.asarray(y, dtype=np.float64)
+        return B, D, x0, free - observability(A, C, sub.data.N) @ x0
 
 
 def _kalman_gain(
@@ -458,7 +440,7 @@ def _kalman_gain(
     data, s, n = sub.data, sub.horizon, A.shape[0]
     ny = data.ny
     # Γ_s = U₁ Σ₁^½ has orthogonal columns: X̂ = Γ_s⁺ (Γ_s X̂) = Σ₁^−½ U₁ᵀ (Γ_s X̂)
-    X = sub.states_basis[:n] / np.sqrt(sub.singular_values[:n])[:, None]  # times s … s+j−1
+    X = (sub.states_map[:n] / np.sqrt(sub.singular_values[:n])[:, None]) @ _past(data, s)
     j = X.shape[1]
     U, Y = data.u[s : s + j].T, data.y[s : s + j].T
     W = X[:, 1:] - A @ X[:, :-1] - B @ U[:, :-1]

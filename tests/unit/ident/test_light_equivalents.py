@@ -19,8 +19,8 @@ from numpy.testing import assert_allclose
 
 from elab.ident import IdData, iddata
 from elab.ident import workflow as wf
+from elab.ident.input_matrices import convolved, fast_len
 from elab.ident.models import observability
-from elab.ident.subspace import _convolved, _fast_len
 
 REFERENCE = Path(__file__).resolve().parents[2] / "reference" / "ident"
 
@@ -64,7 +64,7 @@ def test_reported_models_equal_python_control_s(name: str, models: tuple[str, ..
 
 
 def test_fft_lengths_are_scipy_s() -> None:
-    assert [_fast_len(n) for n in range(1, 30_001)] == [
+    assert [fast_len(n) for n in range(1, 30_001)] == [
         scipy.fft.next_fast_len(n, real=True) for n in range(1, 30_001)
     ]
 
@@ -77,7 +77,7 @@ def test_the_fft_simulation_is_fftconvolve_s(N: int, ny: int, nu: int) -> None:
     A *= 0.95 / np.max(np.abs(np.linalg.eigvals(A)))  # stable
     B, C = rng.standard_normal((n, nu)), rng.standard_normal((ny, n))
     D, x0, u = rng.standard_normal((ny, nu)), rng.standard_normal(n), rng.standard_normal((N, nu))
-    y = _convolved(A, B, C, D, x0, u)
+    y = convolved(A, B, C, D, x0, u)
     # the former code: y(t) = C Aᵗ x₀ + D u(t) + Σ_k (C A^{t−1−j} b_k) * u_k(j), j < t
     h = observability(A, C, N)  # C Aᵗ, (N, ny, n)
     want = h @ x0 + u @ D.T

