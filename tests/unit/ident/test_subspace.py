@@ -246,5 +246,5 @@ def test_the_headline_fit_is_the_one_that_means_something(dryer: tuple[IdData, I
     )
     fit = out.models[0].fits
     assert fit.headline.x0 == "estimated" and fit.headline_fit is fit.validation_simulation_x0
-    assert "longer than the 500-sample record" in fit.headline.why
+    assert "more than a fifth of the 500-sample record" in fit.headline.why
     assert fit.headline_fit.fit[0] > 90 > 0 > fit.validation_simulation.fit[0]  # 93.8 %, −151 %
