@@ -139,6 +139,10 @@ def test_a_recorded_identification_run(server: Server) -> None:
     said = {v["topic"]: v for v in r.json()["verdicts"]}
     assert "closed loop" in said["feedback"]["finding"]
     assert said["delay"]["level"] == "caution" and "closed-loop" in said["delay"]["finding"]
+    # and the model is measured against the plant's own model (θ/u of the link)
+    physics = [v for v in r.json()["models"][0]["verdicts"] if v["topic"] == "physics"]
+    assert len(physics) == 1 and physics[0]["finding"].startswith("theta: up to ")
+    assert "rad/s" in physics[0]["finding"] and "nominal" not in physics[0]["finding"]
 
 
 def _error(r: Any, status: int = 422) -> dict[str, Any]:

@@ -164,7 +164,8 @@ class Requested:
     and signal as asked (``None``: the plant's), the noise's ``seed`` (``None``: no
     noise), whether outputs were quantised, the frequency (Hz) of a sine that excited
     it (its excitation's, else its signal's), and whether it ran in closed loop (any
-    controller but an open-loop one: its own, an uploaded one, the plant's predefined)."""
+    controller but an open-loop one: its own, an uploaded one, the plant's predefined),
+    its plant, and whether it ran on the real rig."""
 
     controller: JsonObject | None
     signal: JsonObject | None
@@ -172,6 +173,8 @@ class Requested:
     quantize: bool
     sine_hz: float | None
     closed_loop: bool
+    plant: str
+    rig: bool
 
 
 def requested(record: RunRecord) -> Requested:
@@ -190,6 +193,8 @@ def requested(record: RunRecord) -> Requested:
         sine_hz=sines[0] if sines else None,
         # its own controller, an uploaded one, or the plant's predefined feedback
         closed_loop=(spec.get("controller") or {}).get("kind") != "open_loop",
+        plant=record.plant,
+        rig=spec.get("mode") == "rig",
     )
 
 

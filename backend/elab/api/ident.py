@@ -22,6 +22,7 @@ from collections.abc import AsyncIterator, Callable, Coroutine
 from functools import partial
 from typing import Any, TypeVar
 
+import numpy as np
 from starlette.background import BackgroundTask
 from starlette.requests import Request
 from starlette.responses import Response, StreamingResponse
@@ -36,8 +37,10 @@ from elab.api.state import lab
 from elab.errors import ElabError, InvalidInput, TooMany
 from elab.ident import IdData
 from elab.ident import workflow as wf
+from elab.ident.advice import Physics
 from elab.ident.files import Table, read_table
 from elab.jobs import JobPool
+from elab.plants import get_plant
 
 # what the identification workers import before they take a job (elab.jobs): the jobs'
 # functions and the estimators they call lazily
@@ -75,7 +78,7 @@ async def identify(request: Request) -> Response:
     mine: Callable[[], None] | None = slot
     try:
         data, validation, ran = await records(request, req, partial(_parse, request))
-        plan = _plan(req, ran)
+        plan = _plan(req, ran, _physics(data, ran))
         if "application/x-ndjson" in request.headers.get("accept", ""):
             mine = None  # given back when the stream ends, however it ends
             lines = _progress_lines(jobs(request), (data, plan, validation), slot)
@@ -206,7 +209,21 @@ async def _parse(request: Request, text: bytes, fmt: str, max_rows: int, why: st
     return table
 
 
-def _plan(req: s.IdentRequest, ran: Requested | None) -> wf.Plan:
+def _physics(data: IdData, ran: Requested | None) -> Physics | None:
+    """The run's plant model from u to the data's outputs, where the data are a run's
+    plant input and outputs (nominal for a run on the real rig)."""
+    if ran is None or data.input_names != ("u",):
+        return None
+    plant = get_plant(ran.plant)
+    names = [o.name for o in plant.outputs]
+    if any(n not in names for n in data.output_names):
+        return None
+    rows = [names.index(n) for n in data.output_names]
+    A, B, C, D = (np.asarray(m, dtype=np.float64) for m in (plant.A, plant.B, plant.C, plant.D))
+    return Physics(A, B, C[rows], D[rows], nominal=ran.rig, hold=data.Ts)
+
+
+def _plan(req: s.IdentRequest, ran: Requested | None, physics: Physics | None = None) -> wf.Plan:
     def span(name: str, v: list[int]) -> range:
         if v[0] > v[1]:
             raise InvalidInput(name, v, "[lowest, highest] with lowest ≤ highest")
@@ -249,4 +266,5 @@ def _plan(req: s.IdentRequest, ran: Requested | None) -> wf.Plan:
         horizon=req.horizon,
         closed_loop=None if ran is None else ran.closed_loop,
         decimate=req.decimate,
+        physics=physics,
     )

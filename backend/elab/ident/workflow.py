@@ -75,6 +75,8 @@ class Plan:
     closed_loop: bool | None = None
     #: keep every ``decimate``-th sample, anti-aliased (:meth:`IdData.decimate`)
     decimate: int = 1
+    #: the plant's own model from the input to the outputs, where the source knows it
+    physics: advice.Physics | None = None
 
 
 def parse_model(text: str) -> ModelRequest:
@@ -320,10 +322,31 @@ def _models(
             plan.detrend,
             top,
         )
+        if plan.physics is not None and model.nu == 1:
+            verdicts += tuple(
+                advice.on_physics(_single(model, j), _row(plan.physics, j), zv.output_names[j])
+                for j in range(model.ny)
+            )
         results.append(replace(result, verdicts=verdicts))
         notes += model_notes(results[-1].name, model)
         report(f"model {request.name}", 0.6 + 0.4 * (i + 1) / len(plan.models))
     return tuple(results), notes
+
+
+def _single(m: LinearModel, j: int) -> LinearModel:
+    """Output ``j`` of ``m`` alone."""
+    return replace(
+        m,
+        C=m.C[j : j + 1],
+        D=m.D[j : j + 1],
+        K=m.K[:, j : j + 1],
+        noise_variance=m.noise_variance[j : j + 1, j : j + 1],
+        parameters=None,
+    )
+
+
+def _row(p: advice.Physics, j: int) -> advice.Physics:
+    return replace(p, C=p.C[j : j + 1], D=p.D[j : j + 1])
 
 
 def _name(r: ModelRequest, m: LinearModel) -> str:

@@ -6,16 +6,31 @@ stated level."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
+import control as ct
 import numpy as np
 import pytest
 
-from elab.ident.advice import FEEDBACK_SHARE, excitation_order, feedback, on_data, snr_db, worst
+from elab.ident.advice import (
+    FEEDBACK_SHARE,
+    Physics,
+    _zeros,
+    excitation_order,
+    feedback,
+    on_data,
+    on_physics,
+    physics_gap,
+    snr_db,
+    worst,
+)
 from elab.ident.data import IdData
+from elab.ident.models import LinearModel
 from elab.ident.polynomial import arx
 from elab.ident.validation import resid
 from elab.ident.workflow import ModelRequest, Plan, run
+from elab.plants import get_plant
 
 REFERENCE = Path(__file__).parents[2] / "reference" / "ident"
 N = 2000
@@ -149,3 +164,37 @@ def test_an_unstable_model_an_absurd_fit_and_an_integrator_without_its_means() -
     model = run(junk, Plan(models=(high,), correlation=False, spectral=False)).models[0]
     assert model.level == "poor"
     assert worst(model.verdicts) == "poor"
+
+
+def link_physics() -> Physics:
+    p = get_plant("flexible_link")
+    A, B, C, D = (np.asarray(m, dtype=float) for m in (p.A, p.B, p.C, p.D))
+    return Physics(A, B, C[:1], D[:1])
+
+
+def discrete(physics: Physics, Ts: float, gain: float = 1.0) -> LinearModel:
+    """The physics held by a zero-order hold (python-control), as a model."""
+    d = ct.c2d(ct.ss(physics.A, physics.B, physics.C, physics.D), Ts)
+    n = d.nstates
+    return LinearModel(d.A, d.B * gain, d.C, d.D, np.zeros((n, 1)), Ts, np.zeros((1, 1)))
+
+
+def test_the_physics_verdict_measures_the_gap_as_python_control_does() -> None:
+    physics = link_physics()
+    # θ/u's zeros, ±18.85j (the antiresonance), as python-control finds them
+    want = ct.ss(physics.A, physics.B, physics.C, physics.D).zeros()
+    assert np.sort_complex(_zeros(physics, 0)) == pytest.approx(np.sort_complex(want), rel=1e-9)
+    same = discrete(physics, 0.01)
+    held = replace(physics, hold=0.01)  # the input held for the model's sample time
+    assert physics_gap(same, physics)[1] > 10  # without the hold's half-sample lag: 18°
+    db, deg, lo, hi = physics_gap(same, held)
+    assert db < 0.05 and deg < 1.0  # a ZOH model of the physics is the physics at 10 ms
+    assert lo == pytest.approx(22.19 / 10, rel=1e-3) and hi == pytest.approx(math.pi / 0.01 / 5)
+    assert on_physics(same, held, "θ").level == "good"
+    doubled = discrete(physics, 0.01, gain=2.0)  # 6.02 dB everywhere
+    db, deg, _, _ = physics_gap(doubled, held)
+    assert db == pytest.approx(20 * math.log10(2), abs=0.05) and deg < 1.0
+    assert on_physics(doubled, held, "θ").level == "poor"
+    rig = replace(held, nominal=True)  # a real rig is not its textbook: a caution
+    said = on_physics(doubled, rig, "θ")
+    assert said.level == "caution" and "nominal" in said.finding
