@@ -204,6 +204,9 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     ):
         expect(panel.get_by_test_id(testid).locator(".main-svg").first).to_be_visible()
     page.screenshot(path=shots / "identification.png", full_page=True)
+    verdicts = panel.get_by_test_id("data-verdicts")
+    expect(verdicts.locator("[data-topic=feedback]")).to_contain_text("closed loop")
+    verdicts.screenshot(path=shots / "ident-verdicts.png")
     # "use this model": kept on the server, its design page shows it beside the physics model
     level = panel.get_by_test_id("model-level-1").inner_text()
     panel.get_by_test_id("use-model-1").click()

@@ -25,7 +25,7 @@ def gains(text: str) -> list[float]:
     return [float(x.replace("−", "-")) for x in re.findall(NUMBER, inside)]
 
 
-def identify_from_a_prbs_run(page: Page) -> str:
+def identify_from_a_prbs_run(page: Page, shots: Path | None = None) -> str:
     """The identification page: a PRBS run in closed loop, an ARX model of θ, "Use this
     model"; returns the design page's address."""
     page.goto("/plants/flexible_link/identification")
@@ -44,6 +44,8 @@ def identify_from_a_prbs_run(page: Page) -> str:
     use.click()
     if level == "poor":  # kept only on a second click, after the warning says why
         expect(page.get_by_test_id("poor-model-warning")).to_contain_text("arx 4 4 1 is a poor")
+        if shots is not None:
+            panel.get_by_test_id("ident-models").screenshot(path=shots / "ident-poor-model.png")
         expect(use).to_have_text("Use it anyway")
         expect(page).to_have_url(re.compile(r"/identification(\?run=r-[0-9a-f]+)?$"))
         use.click()
@@ -57,7 +59,7 @@ def identify_from_a_prbs_run(page: Page) -> str:
 def test_identify_share_design_run_and_export_an_lqr_on_the_model(
     page: Page, browser: Browser, server: Server, shots: Path
 ) -> None:
-    url = identify_from_a_prbs_run(page)
+    url = identify_from_a_prbs_run(page, shots)
     model_id = url.rsplit("=", 1)[1]
 
     # the link in a fresh browser: another identity, nothing in its storage

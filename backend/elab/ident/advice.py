@@ -269,8 +269,9 @@ def _feedback(share: float, closed_loop: bool | None) -> Verdict:
             f"{known}the input depends on past outputs ({100 * share:.0f} % of its "
             "unpredicted variance): the data were recorded in closed loop, with the "
             "output's noise fed back. Correlation and spectral analysis from the input "
-            "then show the controller as much as the plant, and ARX and output-error fits "
-            "are biased",
+            "then show the controller as much as the plant, and fits from u to y can be "
+            "biased by that noise (check the model against the validation data and, for a "
+            "lab plant, its physics)",
             "excite at the reference or add a larger excitation at the plant input, and fit "
             "with a noise model (armax, n4sid); or record open loop where the plant allows",
         )
