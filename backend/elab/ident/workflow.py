@@ -113,7 +113,7 @@ def run(
         data = data.decimate(plan.decimate)
         validation = None if validation is None else validation.decimate(plan.decimate)
         resampled.append(
-            f"every {plan.decimate}th sample kept after an anti-aliasing filter (no phase "
+            f"one sample in {plan.decimate} kept after an anti-aliasing filter (no phase "
             f"shift): Ts = {data.Ts:g} s, {data.N} samples"
         )
     ze, zv = _estimation_and_validation(data, plan, validation)

@@ -83,7 +83,7 @@ export class IdentAnalysis {
       this.validation.root,
       h("div.grid", split.root, h("div.field.span2", h("label", { for: `${pre}-detrend` }, "Detrend (each part)"), this.detrend, detrendWhy)),
       h("div.grid", num("decimate", "Keep every n-th sample (anti-aliased; 1: all)", proposed.decimate, 1, 100)),
-      proposed.why ? h("small.hint", { "data-testid": "ident-proposed-why" }, `Proposed for this plant: ${proposed.models}, every ${proposed.decimate}th sample. ${proposed.why}`) : "",
+      proposed.why ? h("small.hint", { "data-testid": "ident-proposed-why" }, `Proposed for this plant: ${proposed.models}, one sample in ${proposed.decimate}. ${proposed.why}`) : "",
       h("fieldset", h("legend", "Analyses"), corrLabel, specLabel, arxLabel, h("div.grid", num("arx_search.na.0", "na from", 1, 0, 50), num("arx_search.na.1", "na to", 10, 0, 50), num("arx_search.nb.0", "nb from", 1, 1, 50), num("arx_search.nb.1", "nb to", 10, 1, 50), num("arx_search.nk.0", "nk from", 1, 0, 50), num("arx_search.nk.1", "nk to", 10, 0, 50)), n4sidLabel, h("div.grid", num("n4sid_orders.0", "order from", 1, 1, 99), num("n4sid_orders.1", "order to", 10, 1, 99), num("horizon", "horizon s (0: default)", 0, 0, 100))),
       h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values) · link (the flexible link's physics: outputs θ, α; detrend none, every sample); separate with ;"), this.modelsMsg),
       h("div.actions", h("button.primary", { type: "submit" }, "Identify"), this.progress, this.stage),
