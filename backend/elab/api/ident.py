@@ -37,8 +37,8 @@ from elab.api.state import lab
 from elab.errors import ElabError, InvalidInput, TooMany
 from elab.ident import IdData
 from elab.ident import workflow as wf
-from elab.ident.advice import Physics
 from elab.ident.files import Table, read_table
+from elab.ident.modeladvice import Physics
 from elab.jobs import JobPool
 from elab.plants import get_plant
 

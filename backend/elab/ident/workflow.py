@@ -20,7 +20,7 @@ from typing import Literal, TypeVar, assert_never
 import numpy as np
 
 from elab.errors import InvalidInput
-from elab.ident import advice
+from elab.ident import advice, modeladvice
 from elab.ident.assess import assess, model_notes
 from elab.ident.data import IdData, require_varying, suspicious
 from elab.ident.models import LinearModel
@@ -76,7 +76,7 @@ class Plan:
     #: keep every ``decimate``-th sample, anti-aliased (:meth:`IdData.decimate`)
     decimate: int = 1
     #: the plant's own model from the input to the outputs, where the source knows it
-    physics: advice.Physics | None = None
+    physics: modeladvice.Physics | None = None
 
 
 def parse_model(text: str) -> ModelRequest:
@@ -314,7 +314,7 @@ def _models(
         top = chosen and orders is not None and model.nx == max(r.order for r in orders.rows)
         fit = result.fits.headline_fit.fit
         fit = fit[np.isfinite(fit)]
-        verdicts = advice.on_model(
+        verdicts = modeladvice.on_model(
             model.poles,
             float(np.min(fit)) if fit.size else math.nan,
             result.fits.headline.x0,
@@ -324,7 +324,7 @@ def _models(
         )
         if plan.physics is not None and model.nu == 1:
             verdicts += tuple(
-                advice.on_physics(_single(model, j), _row(plan.physics, j), zv.output_names[j])
+                modeladvice.on_physics(_single(model, j), _row(plan.physics, j), zv.output_names[j])
                 for j in range(model.ny)
             )
         results.append(replace(result, verdicts=verdicts))
@@ -345,7 +345,7 @@ def _single(m: LinearModel, j: int) -> LinearModel:
     )
 
 
-def _row(p: advice.Physics, j: int) -> advice.Physics:
+def _row(p: modeladvice.Physics, j: int) -> modeladvice.Physics:
     return replace(p, C=p.C[j : j + 1], D=p.D[j : j + 1])
 
 

@@ -13,19 +13,9 @@ import control as ct
 import numpy as np
 import pytest
 
-from elab.ident.advice import (
-    FEEDBACK_SHARE,
-    Physics,
-    _zeros,
-    excitation_order,
-    feedback,
-    on_data,
-    on_physics,
-    physics_gap,
-    snr_db,
-    worst,
-)
+from elab.ident.advice import FEEDBACK_SHARE, excitation_order, feedback, on_data, snr_db, worst
 from elab.ident.data import IdData
+from elab.ident.modeladvice import Physics, _zeros, on_physics, physics_gap
 from elab.ident.models import LinearModel
 from elab.ident.parameters import ArmaxParameters, ArxParameters
 from elab.ident.pem import armax
