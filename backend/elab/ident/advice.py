@@ -60,18 +60,25 @@ def on_data(
     order: int,
     correlation: Correlation | None,
     closed_loop: bool | None = None,
+    recorded: IdData | None = None,
 ) -> tuple[Verdict, ...]:
     """The estimation data ``ze`` (as detrended) for models of up to ``parameters``
     parameters per output and a dynamic ``order`` (0: none asked); ``correlation``: its
     correlation analysis, if made; ``closed_loop``: how the data were recorded, where
-    the source knows (a run), else found from the data."""
-    fb = feedback(ze)
+    the source knows (a run), else found from the data; ``recorded``: the data as
+    recorded, before resampling smoothed its steps (quantisation is judged on them)."""
+    if closed_loop is False:  # the source knows: an input deterministic enough (a PRBS)
+        fb = 0.0  # is "predicted" by an integrating output's memory of its whole past
+        said = Verdict("feedback", "good", "recorded in open loop (the run had no controller)")
+    else:
+        fb = feedback(ze)
+        said = _feedback(fb, closed_loop)
     closed = fb > FEEDBACK_SHARE if closed_loop is None else closed_loop
     out = [
-        _feedback(fb, closed_loop),
+        said,
         _excitation(ze, order),
         _noise(ze),
-        *_quantisation(ze),
+        *_quantisation(recorded or ze),
         *_delay(correlation, closed),
     ]
     if parameters:

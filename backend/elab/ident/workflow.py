@@ -109,6 +109,7 @@ def run(
     not used)."""
     report = progress or _unreported
     resampled = []
+    as_recorded = data  # before resampling smooths its steps, clipping and freezes
     if plan.decimate != 1:
         data = data.decimate(plan.decimate)
         validation = None if validation is None else validation.decimate(plan.decimate)
@@ -118,7 +119,7 @@ def run(
         )
     ze, zv = _estimation_and_validation(data, plan, validation)
     z = _joined(data, ze, zv)
-    notes = suspicious(data)  # on the data as given: detrending moves the edges
+    notes = suspicious(as_recorded)  # as given: detrending moves the edges
     if validation is not None:
         notes += [f"validation record: {n}" for n in suspicious(validation)]
     report("data", 0.02)
@@ -127,7 +128,9 @@ def run(
     sub, orders = _order_table(ze, plan, report)
     models, said = _models(ze, zv, plan, sub, orders, report)
     parameters, order = _largest(plan, ze, orders)
-    verdicts = advice.on_data(ze, parameters, order, nonparametric.correlation, plan.closed_loop)
+    verdicts = advice.on_data(
+        ze, parameters, order, nonparametric.correlation, plan.closed_loop, as_recorded
+    )
     if plan.arx_search is not None:
         verdicts += tuple(_search_verdict(x, plan.arx_search) for x in searches)
     report("done", 1.0)

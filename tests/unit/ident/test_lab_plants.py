@@ -11,16 +11,19 @@ ARX companion matrix by repeated squaring lost the free response to round-off)."
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import control as ct
 import numpy as np
 import pytest
 
 from elab.ident import iddata
+from elab.ident.modeladvice import Physics
 from elab.ident.models import LinearModel
 from elab.ident.polynomial import arx
 from elab.ident.validation import compare
 from elab.ident.workflow import Plan, parse_model, run
-from elab.laws import StateFeedback
+from elab.laws import OpenLoop, StateFeedback
 from elab.plants import get_plant
 from elab.sim import PRBS, RunSpec
 from elab.sim.engine import simulate
@@ -125,3 +128,43 @@ def test_the_links_proposals_on_the_pages_default_run_match_its_physics(seed: in
         assert db < 3.0 and deg < 15.0, (m.name, db, deg)
         assert m.level != "poor", (m.name, m.verdicts)
         assert m.fits.headline_fit.fit[0] > 85, m.name
+
+
+def test_a_too_small_excitation_is_named_with_its_fix_and_open_loop_is_believed() -> None:
+    """Issue 26's poor experiment: the link's default run with a 0.02 V PRBS moves θ by
+    two encoder counts; the verdicts say the noise and the quantisation swamp it and by
+    how much to raise the excitation, and the models fail against the physics. A run
+    without a controller is open loop, whatever a test on its data would guess."""
+    p = get_plant("flexible_link")
+    physics = Physics(*(np.asarray(m, dtype=float) for m in (p.A, p.B, p.C[:1], p.D[:1])))
+    plan = Plan(
+        models=(parse_model("oe:4,4,1"),),
+        detrend="none",
+        decimate=10,
+        physics=replace(physics, hold=p.Ts),
+        closed_loop=True,
+    )
+    for amplitude, law, closed in ((0.02, p.predefined, True), (1.0, OpenLoop(), False)):
+        spec = RunSpec(
+            p,
+            law,
+            duration=30.0,
+            excitation=PRBS(amplitude, order=10, band=0.05),
+            excitation_at="input",
+            noise_seed=1,
+            quantize=True,
+        )
+        s = simulate(spec)
+        z = iddata(s.y[:, 0], s.u, s.Ts, output_names=("theta",), input_names=("u",))
+        result = run(z, replace(plan, closed_loop=closed))
+        said = {v.topic: v for v in result.verdicts}
+        if closed:
+            assert said["noise"].level == "poor" and "raise the excitation" in str(
+                said["noise"].advice
+            )
+            assert said["quantisation"].level == "caution"
+            model = {v.topic: v for v in result.models[0].verdicts}
+            assert model["physics"].level == "poor" and result.models[0].level == "poor"
+        else:
+            assert said["feedback"].level == "good" and "open loop" in said["feedback"].finding
+            assert result.models[0].level != "poor", result.models[0].verdicts
