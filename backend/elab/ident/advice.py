@@ -26,6 +26,7 @@ Array = NDArray[np.float64]
 Level = Literal["good", "caution", "poor"]
 RANK: dict[Level, int] = {"good": 0, "caution": 1, "poor": 2}
 
+ADVICE_ROWS = 200_000  # samples the regressions of the data's verdicts use, at most
 FEEDBACK_LAGS = 10  # past samples of u and y in the feedback test
 FEEDBACK_SHARE = 0.02  # of the input's unpredicted variance the outputs explain
 PE_TOLERANCE = 1e-3  # of the input covariance's largest eigenvalue: not excited below
@@ -93,6 +94,7 @@ def feedback(z: IdData, lags: int = FEEDBACK_LAGS) -> float:
     where a controller makes the input from the output."""
     from scipy.special import fdtrc  # F's survival function (scipy.stats: 0.4 s to import)
 
+    z = _window(z)
     rows = z.N - lags
     added = (lags + 1) * z.ny
     if rows <= 4 * (lags + added):
@@ -116,13 +118,26 @@ def feedback(z: IdData, lags: int = FEEDBACK_LAGS) -> float:
 def excitation_order(u: Array, most: int = PE_MAX) -> int:
     """The order of persistent excitation of ``u`` (N, nu): the largest n ≤ ``most`` whose
     n-lag covariance matrix has no eigenvalue below :data:`PE_TOLERANCE` of its largest
-    (MATLAB's ``pexcit``). A step excites about 1, a sine 2, a PRBS or white noise all."""
-    x = u - u.mean(axis=0)
-    most = min(most, max((x.shape[0] - 1) // 2, 0))
+    (MATLAB's ``pexcit``). A step excites about 1, a sine 2, a PRBS or white noise all.
+    Every n uses the same rows, t = most−1 … N−1 of the first :data:`ADVICE_ROWS`, so the
+    largest matrix is built once, a block of lagged products at a time (with products
+    padded by zeros beyond the record, a mean-removed step's ends looked like 5 orders
+    of excitation)."""
+    x = u[:ADVICE_ROWS] - u[:ADVICE_ROWS].mean(axis=0)
+    N, nu = x.shape
+    most = min(most, max((N - 1) // 2, 0))
+    if most == 0:
+        return 0
+    R = np.empty((most * nu, most * nu))
+    for a in range(most):
+        xa = x[most - 1 - a : N - a]
+        for b in range(a, most):
+            block = xa.T @ x[most - 1 - b : N - b] / (N - most + 1)
+            R[a * nu : (a + 1) * nu, b * nu : (b + 1) * nu] = block
+            R[b * nu : (b + 1) * nu, a * nu : (a + 1) * nu] = block.T
     found = 0
     for n in range(1, most + 1):
-        R = _lagged(x, n, include_now=True)
-        eig = np.linalg.eigvalsh(R.T @ R / R.shape[0])
+        eig = np.linalg.eigvalsh(R[: n * nu, : n * nu])
         if eig[-1] <= 0 or eig[0] < PE_TOLERANCE * eig[-1]:
             break
         found = n
@@ -133,6 +148,7 @@ def snr_db(z: IdData, order: int = SNR_ORDER) -> float | None:
     """The output's signal-to-noise ratio in dB, the noise being the residual of an ARX
     model of ``order`` (na = nb = order, nk = 1) on ``z``: the worst output. ``None`` where
     the record is too short for that model."""
+    z = _window(z)
     n = min(order, max(z.N // 20, 1))
     if z.N - n <= 4 * n * (z.ny + z.nu):
         return None
@@ -279,6 +295,13 @@ def _length(N: int, parameters: int) -> Verdict:
         f"record at least {PARAMETERS_GOOD * parameters} samples for the estimation part, "
         "or ask for lower orders",
     )
+
+
+def _window(z: IdData) -> IdData:
+    """The first :data:`ADVICE_ROWS` samples of ``z``: the feedback test and the noise's
+    ARX model regress on tens of lagged columns, and two million samples of them would
+    take gigabytes for a figure a tenth of them gives as well."""
+    return z if z.N <= ADVICE_ROWS else z[:ADVICE_ROWS]
 
 
 def _lagged(x: Array, n: int, include_now: bool = False) -> Array:

@@ -38,6 +38,7 @@ Array = NDArray[np.float64]
 X0_RCOND = 1e-8  # singular values of the observability matrix below this share are cut
 X0_GROWTH = 1e100  # an unstable model's free response is fitted while Aᵗ grows less
 MODAL_COND = 1e10  # x₀ is fitted in modal coordinates too where A's eigenvectors allow
+MODAL_ROWS = 200_000  # samples the modal fit uses, at most (its matrix is complex)
 
 
 def observability(A: Array, C: Array, N: int) -> Array:
@@ -81,6 +82,7 @@ def _modal_refit(A: Array, C: Array, free: Array, x0: Array) -> Array:
     lam, V = np.linalg.eig(A)
     if not np.all(np.isfinite(lam)) or np.linalg.cond(V) > MODAL_COND:
         return x0
+    free = free[:MODAL_ROWS]  # both candidates judged on the same samples
     T, n = free.shape[0], A.shape[0]
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):
         modes = lam[None, :] ** np.arange(T)[:, None]

@@ -82,7 +82,7 @@ def test_the_order_of_excitation_is_that_of_the_signal() -> None:
 def test_a_step_cannot_pin_down_a_fourth_order_model_and_the_verdict_says_so() -> None:
     rng = np.random.default_rng(2)
     z, _ = first_order(rng, 0.01)
-    step = IdData(z.y, (np.arange(N) >= 100).astype(float)[:, None], z.Ts, ("y",), ("u",))
+    step = IdData(z.y, (np.arange(N) >= N // 2).astype(float)[:, None], z.Ts, ("y",), ("u",))
     excitation = next(v for v in on_data(step, 20, 4, None) if v.topic == "excitation")
     assert excitation.level == "poor" and "order 4 was asked" in excitation.finding
     assert excitation.advice is not None and "PRBS" in excitation.advice
@@ -227,3 +227,21 @@ def test_in_closed_loop_the_direct_pem_is_unbiased_where_arx_is_not() -> None:
             assert np.all(np.abs(err) < 3 * standard), (err, standard)
         else:
             assert abs(err[0]) > 10 * standard[0], (err, standard)
+
+
+def test_the_datas_verdicts_read_a_bounded_window_of_a_long_record(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Two million samples of lagged regressors would take gigabytes: the regressions
+    behind the verdicts read the first ADVICE_ROWS samples (here 2,000 of 4,000: an
+    open-loop half, then a closed-loop half that is not read)."""
+    import elab.ident.advice as advice
+
+    rng = np.random.default_rng(5)
+    open_loop, _ = first_order(rng, 0.2)
+    closed, _ = first_order(rng, 0.2, gain=1.5)
+    both = IdData(np.vstack([open_loop.y, closed.y]), np.vstack([open_loop.u, closed.u]), 0.01)
+    assert feedback(both) > FEEDBACK_SHARE
+    monkeypatch.setattr(advice, "ADVICE_ROWS", N)
+    assert feedback(both) == feedback(open_loop) < FEEDBACK_SHARE
+    assert snr_db(both) == snr_db(open_loop)
