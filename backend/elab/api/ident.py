@@ -22,7 +22,6 @@ from collections.abc import AsyncIterator, Callable, Coroutine
 from functools import partial
 from typing import Any, TypeVar
 
-import numpy as np
 from starlette.background import BackgroundTask
 from starlette.requests import Request
 from starlette.responses import Response, StreamingResponse
@@ -38,7 +37,7 @@ from elab.errors import ElabError, InvalidInput, TooMany
 from elab.ident import IdData
 from elab.ident import workflow as wf
 from elab.ident.files import Table, read_table
-from elab.ident.modeladvice import Physics
+from elab.ident.modeladvice import Physics, physics_of
 from elab.jobs import JobPool
 from elab.plants import get_plant
 
@@ -214,13 +213,7 @@ def _physics(data: IdData, ran: Requested | None) -> Physics | None:
     plant input and outputs (nominal for a run on the real rig)."""
     if ran is None or data.input_names != ("u",):
         return None
-    plant = get_plant(ran.plant)
-    names = [o.name for o in plant.outputs]
-    if any(n not in names for n in data.output_names):
-        return None
-    rows = [names.index(n) for n in data.output_names]
-    A, B, C, D = (np.asarray(m, dtype=np.float64) for m in (plant.A, plant.B, plant.C, plant.D))
-    return Physics(A, B, C[rows], D[rows], nominal=ran.rig, hold=data.Ts)
+    return physics_of(get_plant(ran.plant), data.output_names, data.Ts, ran.rig)
 
 
 def _plan(req: s.IdentRequest, ran: Requested | None, physics: Physics | None = None) -> wf.Plan:

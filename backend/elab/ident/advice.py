@@ -50,6 +50,14 @@ class Verdict:
     advice: str | None = None
 
 
+def graded(topic: str, value: float, good: float, poor: float, found: str, fix: str) -> Verdict:
+    """A verdict on a figure where more is better: ``good`` from ``good`` on, ``poor``
+    below ``poor``, a caution between (with ``fix``, what to change)."""
+    if value >= good:
+        return Verdict(topic, "good", found)
+    return Verdict(topic, "poor" if value < poor else "caution", found, fix)
+
+
 def worst(verdicts: tuple[Verdict, ...]) -> Level:
     """The worst level among ``verdicts`` (``good`` for none)."""
     return max((v.level for v in verdicts), key=RANK.__getitem__, default="good")
@@ -285,13 +293,12 @@ def _delay(c: Correlation | None, closed: bool) -> list[Verdict]:
 
 def _length(N: int, parameters: int) -> Verdict:
     per = N / parameters
-    found = f"{N} estimation samples for {parameters} parameters ({per:.0f} per parameter)"
-    if per >= PARAMETERS_GOOD:
-        return Verdict("length", "good", found)
-    return Verdict(
+    return graded(
         "length",
-        "poor" if per < PARAMETERS_POOR else "caution",
-        found,
+        per,
+        PARAMETERS_GOOD,
+        PARAMETERS_POOR,
+        f"{N} estimation samples for {parameters} parameters ({per:.0f} per parameter)",
         f"record at least {PARAMETERS_GOOD * parameters} samples for the estimation part, "
         "or ask for lower orders",
     )

@@ -13,9 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.ident.advice import Verdict
+from elab.ident.advice import Verdict, graded
 from elab.ident.models import LinearModel
 from elab.ident.validation import Residuals
+from elab.plants import Plant
 
 Array = NDArray[np.float64]
 Poles = NDArray[np.complex128]
@@ -109,13 +110,12 @@ def _fit(fit: float, start: str) -> Verdict:
             "check the delay, the order and the feedback verdict; a model that is unstable "
             "or has the wrong gain fits like this",
         )
-    found = f"validation fit {fit:.1f} % ({how})"
-    if fit >= FIT_GOOD:
-        return Verdict("fit", "good", found)
-    return Verdict(
+    return graded(
         "fit",
-        "poor" if fit < FIT_POOR else "caution",
-        found,
+        fit,
+        FIT_GOOD,
+        FIT_POOR,
+        f"validation fit {fit:.1f} % ({how})",
         "try other orders or model kinds, and see the data verdicts",
     )
 
@@ -163,6 +163,19 @@ class Physics:
     #: s: the input was held this long per sample (the recording's Ts; 0: not held), a
     #: lag of half a sample that the model rightly has and the continuous physics not
     hold: float = 0.0
+
+
+def physics_of(
+    plant: Plant, outputs: tuple[str, ...], hold: float, nominal: bool
+) -> Physics | None:
+    """``plant``'s model from its input to the named ``outputs`` (``None`` where one is
+    not the plant's), with the recording's ``hold`` (its sample time)."""
+    names = [o.name for o in plant.outputs]
+    if any(n not in names for n in outputs):
+        return None
+    rows = [names.index(n) for n in outputs]
+    A, B, C, D = (np.asarray(m, dtype=np.float64) for m in (plant.A, plant.B, plant.C, plant.D))
+    return Physics(A, B, C[rows], D[rows], nominal=nominal, hold=hold)
 
 
 def physics_gap(

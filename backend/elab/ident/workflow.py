@@ -143,6 +143,11 @@ def run(
     )
 
 
+def _top(orders: OrderChoice | None) -> int:
+    """The highest order the subspace order table searched (0: no table)."""
+    return max((row.order for row in orders.rows), default=0) if orders is not None else 0
+
+
 def _largest(plan: Plan, ze: IdData, orders: OrderChoice | None) -> tuple[int, int]:
     """The most parameters per output and the highest dynamic order among the models
     asked for (an n4sid order to be chosen counts as its range's top)."""
@@ -157,9 +162,7 @@ def _largest(plan: Plan, ze: IdData, orders: OrderChoice | None) -> tuple[int, i
             case "oe":
                 p, n = o["nb"] + o["nf"], max(o["nf"], o["nb"])
             case "n4sid":
-                n = o.get("order") or (
-                    max(r.order for r in orders.rows) if orders is not None else 0
-                )
+                n = o.get("order") or _top(orders)
                 p = n * (ze.nu + ze.ny) + ze.nu * ze.ny
             case "link":
                 p, n = 8, 3
@@ -314,7 +317,7 @@ def _models(
         model = _estimate(ze, request, sub, best, plan.horizon, i, plan.decimate > 1)
         result = assess(_name(request, model), model, ze, zv)
         chosen = request.kind == "n4sid" and not request.orders.get("order")
-        top = chosen and orders is not None and model.nx == max(r.order for r in orders.rows)
+        top = chosen and model.nx == _top(orders)
         fit = result.fits.headline_fit.fit
         fit = fit[np.isfinite(fit)]
         verdicts = modeladvice.on_model(
