@@ -150,23 +150,28 @@ def test_identification_on_the_rig_recovers_its_own_physics_not_the_textbooks(
     host's answers land at varying points of the period and the rig drops samples (filled
     by interpolation), which biases them by up to 10 % (2–4 % measured quiet); the link's
     own ratio and the gauge's gain are untouched by either."""
-    run = start(
-        srv,
-        duration=20.0,
-        experiment="identification",
-        signal={"kind": "square", "amplitude": math.radians(40), "period": 2.0},
-        excitation={"kind": "prbs", "amplitude": 1.0, "order": 12, "band": 0.1},
-    )
-    assert ended(srv, run["id"], within=90)["status"] == "finished"
-    body = {
-        "data": {"source": "run", "run": run["id"], "output": ["theta", "alpha"]},
-        "detrend": "none",
-        "split": 0.7,
-        "correlation": False,
-        "spectral": False,
-        "models": [{"kind": "link"}],
-    }
-    r = call(srv, "POST", "/ident", json=body)
+    for attempt in range(3):
+        run = start(
+            srv,
+            duration=20.0,
+            experiment="identification",
+            signal={"kind": "square", "amplitude": math.radians(40), "period": 2.0},
+            excitation={"kind": "prbs", "amplitude": 1.0, "order": 12, "band": 0.1},
+        )
+        assert ended(srv, run["id"], within=90)["status"] == "finished"
+        body = {
+            "data": {"source": "run", "run": run["id"], "output": ["theta", "alpha"]},
+            "detrend": "none",
+            "split": 0.7,
+            "correlation": False,
+            "spectral": False,
+            "models": [{"kind": "link"}],
+        }
+        r = call(srv, "POST", "/ident", json=body)
+        # on a loaded machine the emulator's clock may stall for tens of samples, and the
+        # run is refused by name (its gap-filling limit, tested in test_ident.py): again
+        if r.status_code != 422 or "samples missing" not in r.text or attempt == 2:
+            break
     assert r.status_code == 200, r.text
     model = r.json()["models"][0]
     assert model["kind"] == "link" and model["name"] == "link"

@@ -356,7 +356,8 @@ def test_a_python_controller_drives_the_rig_like_its_declarative_twin(
         ended = heard.wait_ended("r-11")
         assert (ended.state, ended.n) == (RunState.FINISHED, 2000), ended.error
         theta = engine.store.read("r-11", 0, 2000)[:, 2]
-        assert abs(math.degrees(theta[-200:].mean()) - 20.0) < 4.0  # tracked as the LQR does
+        # tracked as the LQR does (a sample the rig dropped is NaN in the recording)
+        assert abs(math.degrees(np.nanmean(theta[-200:])) - 20.0) < 4.0
     finally:
         engine.close()
 
