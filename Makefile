@@ -47,6 +47,7 @@ chromium: test-debs
 # The lab server on http://127.0.0.1:8000 (data: $ELAB_DATA or ./data), with an emulated
 # flexible-link rig unless ELAB_RIG says otherwise (none, or a real rig's host:port).
 run: install
+	$(PY) -m compileall -q backend/elab >/dev/null  # see scripts/test.sh
 	ELAB_RIG=$${ELAB_RIG:-emulator} $(VENV)/bin/elab serve --host 127.0.0.1 --port 8000
 
 # The house rules, held by tools: every import declared in pyproject.toml

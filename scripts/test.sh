@@ -7,6 +7,10 @@ cd "$(dirname "$0")/.."
 # one BLAS thread per process: two test workers on two cores, each with OpenBLAS's own
 # spinning threads, ran the identification tests 2.5x slower (docs/benchmarks.md)
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+# the lab's bytecode, written once: every process the suite starts (about forty servers,
+# their engines and workers) compiled the sources again where PYTHONDONTWRITEBYTECODE is set
+# (0.25 s of CPU each for the web process); stale files are recompiled, never trusted
+.venv/bin/python -m compileall -q backend/elab >/dev/null
 checks=$(mktemp)
 ( make --no-print-directory lint typecheck frontend-test >"$checks" 2>&1; echo $? >"$checks.rc" ) &
 .venv/bin/python -m pytest -n "${ELAB_TEST_WORKERS:-2}" --dist loadscope --no-loadscope-reorder "$@"

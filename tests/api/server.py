@@ -104,8 +104,14 @@ class Server:
                 r = httpx.get(self.url + "/api/v1/me", timeout=1, cookies=self.cookies, verify=TLS)
                 r.raise_for_status()
                 self.cookies.update(r.cookies)
-                # ready: the identification workers have imported what their jobs need
-                if self.status()["ident"]["starting"] == 0:
+                # ready: the identification workers have imported what their jobs need,
+                # and the engines have started (in the background since the web process
+                # serves at once: its health says 503 until then)
+                st = self.status()
+                engines = [st["engine"], *([st["rig"]["engine"]] if st.get("rig") else [])]
+                if st["ident"]["starting"] == 0 and all(
+                    e["up"] or e["problem"] not in (None, "starting") for e in engines
+                ):
                     return self
             except httpx.HTTPError:
                 pass

@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 
 from elab.controllers.sandbox import available
 from elab.controllers.templates import python_source
-from elab.engines.coded import CodeSettings, run_through
+from elab.engines.coded import run_through
+from elab.engines.settings import CodeSettings
 from elab.laws import CodeController, StateFeedback
 from elab.plants import get_plant
 from elab.sim import RunSpec, Square, compile_run

@@ -13,7 +13,8 @@ import numpy as np
 
 from elab.controllers.templates import python_source
 from elab.engines.base import Changed
-from elab.engines.coded import CodedRun, CodeSettings
+from elab.engines.coded import CodedRun
+from elab.engines.settings import CodeSettings
 from elab.engines.stepper import Stepper
 from elab.laws import CodeController, StateFeedback
 from elab.lifecycle import RunState

@@ -56,3 +56,15 @@ def test_the_analyses_load_scipy_signal_when_asked() -> None:
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "scipy.signal" in names and "control" not in names
     assert "correlation analysis: delay 3 samples" in proc.stdout
+
+
+#: what the web process must start without (docs/architecture.md, start-up): the design
+#: and identification endpoints, the engine and the trial workers import them when used
+WEB_HEAVY = frozenset({"control", "scipy.signal", "scipy.stats", "scipy.io", "numba", "matplotlib"})
+
+
+def test_the_web_process_starts_without_python_control_scipy_signal_or_numba() -> None:
+    names, proc = imported("-c", "import elab.api.app")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert {"elab.api.designs", "elab.api.plants", "elab.api.ident"} <= names  # read right
+    assert not names & WEB_HEAVY, sorted(names & WEB_HEAVY)

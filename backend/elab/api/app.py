@@ -44,7 +44,7 @@ from elab.api.stream import RawSend, Stream
 from elab.engines.base import Engine
 from elab.engines.emulated import EmulatorProcess
 from elab.engines.process import ProcessEngine
-from elab.engines.rig import RigSettings
+from elab.engines.settings import RigSettings
 from elab.errors import ElabError
 from elab.jobs import JobPool, Names
 from elab.rig.estop import estop_address

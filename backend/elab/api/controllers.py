@@ -29,8 +29,7 @@ from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, read_body, read_model, within_budget
 from elab.api.paths import PLANT_FILTER, plant_filter, plant_of
 from elab.api.state import lab
-from elab.engines import coded
-from elab.engines.coded import CodeSettings
+from elab.engines.settings import CodeSettings
 from elab.errors import InvalidInput, NotFound
 from elab.laws import CodeController, ControlLaw, is_code
 from elab.plants import PLANTS, get_plant
@@ -222,6 +221,8 @@ def _content(req: s.ControllerUpload) -> bytes:
 def _read_and_check(
     data: bytes, fmt: str, plant: Any, settings: CodeSettings
 ) -> tuple[ctl.Controller, ctl.Report]:
+    from elab.engines import coded  # in the trial worker (JOB_MODULES), not the web process
+
     parsed = ctl.read_controller(data, fmt, plant)
     return parsed, coded.report(plant, parsed.law, settings)
 

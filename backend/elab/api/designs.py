@@ -8,14 +8,16 @@
   poles, verdict, root locus, margins, peak input;
 - any controller as a file (``POST /plants/{id}/controller-file``), which reads back as
   the same law.
+
+python-control and the design modules are imported by the functions that compute, at the
+first design: the web process starts without them (docs/architecture.md, start-up).
 """
 
 from __future__ import annotations
 
 import asyncio
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
-import control as ct
 import numpy as np
 from starlette.requests import Request
 from starlette.responses import Response
@@ -27,15 +29,16 @@ from elab.api.controllers import MEDIA
 from elab.api.http import computed, endpoint, ok, read_model
 from elab.api.models import core_model, not_runnable, reference_index, stored
 from elab.api.paths import plant_and_body
-from elab.design import loop, observed
-from elab.design.closed_loop import closed_loop, loop_transfer
-from elab.design.locus import RootLocus, root_locus
-from elab.design.model import Model, in_domain
-from elab.design.response import Margins, default_horizon, step_response
 from elab.errors import InvalidInput
 from elab.laws import PID, ControlLaw, LTIController, has_feedback
 from elab.plants import Plant, get_plant
 from elab.store.base import StoredModel
+
+if TYPE_CHECKING:
+    from elab.design import loop
+    from elab.design.locus import RootLocus
+    from elab.design.model import Model
+    from elab.design.response import Margins
 
 M = TypeVar("M", bound=s.Model)
 BRYSON_SHARE = 0.8  # Bryson's rule: the largest acceptable u, a share of the actuator's limit
@@ -59,6 +62,9 @@ async def design_on_model(request: Request) -> Response:
 
 
 def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
+    from elab.design import loop, observed
+    from elab.design.model import in_domain
+
     plant = get_plant(kept.plant)
     m = in_domain(core_model(kept, reference_index(kept, plant)), req.domain)
     ref_name = kept.model["outputs"][m.ref]["name"]
@@ -120,6 +126,8 @@ def _amplitude(given: float | None, plant: Plant | None) -> float:
 
 
 def _gain(m: Model, req: Any, u_max: float, amplitude: float) -> Any:
+    from elab.design import observed
+
     if req.method == "gain":
         return req.K
     if req.method == "place":
@@ -184,6 +192,14 @@ async def plant_loop(request: Request) -> Response:
 
 
 def _plant_loop(plant: Plant, law: ControlLaw, amplitude: float) -> s.LoopOut:
+    import control as ct
+
+    from elab.design import loop, observed
+    from elab.design.locus import root_locus
+    from elab.design.model import Model
+    from elab.design.plant_loop import closed_loop, loop_transfer
+    from elab.design.response import default_horizon, step_response
+
     if not has_feedback(law):
         raise InvalidInput("controller", "open_loop", "a feedback law: an open loop has no loop")
     match law:

@@ -36,9 +36,7 @@ from elab.api.http import (
 )
 from elab.api.paths import PLANT_FILTER, plant_filter
 from elab.api.state import lab
-from elab.design import loop
 from elab.design.model import Model
-from elab.design.response import default_horizon
 from elab.errors import DimensionError, InvalidInput
 from elab.plants import PLANTS, Plant, get_plant
 from elab.store.base import ModelStore, StoredModel
@@ -178,6 +176,9 @@ async def model_step(request: Request) -> Response:
 
 def _open_step(kept: StoredModel, T: float | None) -> s.StepOut:
     import control as ct
+
+    from elab.design import loop
+    from elab.design.response import default_horizon
 
     m = core_model(kept)
     poles, said, _ = loop.verdict(m.A, m.Ts)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import asyncio
 from typing import Literal
 
-import control as ct
 import numpy as np
 from starlette.requests import Request
 from starlette.responses import Response
@@ -143,7 +142,7 @@ async def bode(request: Request) -> Response:
     names = [o.name for o in p.outputs]
     if name is not None and name not in names:
         raise NotFound(f"output of {p.id}", name, names)
-    b = await asyncio.to_thread(design.bode, ct.ss(p.A, p.B, p.C, p.D))
+    b = await asyncio.to_thread(_bode, p)
     keep = [i for i, o in enumerate(names) if name in (None, o)]
     return ok(
         s.BodeList(
@@ -251,3 +250,9 @@ def _design_out(
         K=np.ravel(res.K).tolist(),
         closed_loop_poles=convert.complex_list(res.poles),
     )
+
+
+def _bode(p: Plant) -> design.Bode:
+    import control as ct  # at the first analysis, not at the web process's start
+
+    return design.bode(ct.ss(p.A, p.B, p.C, p.D))

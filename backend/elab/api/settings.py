@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from elab.engines.simulation import EngineSettings
+from elab.engines.settings import EngineSettings
 from elab.errors import InvalidInput
 from elab.rig_queue import QueuePolicy
 from elab.runs.limits import Limits

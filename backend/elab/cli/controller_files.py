@@ -15,10 +15,11 @@ from elab.plants import get_plant
 def cmd_check(args: argparse.Namespace) -> str:
     from elab import controllers
     from elab.engines import coded
+    from elab.engines.settings import CodeSettings
 
     plant = get_plant(args.plant)
     ctrl = read_file(Path(args.file), plant)
-    report = coded.report(plant, ctrl.law, coded.CodeSettings(deadline=args.deadline))
+    report = coded.report(plant, ctrl.law, CodeSettings(deadline=args.deadline))
     if args.json:
         return json_text(
             {

@@ -56,11 +56,12 @@ def cmd_simulate(args: argparse.Namespace) -> str:
 def _simulate_code(spec: RunSpec, args: argparse.Namespace) -> Any:
     """A run of a Python controller, in its sandbox, as the server steps it."""
     from elab.engines import coded
+    from elab.engines.settings import CodeSettings
     from elab.sim.result import Samples
     from elab.sim.spec import compile_run
 
     run = compile_run(spec)
-    out = coded.run_through(run, coded.CodeSettings(deadline=args.deadline))
+    out = coded.run_through(run, CodeSettings(deadline=args.deadline))
     p, rows = spec.plant, out.rows
     t = out.times
     print(

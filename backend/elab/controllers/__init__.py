@@ -1,10 +1,34 @@
 """Controllers users bring: files in the lab's formats, templates, and the validation
-report (docs/controllers.md)."""
+report (docs/controllers.md).
 
-from elab.controllers.file_format import FORMATS, Controller
-from elab.controllers.files import format_of, law_from_fields, read_controller
-from elab.controllers.report import Report, check
-from elab.controllers.templates import law_fields, law_file, template
+The names are loaded on first use (PEP 562): the report brings python-control, which the
+web process imports only when it checks a controller itself (elab/sim/__init__.py).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from elab.controllers.file_format import FORMATS, Controller
+    from elab.controllers.files import format_of, law_from_fields, read_controller
+    from elab.controllers.report import Report, check
+    from elab.controllers.templates import law_fields, law_file, template
+
+#: each exported name: its module
+_EXPORTS = {
+    "FORMATS": "elab.controllers.file_format",
+    "Controller": "elab.controllers.file_format",
+    "format_of": "elab.controllers.files",
+    "law_from_fields": "elab.controllers.files",
+    "read_controller": "elab.controllers.files",
+    "Report": "elab.controllers.report",
+    "check": "elab.controllers.report",
+    "law_fields": "elab.controllers.templates",
+    "law_file": "elab.controllers.templates",
+    "template": "elab.controllers.templates",
+}
 
 __all__ = [
     "FORMATS",
@@ -18,3 +42,11 @@ __all__ = [
     "read_controller",
     "template",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'elab.controllers' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value  # the next lookup is a plain one
+    return value

@@ -2,7 +2,7 @@
 on upload and from ``elab check``, the same in both places.
 
 - the closed-loop poles (python-control, on the continuous loop of
-  :func:`elab.design.closed_loop.closed_loop`) and whether the loop is stable;
+  :func:`elab.design.plant_loop.closed_loop`) and whether the loop is stable;
 - the stability margins of the loop broken at the plant input;
 - the peak control voltage for a step of the plant's default reference amplitude,
   against the actuator limit;
@@ -22,10 +22,10 @@ from typing import Any
 import control as ct
 import numpy as np
 
-from elab.design.closed_loop import closed_loop, loop_transfer
 from elab.design.loop import close, credible, frd_margins, step
 from elab.design.model import Model
 from elab.design.observed import two_dof
+from elab.design.plant_loop import closed_loop, loop_transfer
 from elab.design.response import margins, step_response
 from elab.laws import ControlLaw, LTIController, has_feedback
 from elab.plants import Plant

@@ -1,7 +1,7 @@
 """A given LTI model — an identified one, not a plant's physics — as design takes it:
 continuous or discrete, one input, any number of outputs, and its continuous equivalent.
 
-Plants have :func:`elab.design.closed_loop.closed_loop`; a model here has states nobody
+Plants have :func:`elab.design.plant_loop.closed_loop`; a model here has states nobody
 measures, so :mod:`elab.design.observed` puts an observer in front of its state feedback
 and :mod:`elab.design.loop` closes and analyses the loop.
 """
@@ -9,9 +9,8 @@ and :mod:`elab.design.loop` closes and analyses the loop.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-import control as ct
 import numpy as np
 import scipy.linalg
 
@@ -19,6 +18,9 @@ from elab.design._checks import Matrix, columns, readonly, rows, shaped, square
 from elab.errors import DimensionError, InvalidInput
 from elab.lti import StateSpaceShape
 from elab.validate import finite_float
+
+if TYPE_CHECKING:
+    import control as ct
 
 Domain = Literal["continuous", "discrete"]
 MAX_STATES = 20  # a model's order: the controller files' limit, and beyond it designs are
@@ -77,6 +79,8 @@ class Model(StateSpaceShape):
 
     def ss(self) -> ct.StateSpace:
         """The model as python-control state space (``dt`` = Ts, or 0: continuous)."""
+        import control as ct  # here: a model is checked and stored without python-control
+
         return ct.ss(self.A, self.B, self.C, self.D, 0 if self.Ts is None else self.Ts)
 
     def stable_region(self, p: complex) -> float:

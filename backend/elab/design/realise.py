@@ -7,7 +7,7 @@ feedback, else the outputs :math:`y`):
 .. math::
     \\dot\\xi = A \\xi + B_r r + B_m m, \\qquad u = C \\xi + D_r r + D_m m
 
-:func:`elab.design.closed_loop` closes it around the plant for analysis;
+:func:`elab.design.plant_loop` closes it around the plant for analysis;
 :mod:`elab.sim.controllers` discretises it (Tustin) for the stepping loop.
 PID has explicit states :math:`[\\int e,\\ e/(T_f s + 1)]` so the simulator
 knows its integrator (anti-windup) and a live gain change keeps the state size.

@@ -56,7 +56,7 @@ def step_response(
         Step height, in the unit of the input.
     u_output : int, optional
         Index of the output that carries the plant input (``-1`` for a loop
-        from :func:`elab.design.closed_loop.closed_loop`); it is returned as
+        from :func:`elab.design.plant_loop.closed_loop`); it is returned as
         ``u`` and left out of ``y``. ``None``: ``sys`` is the plant, ``u`` is the step.
 
     References

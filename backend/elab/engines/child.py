@@ -33,8 +33,9 @@ from typing import assert_never
 
 from elab.engines import wire
 from elab.engines.base import Block, Changed, Ended, EngineEvents, Health, SteppingEngine
-from elab.engines.rig import RigEngine, RigSettings
-from elab.engines.simulation import EngineSettings, SimulationEngine
+from elab.engines.rig import RigEngine
+from elab.engines.settings import EngineSettings, RigSettings
+from elab.engines.simulation import SimulationEngine
 from elab.errors import ElabError
 from elab.rig.driver import TcpDriver
 from elab.runtime import return_memory

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from elab.controllers.report import Report, check
 from elab.controllers.sandbox import ControllerFailed, Sandboxed, StepTimes
+from elab.engines.settings import CodeSettings
 from elab.errors import InvalidInput
 from elab.laws import CodeController, ControlLaw
 from elab.plants import Plant
@@ -32,27 +33,6 @@ Array = NDArray[np.float64]
 
 
 LATE_SHARE = 0.001  # steps slower than the deadline past this share are a warning
-
-
-@dataclass(frozen=True)
-class CodeSettings:
-    """``deadline``: s a step may take; ``max_misses``: steps in a row whose own compute
-    time passed it that fail the run (a simulation waits for a late answer, so a busy
-    machine never changes the samples or fails a run; the rig will hold the last u);
-    ``budget``: the share of the run's time the controller may compute in all (a
-    controller slow in 9 steps of 10 never misses 10 in a row, but passes this)."""
-
-    deadline: float = 0.5e-3
-    max_misses: int = 10
-    budget: float = 0.5
-    # s a simulation waits for one answer before the controller fails: a controller that
-    # never answers holds its own run's thread that long (once: then its run fails); on a
-    # loaded machine a 20 ms step waited 0.2 s for a CPU (issue 24)
-    patience: float = 1.0
-    # s its process may take to load and reset(): less than the engine's 10 s to answer a
-    # command (ELAB_ENGINE_TIMEOUT), so a reset() that never returns is this run's 422,
-    # not the engine's 503
-    start: float = 5.0
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,8 @@ Supervision: a process that dies (or stops sending heartbeats for
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import importlib
 import itertools
 import json
 import logging
@@ -28,7 +30,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any, assert_never
 
-from elab.engines import child, wire
+from elab.engines import wire
 from elab.engines.base import (
     Action,
     EngineEvents,
@@ -37,8 +39,7 @@ from elab.engines.base import (
     NewParams,
     RunOrder,
 )
-from elab.engines.rig import RigSettings
-from elab.engines.simulation import EngineSettings
+from elab.engines.settings import EngineSettings, RigSettings
 from elab.errors import ElabError, Unavailable
 from elab.jobs import Forked, import_in_fork_server
 from elab.store.base import RunRecord
@@ -64,7 +65,7 @@ class ProcessEngine:
         command_timeout: float = 10.0,
         stall_timeout: float = 30.0,
     ) -> None:
-        import_in_fork_server([child.__name__])  # before the fork server starts
+        import_in_fork_server([CHILD])  # before the fork server starts
         self.id = engine_id
         self.kind = "rig" if isinstance(settings, RigSettings) else "simulation"
         self.database = database
@@ -87,12 +88,26 @@ class ProcessEngine:
         self._restarts = 0
         self._tasks: set[asyncio.Task[None]] = set()
         self._reading: asyncio.Task[None] | None = None
+        self._first = asyncio.Event()  # set once the first start has succeeded or failed
 
     # -- lifecycle ---------------------------------------------------------------
     async def start(self, events: EngineEvents) -> None:
+        """Start the process in the background: the web process serves at once (its
+        first page does not wait for the engine's imports); a command sent before the
+        engine is first up waits for it (:meth:`_call`)."""
         self._events = events
-        await self._spawn()
-        self._spawn_task(self._supervise())
+        self._problem = "starting"
+        self._spawn_task(self._first_start())
+
+    async def _first_start(self) -> None:
+        try:
+            await self._spawn()
+        except (ElabError, OSError) as exc:
+            self._problem = str(exc)
+            log.error("engine %s: %s", self.id, exc)
+        finally:
+            self._first.set()
+        await self._supervise()
 
     async def close(self) -> None:
         self._closing = True
@@ -155,6 +170,9 @@ class ProcessEngine:
 
     async def _call(self, command: Callable[[int], wire.Command]) -> RunRecord | int | None:
         """Send the command made for a fresh id; its answer."""
+        if not self._first.is_set():  # the server has just started: wait for the engine
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._first.wait(), _STARTUP)
         if not self._ready or self._writer is None:
             raise Unavailable(
                 f"the {self.kind} engine is not running ({self._problem}); it "
@@ -198,7 +216,7 @@ class ProcessEngine:
         # interpreter imported numpy, scipy, python-control and numba again, 1.8 s of CPU
         # at every start and restart (the process takes a session of its own: a Ctrl-C at
         # the terminal reaches the web process, which closes the engine in order)
-        forked = Forked(child.forked, (sock, argv), name=f"elab-engine-{self.id}")
+        forked = Forked(_engine, (sock, argv), name=f"elab-engine-{self.id}")
         try:
             self._proc = await asyncio.to_thread(forked.start)
         finally:
@@ -363,3 +381,13 @@ def _ended(code: int | None) -> str:
             name = str(-code)
         return f"killed by {name}"
     return f"exit status {code}"
+
+
+#: the engine process's module: named, not imported, here (it brings the stepping code,
+#: numba and python-control, which the fork server imports once and the web process never)
+CHILD = "elab.engines.child"
+
+
+def _engine(sock: socket.socket, argv: list[str]) -> None:
+    """The engine process's body, in a fork of the fork server (which imported ``CHILD``)."""
+    importlib.import_module(CHILD).forked(sock, argv)

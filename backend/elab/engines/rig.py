@@ -50,8 +50,9 @@ from elab.engines.riglaw import (
     law_for,
     warm,
 )
-from elab.engines.rigloop import CHANNELS, ActiveRun, HostLoop, RigSettings
+from elab.engines.rigloop import CHANNELS, ActiveRun, HostLoop
 from elab.engines.rigseat import SeatKeeper
+from elab.engines.settings import RigSettings
 from elab.errors import Conflict, InvalidInput, Unavailable
 from elab.laws import CodeController, is_code, law_kind
 from elab.lifecycle import RunState

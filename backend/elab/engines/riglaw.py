@@ -20,7 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elab.controllers.sandbox import Sandboxed
-from elab.engines.coded import CodeSettings, controller_params
+from elab.engines.coded import controller_params
+from elab.engines.settings import CodeSettings
 from elab.errors import InvalidInput
 from elab.laws import CodeController
 from elab.plants import get_plant

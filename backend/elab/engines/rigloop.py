@@ -29,7 +29,6 @@ from elab.engines.base import (
     Changed,
     EngineEvents,
 )
-from elab.engines.coded import CodeSettings
 from elab.engines.recorder import Recorder
 from elab.engines.riglaw import (
     Differentiator,
@@ -37,7 +36,7 @@ from elab.engines.riglaw import (
     RigLaw,
     tripped,
 )
-from elab.engines.rigseat import SeatSettings
+from elab.engines.settings import RigSettings
 from elab.engines.ticks import realtime_thread
 from elab.errors import Conflict, ElabError
 from elab.lifecycle import RunState
@@ -53,7 +52,6 @@ from elab.rig.settle import (
     settle_step,
 )
 from elab.rig.supervisor import SafetyLimits, Supervisor
-from elab.rig_queue import QueuePolicy
 from elab.sim.spec import CompiledRun
 from elab.store.base import RunRecord, RunStore
 
@@ -75,43 +73,6 @@ CHANNELS = (
     ("alpha_dot", "rad/s"),
     ("latency", "s"),
 )
-
-
-@dataclass(frozen=True)
-class RigSettings:
-    """``address``: the rig's ``host:port`` (E-Lab's byte protocol); ``sample_timeout``:
-    s without a sample before the rig counts as silent (its run fails); ``block``:
-    samples per block to the recorder and the watchers (20 ms at 1 kHz); ``realtime``:
-    the loop thread's SCHED_FIFO priority (0: none); ``omega_c``: rad/s of the
-    differentiators that estimate θ̇ and α̇ for the record and the supervisor (the seed's
-    velocity filter for θ); the store's settings as the simulation engine's; ``rig``,
-    ``slot``, ``grace``: the rig's queue in the store and its policy
-    (:mod:`elab.engines.rigseat`); ``estop``: the e-stop socket to listen on
-    (:mod:`elab.rig.estop`); ``code_deadline``: s a Python controller may take per
-    step before its answer counts as late."""
-
-    address: str = "127.0.0.1:7100"
-    sample_timeout: float = 0.1
-    block: int = 20
-    realtime: int = 0
-    omega_c: float = 150.0
-    still_for: float = 2.0  # s the link must be still after a run before the next
-    flush_interval: float = 0.25
-    retry_for: float = 30.0
-    max_pending: int = 256 << 20
-    rig: str = "rig"  # the rig's queue in the store
-    slot: float = QueuePolicy.slot
-    grace: float = QueuePolicy.grace
-    estop: str | None = None  # the e-stop socket (elab.rig.estop.estop_address); None: none
-    code_deadline: float = CodeSettings.deadline  # s a Python controller's step may take
-
-    @property
-    def seat(self) -> SeatSettings:
-        return SeatSettings(self.rig, QueuePolicy(self.slot, self.grace))
-
-    @property
-    def code(self) -> CodeSettings:
-        return CodeSettings(deadline=self.code_deadline)
 
 
 @dataclass

@@ -22,8 +22,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from elab.controllers.sandbox import ControllerFailed
-from elab.engines.coded import CodeSettings
 from elab.engines.riglaw import compile_for_rig, law_for
+from elab.engines.settings import CodeSettings
 from elab.plants.flexible_link_nonlinear import State, rk4_floats
 from elab.rig.hardware import COUNTS_PER_REV, draw_rig_parameters
 from elab.rig.supervisor import SafetyLimits, Supervisor, Trip

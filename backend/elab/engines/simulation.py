@@ -16,7 +16,7 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Future
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -31,8 +31,9 @@ from elab.engines.base import (
     RunOrder,
     StoreHealth,
 )
-from elab.engines.coded import CodedRun, CodeSettings
+from elab.engines.coded import CodedRun
 from elab.engines.recorder import Recorder
+from elab.engines.settings import EngineSettings
 from elab.engines.stepper import Stepper
 from elab.errors import Conflict, InvalidInput, TooMany, Unavailable
 from elab.laws import CodeController, is_code, law_kind
@@ -47,37 +48,6 @@ log = logging.getLogger(__name__)
 
 #: why runs an engine left live are interrupted when it starts again
 CRASHED = "the engine stopped while the run was live (its process ended unexpectedly)"
-
-
-@dataclass(frozen=True)
-class EngineSettings:
-    """``tick``: the stepper's period (one 20 ms frame per run per tick);
-    ``flush_interval``: how often samples are committed (what a crash may lose);
-    ``retry_for``: how long a busy store is retried before its runs fail;
-    ``max_pending``: bytes of samples that may wait for a busy store; ``realtime``: the
-    stepping thread's real-time priority (SCHED_FIFO; 0: none). Code controllers:
-    ``max_code_runs`` live at once, ``code_deadline`` s per step before the last u is held,
-    ``code_misses`` late steps in a row that fail the run, ``code_budget`` the share of the
-    run's time it may compute in all, ``code_patience`` s one answer may take before the
-    run fails."""
-
-    tick: float = 0.02
-    flush_interval: float = 0.25
-    retry_for: float = 30.0
-    max_pending: int = 256 << 20
-    realtime: int = 0  # SCHED_FIFO priority of the stepping thread (0: an ordinary thread)
-    max_code_runs: int = 8
-    code_deadline: float = 0.5e-3
-    code_misses: int = 10
-    code_budget: float = 0.5
-    code_patience: float = 1.0
-
-    @property
-    def code(self) -> CodeSettings:
-        """What a Python controller may take (its runs and its upload trial)."""
-        return CodeSettings(
-            self.code_deadline, self.code_misses, self.code_budget, self.code_patience
-        )
 
 
 def channels_of(run: CompiledRun) -> tuple[tuple[str, str], ...]:

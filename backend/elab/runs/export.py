@@ -22,7 +22,6 @@ from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
 
 import numpy as np
-import scipy.io
 from numpy.typing import NDArray
 
 from elab.errors import DimensionError, InvalidInput
@@ -354,6 +353,8 @@ def _finite(rec: Recording, values: Array, i0: int, name: str) -> Array:
 
 
 def _mat(mdict: dict[str, Any], header: bool = False) -> bytes:
+    import scipy.io  # here: a quarter of a second of imports that CSV and JSON do without
+
     out = io.BytesIO()
     scipy.io.savemat(out, mdict, format="5", oned_as="column")
     return out.getvalue() if header else out.getvalue()[128:]

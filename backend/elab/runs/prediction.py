@@ -24,11 +24,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.engines.coded import CodeSettings, run_through
+from elab.engines.settings import CodeSettings
 from elab.laws import ControlLaw, is_code
-from elab.sim.engine import Simulation
 from elab.sim.signals import Signal
-from elab.sim.spec import RunSpec, compile_run
+from elab.sim.spec import RunSpec
 
 Array = NDArray[np.float64]
 PART = 65_536  # recorded rows compared at a time
@@ -66,6 +65,11 @@ def predict(
 ) -> Predicted:
     """The prediction of the first ``min(limit, its length)`` samples of ``spec``'s run
     with ``changes`` replayed; ``spec``'s sensors are made ideal here."""
+    # here, in the worker that predicts: the stepping code brings numba and python-control
+    from elab.engines.coded import run_through
+    from elab.sim.engine import Simulation
+    from elab.sim.spec import compile_run
+
     ideal = replace(spec, noise_seed=None, quantize=False)
     run = compile_run(ideal)
     n = run.n_samples if limit is None else min(limit, run.n_samples)

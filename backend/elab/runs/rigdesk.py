@@ -21,13 +21,11 @@ import time
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from elab import rig_queue as rq
 from elab.access import Identity, display_name
 from elab.engines.base import RunOrder
-from elab.engines.riglaw import compile_for_rig
-from elab.engines.rigtrial import TRIAL_S, RigTrial, rig_trial
 from elab.errors import ElabError, Forbidden, InvalidInput, Unavailable
 from elab.jobs import JobPool
 from elab.laws import law_kind
@@ -35,6 +33,9 @@ from elab.rig.estop import send_estop
 from elab.rig_queue import QueuePolicy, RigQueue
 from elab.sim.spec import RunSpec
 from elab.store.base import RigQueueStore
+
+if TYPE_CHECKING:  # the rig's laws and trial step runs: imported where a run is tried
+    from elab.engines.rigtrial import RigTrial
 
 T = TypeVar("T")
 PASSED_KEPT = 256  # passed rig trials remembered
@@ -150,6 +151,11 @@ class RigDesk:
         """The run's rig trial (:mod:`elab.engines.rigtrial`), passed, or
         :class:`~elab.errors.InvalidInput` naming ``controller`` and what tripped. A
         passed trial is remembered for the same controller, signals and duration."""
+        # here: they bring python-control and numba, which a web process imports only
+        # when it tries a rig run (docs/architecture.md, start-up)
+        from elab.engines.riglaw import compile_for_rig
+        from elab.engines.rigtrial import rig_trial
+
         await asyncio.to_thread(compile_for_rig, spec)  # a law the rig cannot run at all
         key = _trial_key(spec)
         trial = self._passed.get(key)
@@ -181,6 +187,8 @@ class RigDesk:
 def _trial_key(spec: RunSpec) -> str:
     """What a trial depends on: the law, the signals, the sample time and limits, and
     the duration tried (pickled: numbers to the last bit)."""
+    from elab.engines.rigtrial import TRIAL_S
+
     tried = (
         spec.plant.id,
         spec.law,

@@ -13,7 +13,6 @@ from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import max_len_seq
 
 from elab.errors import InvalidInput
 from elab.validate import finite_array, finite_float
@@ -141,6 +140,8 @@ class PRBS:
 
 @lru_cache(maxsize=32)
 def _mls(order: int) -> NDArray[np.int8]:
+    from scipy.signal import max_len_seq  # a second of imports: only when used
+
     bits: NDArray[np.int8] = np.asarray(max_len_seq(order)[0], dtype=np.int8)
     bits.setflags(write=False)
     return bits

@@ -9,19 +9,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
-import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
 from elab.laws import ControlLaw
 from elab.plants.base import Plant
-from elab.sim.controllers import DiscreteController, controller_poles, discretise
 from elab.sim.noise import sensor_noise
 from elab.sim.signals import Chirp, Signal, Sine, Square, Step
 from elab.validate import computable, finite_array, finite_float, finite_result
+
+if TYPE_CHECKING:
+    from elab.sim.controllers import DiscreteController
 
 Array = NDArray[np.float64]
 
@@ -85,6 +86,12 @@ class CompiledRun:
 
 def compile_run(spec: RunSpec) -> CompiledRun:
     """Validate ``spec`` and discretise it; errors name the field and allowed values."""
+    # here, not at the top: a process that only describes runs (the web process) need not
+    # import python-control (seconds of imports, docs/architecture.md)
+    import control as ct
+
+    from elab.sim.controllers import discretise
+
     plant = spec.plant
     Ts = plant.Ts if spec.Ts is None else finite_float("Ts", spec.Ts, 0.0, lo_open=True)
     duration = finite_float("duration", spec.duration, 0.0, MAX_DURATION, lo_open=True)
@@ -144,6 +151,8 @@ def _check_periods(name: str, signal: Signal | None, Ts: float) -> None:
 
 
 def _check_sample_time(law: ControlLaw, plant: Plant, Ts: float) -> None:
+    from elab.sim.controllers import controller_poles
+
     poles = np.concatenate([np.linalg.eigvals(plant.A), controller_poles(law, plant)])
     fastest = float(np.max(np.abs(poles))) if poles.size else 0.0
     if fastest * Ts > MAX_POLE_TS:

@@ -12,7 +12,8 @@ import pytest
 
 from elab.cli import main
 from elab.controllers.sandbox import available
-from elab.engines.coded import CodeSettings, run_through
+from elab.engines.coded import run_through
+from elab.engines.settings import CodeSettings
 from elab.laws import CodeController
 from elab.plants import get_plant
 from elab.sim import RunSpec, Square, compile_run

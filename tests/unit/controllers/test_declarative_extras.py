@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from elab.controllers import law_fields, law_from_fields, read_controller
-from elab.design.closed_loop import closed_loop
+from elab.design.plant_loop import closed_loop
 from elab.design.realise import pid_filter_time, realise
 from elab.errors import InvalidInput
 from elab.laws import PID, LTIController, StateFeedback

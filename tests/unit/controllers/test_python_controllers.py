@@ -12,7 +12,8 @@ import pytest
 from elab.controllers import read_controller, template
 from elab.controllers.sandbox import StepTimes, available
 from elab.controllers.templates import python_source
-from elab.engines.coded import CodeSettings, run_through, trial
+from elab.engines.coded import run_through, trial
+from elab.engines.settings import CodeSettings
 from elab.engines.stepper import Stepper
 from elab.errors import InvalidInput
 from elab.laws import PID, CodeController, ControlLaw, StateFeedback

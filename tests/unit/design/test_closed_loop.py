@@ -1,4 +1,4 @@
-"""elab.design.closed_loop: every control law closed around every plant, loop transfers."""
+"""elab.design.plant_loop: every control law closed around every plant, loop transfers."""
 
 from __future__ import annotations
 

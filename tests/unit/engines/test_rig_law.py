@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from elab.controllers.templates import python_source
-from elab.engines.coded import CodeSettings
 from elab.engines.riglaw import compile_for_rig, law_for
+from elab.engines.settings import CodeSettings
 from elab.errors import InvalidInput
 from elab.laws import CodeController, StateFeedback
 from elab.plants.flexible_link import PLANT
