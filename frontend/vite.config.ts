@@ -7,7 +7,7 @@ export default defineConfig({
   build: {
     outDir: "../backend/elab/api/static",
     emptyOutDir: true,
-    chunkSizeWarningLimit: 6000, // plotly.js is one large module, loaded once
+    chunkSizeWarningLimit: 1500, // plotly.js (its basic bundle) is one large module, loaded once
   },
   // fs.allow: the wire schema (../shared) is imported by src/wire.ts
   server: { proxy: { "/api": { target: "http://127.0.0.1:8000", ws: true } }, fs: { allow: [".."] } },

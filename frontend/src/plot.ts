@@ -1,6 +1,6 @@
 // The only module that imports plotly.js: the live plot of a run and the static charts
 // (Bode, step, poles). Views hand it typed arrays and titles, never plotly objects.
-import Plotly from "plotly.js-dist-min";
+import Plotly from "plotly.js-basic-dist-min";
 import { decimate, type SampleRing } from "./series";
 
 const COLORS = ["#2563eb", "#dc2626", "#059669", "#d97706", "#7c3aed", "#0891b2", "#be185d", "#4b5563"];

@@ -149,6 +149,12 @@ def live_plot_section() -> str:
     return "## Browser app (issue 4)\n\n" + bench_live_plot()
 
 
+def page_section() -> str:
+    from tests.bench.page import bench_page
+
+    return bench_page()
+
+
 def ident_section() -> str:
     from tests.bench.ident import bench_ident
 
@@ -179,6 +185,7 @@ SECTIONS: dict[str, Callable[[], str]] = {
     "server": server_section,
     "load": load_section,
     "liveplot": live_plot_section,
+    "page": page_section,
     "ident": ident_section,
     "controllers": controllers_section,
     "cli": cli_section,

@@ -19,7 +19,6 @@ from starlette.middleware.gzip import GZipMiddleware
 from starlette.requests import ClientDisconnect, Request
 from starlette.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse, Response
 from starlette.routing import BaseRoute, Mount, Route, WebSocketRoute
-from starlette.staticfiles import StaticFiles
 
 from elab.api import (  # noqa: F401  (registers their endpoints)
     access,
@@ -33,6 +32,7 @@ from elab.api import (  # noqa: F401  (registers their endpoints)
     rig,
     runs,
 )
+from elab.api.assets import Assets
 from elab.api.auth import Authority, Identify, load_secret, read_instructors
 from elab.api.frames import MsgpackCodec
 from elab.api.guard import Guard
@@ -242,7 +242,7 @@ def _app_routes(static: Path) -> list[BaseRoute]:
     async def page(request: Request) -> Response:
         return FileResponse(index, headers={"cache-control": "no-cache"})
 
-    assets = StaticFiles(directory=static / "assets", check_dir=False)
+    assets = Assets(directory=static / "assets", check_dir=False)
     return [Mount("/assets", assets), *(Route(path, page) for path in APP_PAGES)]
 
 
