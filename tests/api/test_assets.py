@@ -1,0 +1,58 @@
+"""The app's assets (elab/api/assets.py): the build's gzip to a browser that takes it,
+the file itself to one that does not, both cached for a year under their hashed names."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.api.server import TLS, Server
+
+ASSETS = Path(__file__).resolve().parents[2] / "backend" / "elab" / "api" / "static" / "assets"
+
+
+def _plot_bundle() -> Path:
+    found = list(ASSETS.glob("plot-*.js")) if ASSETS.is_dir() else []
+    if not found:
+        pytest.skip("the app is not built (make install builds it)")
+    return found[0]
+
+
+def test_an_asset_is_sent_as_the_builds_gzip_and_cached_under_its_hash(server: Server) -> None:
+    plot = _plot_bundle()
+    raw = plot.read_bytes()
+    url = f"{server.url}/assets/{plot.name}"
+    with httpx.Client(verify=TLS, timeout=30) as http:
+        # httpx decodes the body; the bytes sent are the build's file, not a new gzip
+        r = http.get(url, headers={"accept-encoding": "gzip"})
+        assert r.status_code == 200 and r.content == raw
+        assert r.headers["content-encoding"] == "gzip"
+        assert r.headers["content-type"].startswith("text/javascript")
+        assert "immutable" in r.headers["cache-control"] and "Accept-Encoding" in r.headers["vary"]
+        assert int(r.headers["content-length"]) == (plot.parent / f"{plot.name}.gz").stat().st_size
+        assert int(r.headers["content-length"]) < len(raw) / 2
+        # asked again with its tag: 304, nothing sent
+        again = http.get(
+            url, headers={"accept-encoding": "gzip", "if-none-match": r.headers["etag"]}
+        )
+        assert again.status_code == 304 and again.content == b""
+        assert "immutable" in again.headers["cache-control"]
+        # a client that takes no gzip gets the file as it is
+        plain = http.get(url, headers={"accept-encoding": "identity"})
+        assert plain.status_code == 200 and plain.content == raw
+        assert "content-encoding" not in plain.headers
+        assert "immutable" in plain.headers["cache-control"]
+        # the page itself is never cached: it names the assets of the current build
+        page = http.get(server.url + "/", headers={"accept-encoding": "gzip"})
+        assert page.headers["cache-control"] == "no-cache"
+        assert re.search(r"/assets/[\w-]+\.js", page.text)
+
+
+def test_missing_and_escaping_asset_paths_are_404(server: Server) -> None:
+    with httpx.Client(verify=TLS, timeout=30) as http:
+        for path in ("/assets/nothing.js", "/assets/..%2fapp.py", "/assets/%2e%2e/app.py"):
+            r = http.get(server.url + path, headers={"accept-encoding": "gzip"})
+            assert r.status_code == 404, path
