@@ -3,13 +3,14 @@ the file itself to one that does not, both cached for a year under their hashed 
 
 from __future__ import annotations
 
+import gzip
 import re
 from pathlib import Path
 
 import httpx
 import pytest
 
-from tests.api.server import TLS, Server
+from tests.api.server import TLS, Server, until
 
 ASSETS = Path(__file__).resolve().parents[2] / "backend" / "elab" / "api" / "static" / "assets"
 
@@ -56,3 +57,20 @@ def test_missing_and_escaping_asset_paths_are_404(server: Server) -> None:
         for path in ("/assets/nothing.js", "/assets/..%2fapp.py", "/assets/%2e%2e/app.py"):
             r = http.get(server.url + path, headers={"accept-encoding": "gzip"})
             assert r.status_code == 404, path
+
+
+def test_a_download_is_gzipped_at_the_fast_level_and_reads_back_whole(server: Server) -> None:
+    """Responses made at request time are compressed at level 1 (app.GZIP_LEVEL): the gzip
+    header's XFL byte is 4 ("fastest"), where starlette's default level 9 writes 2."""
+    with server.client() as c:
+        run = c.post("/runs", json={"plant": "flexible_link", "pace": "fast", "duration": 5}).json()
+        until(lambda: c.get(f"/runs/{run['id']}").json()["finished_at"], 120)
+        url = f"/runs/{run['id']}/data?format=csv"
+        with c.stream("GET", url, headers={"accept-encoding": "gzip"}) as r:
+            assert r.status_code == 200 and r.headers["content-encoding"] == "gzip"
+            sent = b"".join(r.iter_raw())
+        assert sent[:2] == b"\x1f\x8b" and sent[8] == 4, sent[:10]
+        text = gzip.decompress(sent).decode()
+        plain = c.get(url, headers={"accept-encoding": "identity"})
+        assert "content-encoding" not in plain.headers and plain.text == text
+        assert len([line for line in text.splitlines() if not line.startswith("#")]) == 5001

@@ -109,6 +109,9 @@ def test_a_finished_run_replays_and_scrubs(page: Page, owner: httpx.Client) -> N
     second = int(scrubber.input_value())
     assert 0 < first < second <= len(theta) - 1  # it plays on from the start
     page.get_by_test_id("replay-play").click()  # pause
+    # paused once the button says so (on a loaded machine the click's handler may run a
+    # frame after the click returns)
+    expect(page.get_by_test_id("replay-play")).to_have_attribute("aria-pressed", "false")
     paused = int(scrubber.input_value())
     page.wait_for_timeout(400)
     assert int(scrubber.input_value()) == paused

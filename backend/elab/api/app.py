@@ -53,6 +53,12 @@ from elab.runs.prediction import Predictions
 from elab.runs.rigdesk import RigDesk
 from elab.store.sqlite import SQLiteStore
 
+#: gzip of the responses made at request time (downloads, JSON), not of the assets (the
+#: build's level 9, api/assets.py). A 16 MB CSV: level 1 compresses at 89 MB/s to 1/2.67,
+#: level 9 (starlette's default) at 9 MB/s to 1/2.99; the 11 % more bytes take less time to
+#: send than level 9's extra compression on any link faster than about 3 Mbit/s
+#: (docs/benchmarks.md, downloads).
+GZIP_LEVEL = 1
 log = logging.getLogger(__name__)
 
 API = "/api/v1"
@@ -201,7 +207,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
             Middleware(Guard, hosts=settings.hosts, origins=settings.origins),
             Middleware(Identify),
             Middleware(BodyTimeout, seconds=settings.body_timeout),
-            Middleware(GZipMiddleware, minimum_size=4096),
+            Middleware(GZipMiddleware, minimum_size=4096, compresslevel=GZIP_LEVEL),
         ],
         exception_handlers={
             ElabError: _error,
