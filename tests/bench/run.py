@@ -149,6 +149,12 @@ def live_plot_section() -> str:
     return "## Browser app (issue 4)\n\n" + bench_live_plot()
 
 
+def startup_section() -> str:
+    from tests.bench.startup import bench_startup
+
+    return bench_startup()
+
+
 def page_section() -> str:
     from tests.bench.page import bench_page
 
@@ -186,6 +192,7 @@ SECTIONS: dict[str, Callable[[], str]] = {
     "load": load_section,
     "liveplot": live_plot_section,
     "page": page_section,
+    "startup": startup_section,
     "ident": ident_section,
     "controllers": controllers_section,
     "cli": cli_section,
