@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import asyncio
 import gc
-import importlib
 import logging
 from collections import Counter
 from collections.abc import AsyncIterator
@@ -171,14 +170,9 @@ def create_app(settings: Settings | None = None) -> Starlette:
         await jobs.start()  # the workers import while the engine starts
         await trials.start()
         await manager.start()
-        # the numerical modules the web process uses, imported on a thread once it serves:
-        # the first design or rig run then waits for nothing, and no lazy import runs on
-        # the event loop (seconds of it, stalling every stream; docs/architecture.md)
-        warming = asyncio.create_task(asyncio.to_thread(_warm))
         try:
             yield
         finally:
-            await asyncio.gather(warming, return_exceptions=True)
             await jobs.close()
             await trials.close()
             await manager.close()
@@ -223,28 +217,6 @@ def create_app(settings: Settings | None = None) -> Starlette:
         },
     )
     return app
-
-
-#: imported by :func:`_warm` after start-up (what the design, analysis and rig endpoints use)
-WARM = (
-    "elab.design.analysis",
-    "elab.design.response",
-    "elab.design.synthesis",
-    "elab.design.plant_loop",
-    "elab.design.loop",
-    "elab.design.locus",
-    "elab.design.observed",
-    "elab.controllers.report",
-    "elab.engines.riglaw",
-    "elab.engines.rigtrial",
-)
-
-
-def _warm() -> None:
-    for module in WARM:
-        importlib.import_module(module)
-    gc.collect()
-    gc.freeze()  # as at start-up: the new modules' objects out of every collection
 
 
 def _endpoint_routes() -> list[BaseRoute]:

@@ -151,7 +151,11 @@ class RigDesk:
         """The run's rig trial (:mod:`elab.engines.rigtrial`), passed, or
         :class:`~elab.errors.InvalidInput` naming ``controller`` and what tripped. A
         passed trial is remembered for the same controller, signals and duration."""
-        compile_for_rig, rig_trial = await asyncio.to_thread(_rig_code)
+        # here: they bring python-control and numba, which a web process imports only
+        # when it tries a rig run (docs/architecture.md, start-up)
+        from elab.engines.riglaw import compile_for_rig
+        from elab.engines.rigtrial import rig_trial
+
         await asyncio.to_thread(compile_for_rig, spec)  # a law the rig cannot run at all
         key = _trial_key(spec)
         trial = self._passed.get(key)
@@ -178,16 +182,6 @@ class RigDesk:
             self.store.apply_rig, self.rig, op, self.policy, self.clock()
         )
         return await self.view(who or Identity(""), change.queue)
-
-
-def _rig_code() -> tuple[Callable[[RunSpec], object], Callable[[RunSpec], RigTrial]]:
-    """The rig's law compiler and trial, imported here, on a thread: they bring
-    python-control and numba (seconds of imports), which must never run on the event loop
-    (the web process starts without them: docs/architecture.md, start-up)."""
-    from elab.engines.riglaw import compile_for_rig
-    from elab.engines.rigtrial import rig_trial
-
-    return compile_for_rig, rig_trial
 
 
 def _trial_key(spec: RunSpec) -> str:
