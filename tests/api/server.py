@@ -35,6 +35,8 @@ TLS = ssl.create_default_context()
 #: s a server may take to become ready: about 4 s on a quiet two-core machine, 35 s seen
 #: beside three other test suites (load average 10); a cap, not an expectation
 START_CAP = 180
+#: put first on every test server's path: records heavy imports on its event loop
+LOOP_AUDIT = str(Path(__file__).parent / "loopaudit")
 
 
 def free_port() -> int:
@@ -50,10 +52,18 @@ class Server:
 
     def __init__(self, data: Path, **env: str) -> None:
         self.data = data
-        self.env = {**os.environ, "ELAB_DATA": str(data), **env}
         self.port = free_port()
         self.proc: subprocess.Popen[bytes] | None = None
         self.log_path = data.parent / f"{data.name}-server.log"
+        self.loop_imports_path = data.parent / f"{data.name}-loop-imports.log"
+        path = os.pathsep.join(filter(None, [LOOP_AUDIT, os.environ.get("PYTHONPATH")]))
+        self.env = {
+            **os.environ,
+            "ELAB_DATA": str(data),
+            "PYTHONPATH": path,
+            "ELAB_TEST_LOOP_IMPORTS": str(self.loop_imports_path),
+            **env,
+        }
         self.log_from = 0  # where this view's part of the log starts (see visitor())
         # the identity of client(): one browser's, given by the server on first contact
         self.cookies = httpx.Cookies()
@@ -122,6 +132,8 @@ class Server:
         raise RuntimeError(f"server did not start in {START_CAP} s: {self.log[-4000:]}")
 
     def stop(self) -> None:
+        """Stop the server (SIGINT, then SIGKILL after 20 s) and fail if its web process
+        imported a heavy module on its event loop (``loopaudit/sitecustomize.py``)."""
         if self.proc and self.proc.poll() is None:
             self.proc.send_signal(signal.SIGINT)
             try:
@@ -129,6 +141,16 @@ class Server:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+        stalls = self.loop_imports()
+        assert not stalls, "imported on the web process's event loop:\n" + "\n".join(stalls)
+
+    def loop_imports(self) -> list[str]:
+        """The heavy imports this server's web process made on its event loop."""
+        if self.proc is None or not self.loop_imports_path.exists():
+            return []
+        mine = f"{self.proc.pid} "
+        lines = self.loop_imports_path.read_text().splitlines()
+        return [line for line in lines if line.startswith(mine)]
 
     def kill9(self) -> None:
         assert self.proc is not None

@@ -39,8 +39,11 @@ RIG_RUN = {
 
 
 def call(srv: Server, method: str, path: str, **kw: Any) -> httpx.Response:
+    """One request; a cap of 120 s, past the server's own 60 s for a rig trial
+    (``ELAB_TRIAL_TIMEOUT``): a Python controller's trial is 50,000 sandbox round trips,
+    a second quiet and tens of seconds beside two CPU hogs."""
     with srv.client() as c:
-        return c.request(method, path, **kw)
+        return c.request(method, path, **{"timeout": 120, **kw})
 
 
 def armed(srv: Server) -> dict[str, Any] | None:

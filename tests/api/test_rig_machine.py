@@ -41,6 +41,9 @@ class RigMachine(RuleBasedStateMachine):
         self.restarts = 0
 
     def call(self, who: str, method: str, path: str, **kw: Any) -> httpx.Response:
+        # a cap past the server's 60 s for a rig trial (ELAB_TRIAL_TIMEOUT): a run's first
+        # trial imports python-control on a thread, seconds beside two CPU hogs
+        kw = {"timeout": 120, **kw}
         if who == "prof":
             r = self.prof.request(method, path, **kw)
         else:

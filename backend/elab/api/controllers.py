@@ -71,7 +71,9 @@ async def controller_template(request: Request) -> Response:
     plant = plant_of(request)
     fmt = query(request, "format")
     fmt = "toml" if fmt is None else fmt
-    data = ctl.template(plant, fmt)
+    # on a thread: the template's law is realised with python-control, and .mat written by
+    # scipy.io (seconds of first imports that must not stall the event loop)
+    data = await asyncio.to_thread(lambda: ctl.template(plant, fmt))
     return Response(
         data,
         media_type=MEDIA[fmt],

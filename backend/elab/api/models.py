@@ -234,7 +234,7 @@ async def model_file(request: Request) -> Response:
     if fmt not in FILE_FORMATS:
         raise InvalidInput("format", fmt, "json or mat")
     kept = await stored(request)
-    data = _file(kept, fmt)
+    data = await asyncio.to_thread(_file, kept, fmt)  # (.mat: scipy.io's first import)
     name = "".join(c if (c.isascii() and c.isalnum()) or c in "-_" else "-" for c in kept.name)[:60]
     return Response(
         data,

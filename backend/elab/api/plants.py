@@ -98,7 +98,7 @@ def _rank(r: design.RankReport, n: int) -> s.RankInfo:
 async def analysis(request: Request) -> Response:
     """Eigenvalues, stability verdict, controllability, observability, transfer functions"""
     p = plant_of(request)
-    a = await asyncio.to_thread(design.analyze, p)
+    a = await asyncio.to_thread(lambda: design.analyze(p))  # (its import: on the thread)
     return ok(
         s.AnalysisInfo(
             plant=p.id,
@@ -225,7 +225,7 @@ async def design_lqr(request: Request) -> Response:
     """LQR state feedback from Q and R"""
     p, req = await plant_and_body(request, s.LQRRequest)
     res = await asyncio.to_thread(
-        computed, design.design_lqr, p, req.Q, req.R, field="Q", value=req.Q
+        computed, lambda *a: design.design_lqr(*a), p, req.Q, req.R, field="Q", value=req.Q
     )
     return ok(_design_out(p, "lqr", res))
 
@@ -236,7 +236,7 @@ async def design_place(request: Request) -> Response:
     p, req = await plant_and_body(request, s.PlaceRequest)
     poles = [complex(z.re, z.im) for z in req.poles]
     res = await asyncio.to_thread(
-        computed, design.design_place, p, poles, field="poles", value=req.poles
+        computed, lambda *a: design.design_place(*a), p, poles, field="poles", value=req.poles
     )
     return ok(_design_out(p, "place", res))
 

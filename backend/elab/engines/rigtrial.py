@@ -23,7 +23,7 @@ import numpy as np
 
 from elab.controllers.sandbox import ControllerFailed
 from elab.engines.riglaw import compile_for_rig, law_for
-from elab.engines.settings import CodeSettings
+from elab.engines.settings import TRIAL_S, CodeSettings
 from elab.plants.flexible_link_nonlinear import State, rk4_floats
 from elab.rig.hardware import COUNTS_PER_REV, draw_rig_parameters
 from elab.rig.supervisor import SafetyLimits, Supervisor, Trip
@@ -35,7 +35,6 @@ TRIAL_RIGS = (9001, 9002, 9003, 9004, 9005)
 #: s a Python controller's step may compute in a trial, ten in a row before it fails
 #: (the rig's own deadline is the supervisor's; a trial's worker may share a busy CPU)
 TRIAL_DEADLINE = 5e-3
-TRIAL_S = 10.0  # s of the run tried at most (its start: where a bad law shows)
 
 
 @dataclass(frozen=True)

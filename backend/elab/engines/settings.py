@@ -12,6 +12,10 @@ from dataclasses import dataclass
 from elab.engines.rigseat import SeatSettings
 from elab.rig_queue import QueuePolicy
 
+#: s of a run the rig's trial tries at most (its start: where a bad law shows); here, where
+#: the web process reads it to key its passed trials, apart from the trial's own imports
+TRIAL_S = 10.0
+
 
 @dataclass(frozen=True)
 class CodeSettings:

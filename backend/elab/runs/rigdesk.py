@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, TypeVar
 from elab import rig_queue as rq
 from elab.access import Identity, display_name
 from elab.engines.base import RunOrder
+from elab.engines.settings import TRIAL_S
 from elab.errors import ElabError, Forbidden, InvalidInput, Unavailable
 from elab.jobs import JobPool
 from elab.laws import law_kind
@@ -151,11 +152,7 @@ class RigDesk:
         """The run's rig trial (:mod:`elab.engines.rigtrial`), passed, or
         :class:`~elab.errors.InvalidInput` naming ``controller`` and what tripped. A
         passed trial is remembered for the same controller, signals and duration."""
-        # here: they bring python-control and numba, which a web process imports only
-        # when it tries a rig run (docs/architecture.md, start-up)
-        from elab.engines.riglaw import compile_for_rig
-        from elab.engines.rigtrial import rig_trial
-
+        compile_for_rig, rig_trial = await asyncio.to_thread(_rig_code)
         await asyncio.to_thread(compile_for_rig, spec)  # a law the rig cannot run at all
         key = _trial_key(spec)
         trial = self._passed.get(key)
@@ -184,11 +181,19 @@ class RigDesk:
         return await self.view(who or Identity(""), change.queue)
 
 
+def _rig_code() -> tuple[Callable[[RunSpec], object], Callable[[RunSpec], RigTrial]]:
+    """The rig's law compiler and trial, imported here, on a thread: they bring
+    python-control and numba (seconds of imports), which must never run on the event loop
+    (the web process starts without them: docs/architecture.md, start-up)."""
+    from elab.engines.riglaw import compile_for_rig
+    from elab.engines.rigtrial import rig_trial
+
+    return compile_for_rig, rig_trial
+
+
 def _trial_key(spec: RunSpec) -> str:
     """What a trial depends on: the law, the signals, the sample time and limits, and
     the duration tried (pickled: numbers to the last bit)."""
-    from elab.engines.rigtrial import TRIAL_S
-
     tried = (
         spec.plant.id,
         spec.law,
