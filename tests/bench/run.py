@@ -161,6 +161,12 @@ def page_section() -> str:
     return bench_page()
 
 
+def downloads_section() -> str:
+    from tests.bench.downloads import bench_downloads
+
+    return bench_downloads()
+
+
 def ident_section() -> str:
     from tests.bench.ident import bench_ident
 
@@ -193,6 +199,7 @@ SECTIONS: dict[str, Callable[[], str]] = {
     "liveplot": live_plot_section,
     "page": page_section,
     "startup": startup_section,
+    "downloads": downloads_section,
     "ident": ident_section,
     "controllers": controllers_section,
     "cli": cli_section,

@@ -36,7 +36,15 @@ from elab.api.assets import Assets
 from elab.api.auth import Authority, Identify, load_secret, read_instructors
 from elab.api.frames import MsgpackCodec
 from elab.api.guard import Guard
-from elab.api.http import ENDPOINTS, BodyTimeout, Handler, Pending, Uploads, error_response
+from elab.api.http import (
+    ENDPOINTS,
+    GZIP_LEVEL,
+    BodyTimeout,
+    Handler,
+    Pending,
+    Uploads,
+    error_response,
+)
 from elab.api.reference import openapi_document, reference_page
 from elab.api.settings import Settings
 from elab.api.state import Lab, lab
@@ -53,12 +61,6 @@ from elab.runs.prediction import Predictions
 from elab.runs.rigdesk import RigDesk
 from elab.store.sqlite import SQLiteStore
 
-#: gzip of the responses made at request time (downloads, JSON), not of the assets (the
-#: build's level 9, api/assets.py). A 16 MB CSV: level 1 compresses at 89 MB/s to 1/2.67,
-#: level 9 (starlette's default) at 9 MB/s to 1/2.99; the 11 % more bytes take less time to
-#: send than level 9's extra compression on any link faster than about 3 Mbit/s
-#: (docs/benchmarks.md, downloads).
-GZIP_LEVEL = 1
 log = logging.getLogger(__name__)
 
 API = "/api/v1"

@@ -5,10 +5,12 @@ time, the index of the first row, the channels with their units, the run's
 parameter changes, and a function that reads its rows in parts; a
 :class:`Table` is one held in memory. Row ``i`` is at time ``t = (k0 + i)·Ts``
 (s). Each format is written in parts (``iter_csv``, ``iter_json``,
-``iter_mat``), so a download of any length holds one part in memory, not the
-recording. Every format carries each float64 exactly: CSV and JSON write the
-shortest decimal that reads back to the same double, ``.mat`` stores the
-doubles themselves.
+``iter_mat``) of at most a few MiB, so a download of any length holds one part in
+memory, not the recording. Every format carries each float64 exactly: CSV and JSON
+write the shortest decimal that reads back to the same double (formatted a part at a
+time by orjson, a compiled JSON writer: ten times Python's ``repr``), ``.mat`` stores the
+doubles themselves, each variable's header written here so that a column is streamed
+part by part.
 """
 
 from __future__ import annotations
@@ -17,11 +19,13 @@ import io
 import json
 import math
 import re
+import struct
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
 
 import numpy as np
+import orjson
 from numpy.typing import NDArray
 
 from elab.errors import DimensionError, InvalidInput
@@ -33,7 +37,12 @@ Array = NDArray[np.float64]
 
 
 Reader = Callable[[int, int], Array]
-PART = 65_536  # rows read, formatted and sent at a time: what a download holds in memory
+#: rows read and sent at a time for JSON and .mat, which write one column of them (0.5 MiB
+#: of doubles, about 1.2 MiB of text): what a download holds in memory
+PART = 65_536
+#: rows at a time for CSV, which writes every column of them (8,192 rows of 10 columns:
+#: about 1.5 MiB of text)
+CSV_PART = 8_192
 
 
 @dataclass(frozen=True)
@@ -152,26 +161,52 @@ def to_csv(data: Table | Recording | Samples, header: dict[str, str] | None = No
     ``header`` is for :class:`Samples` only; a table carries its own.
     """
     if isinstance(data, Samples):
-        return "".join(iter_csv(table_from_samples(data, header or {}).recording))
+        return b"".join(iter_csv(table_from_samples(data, header or {}).recording)).decode()
     if header is not None:
         raise TypeError("to_csv(table) takes no header: a Table carries its own")
-    return "".join(iter_csv(_recording(data)))
+    return b"".join(iter_csv(_recording(data))).decode()
 
 
-def iter_csv(rec: Recording, rows: int = 8192) -> Iterator[str]:
-    """The CSV of :func:`to_csv` in parts (a streamed download holds one part at a time).
+def iter_csv(rec: Recording, rows: int = CSV_PART) -> Iterator[bytes]:
+    """The UTF-8 CSV of :func:`to_csv` in parts (a streamed download holds one part at a
+    time).
 
-    Numbers are written as Python's ``repr``: the shortest decimal that reads
-    back to the same float64.
+    Numbers are the shortest decimal that reads back to the same float64 (``0.001``,
+    ``1e-05``: any CSV reader's float parser reads them back exactly); a sample nobody
+    measured is ``nan``, an infinite one ``inf`` or ``-inf``.
     """
     lines = [f"# {line}\n" for line in _header_lines(rec)]
     lines.append("# units: " + ", ".join(f"{n} [{u}]" for n, u in _with_time(rec)) + "\n")
     lines.append(",".join(n for n, _ in _with_time(rec)) + "\n")
-    yield "".join(lines)
-    row = ",".join(["%r"] * (1 + len(rec.channels))) + "\n"
+    yield "".join(lines).encode()
     for i0, data in rec.parts(rows):
-        part = np.column_stack([_clean_times(rec.t(i0, i0 + data.shape[0]), rec.Ts), data])
-        yield (row * part.shape[0]) % tuple(part.ravel().tolist())
+        if data.shape[0]:
+            t = _clean_times(rec.t(i0, i0 + data.shape[0]), rec.Ts)
+            yield _csv_rows(np.column_stack([t, data]))
+
+
+def _csv_rows(part: Array) -> bytes:
+    """The rows of ``part`` (at least one) as CSV lines: orjson writes the part as a JSON
+    list of rows, ``[[a,b],[c,d]]``, whose brackets become line ends."""
+    text = _json_array(part)[2:-2].replace(b"],[", b"\n") + b"\n"
+    finite = np.isfinite(part)
+    if finite.all():
+        return text
+    if not np.isinf(part[~finite]).any():
+        return text.replace(b"null", b"nan")  # (JSON's null: the only letters in the part)
+    # infinities (a diverging law's last samples, with saturation off): Python's repr
+    row = ",".join(["%r"] * part.shape[1]) + "\n"
+    text = (row * part.shape[0]) % tuple(part.ravel().tolist())
+    return str(text).encode()
+
+
+def _json_array(values: Array) -> bytes:
+    """``values`` as a JSON array (nested for 2-D): each number the shortest decimal that
+    reads back to the same double, NaN and ±inf as ``null``."""
+    return orjson.dumps(np.ascontiguousarray(values, dtype=np.float64), option=_NUMPY)
+
+
+_NUMPY = orjson.OPT_SERIALIZE_NUMPY
 
 
 def _clean_times(t: np.ndarray, Ts: float) -> np.ndarray:
@@ -228,13 +263,12 @@ def iter_mat(rec: Recording, rows: int = PART) -> Iterator[bytes]:
     header and one element per variable: each part is a file of one variable written by
     ``scipy.io.savemat``, the header kept from the first only.
     """
-    yield _mat(
-        {"t": rec.t()[:, None], "Ts": np.float64(rec.Ts), "k0": np.float64(rec.k0)}, header=True
-    )
+    yield _mat({}, header=True)
+    yield from _mat_column("t", rec.n, (rec.t(i0, i0 + m) for i0, m in _spans(rec.n, rows)))
+    yield _mat({"Ts": np.float64(rec.Ts), "k0": np.float64(rec.k0)})
     names = _matlab_names([n for n, _ in rec.channels])
     for j, var in enumerate(names):
-        column = np.concatenate([np.zeros(0)] + [d[:, j] for _, d in rec.parts(rows)])
-        yield _mat({var: column[:, None]})
+        yield from _mat_column(var, rec.n, (d[:, j] for _, d in rec.parts(rows)))
     meta: dict[str, Any] = {
         "channels": np.array(names, dtype=object),
         "units": np.array([f"{n} [{u}]" for n, u in rec.channels], dtype=object),
@@ -329,13 +363,11 @@ def _spans(n: int, rows: int) -> Iterator[tuple[int, int]]:
 
 
 def _json_numbers(parts: Iterable[Array]) -> Iterator[bytes]:
+    """The numbers of the 1-D ``parts``, comma-separated (NaN as ``null``)."""
     first = True
     for values in parts:
         if values.size:
-            text = ",".join(map(repr, values.tolist()))
-            if np.isnan(values).any():
-                text = ",".join("null" if v != v else repr(v) for v in values.tolist())
-            yield (b"" if first else b",") + text.encode()
+            yield (b"" if first else b",") + _json_array(values)[1:-1]
             first = False
 
 
@@ -358,6 +390,41 @@ def _mat(mdict: dict[str, Any], header: bool = False) -> bytes:
     out = io.BytesIO()
     scipy.io.savemat(out, mdict, format="5", oned_as="column")
     return out.getvalue() if header else out.getvalue()[128:]
+
+
+# MAT-file v5 data types and the double array class (MathWorks, "MAT-File Format", 1-7)
+_MI_INT8, _MI_INT32, _MI_UINT32, _MI_DOUBLE, _MI_MATRIX = 1, 5, 6, 9, 14
+_MX_DOUBLE_CLASS = 6
+
+
+def _mat_column(name: str, n: int, parts: Iterable[Array]) -> Iterator[bytes]:
+    """The v5 element of an ``n×1`` double variable ``name``, its values from ``parts``."""
+    yield _mat_column_head(name, n)
+    written = 0
+    for values in parts:
+        yield np.ascontiguousarray(values, dtype="<f8").tobytes()
+        written += values.shape[0]
+    if written != n:  # a head that promised n values: the file would not load
+        raise DimensionError(f"{name}", written, f"{n} values, as the variable's head says")
+
+
+def _mat_column_head(name: str, n: int) -> bytes:
+    """What precedes an ``n×1`` double variable's values in a little-endian v5 file: the
+    matrix tag, the array flags, the dimensions, the name and the values' tag (elements of
+    at most 4 bytes packed into their tag, as the format allows and scipy does)."""
+    body = (
+        struct.pack("<IIII", _MI_UINT32, 8, _MX_DOUBLE_CLASS, 0)
+        + struct.pack("<IIii", _MI_INT32, 8, n, 1)
+        + _mat_element(_MI_INT8, name.encode("ascii"))
+        + (struct.pack("<II", _MI_DOUBLE, 8 * n) if n else _mat_element(_MI_DOUBLE, b""))
+    )
+    return struct.pack("<II", _MI_MATRIX, len(body) + 8 * n) + body
+
+
+def _mat_element(kind: int, data: bytes) -> bytes:
+    if len(data) <= 4:
+        return struct.pack("<HH", kind, len(data)) + data.ljust(4, b"\0")
+    return struct.pack("<II", kind, len(data)) + data.ljust(-(-len(data) // 8) * 8, b"\0")
 
 
 def _columns(rec: Recording, channels: list[str] | None) -> list[int]:

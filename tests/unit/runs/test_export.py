@@ -5,14 +5,20 @@ from __future__ import annotations
 
 import io
 import json
+import tracemalloc
 
 import numpy as np
 import pytest
 import scipy.io
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 
 from elab.errors import DimensionError, InvalidInput
 from elab.plants import get_plant
+from elab.runs import export
 from elab.runs.export import (
+    PART,
     Recording,
     Table,
     iter_csv,
@@ -69,6 +75,40 @@ def test_csv_round_trip_is_exact() -> None:
     assert np.array_equal(got[:, 1:], table.data)  # the data bit for bit
 
 
+#: any float64 at all: subnormals, the largest, ±0, and (for CSV) NaN and ±inf
+ANY_DOUBLES = hnp.arrays(
+    np.float64,
+    st.tuples(st.integers(1, 40), st.just(len(CHANNELS))),
+    elements=st.floats(width=64, allow_nan=True, allow_infinity=True),
+)
+
+
+@given(ANY_DOUBLES)
+def test_csv_carries_any_double_exactly(data: np.ndarray) -> None:
+    _, _, got = parse_csv(to_csv(Table({}, 0.01, 0, CHANNELS, data)))
+    assert np.array_equal(got[:, 1:], data, equal_nan=True)
+    number = ~np.isnan(data)
+    assert np.array_equal(np.signbit(got[:, 1:][number]), np.signbit(data[number]))  # -0.0
+
+
+@given(ANY_DOUBLES)
+def test_json_carries_any_finite_double_exactly_and_nan_as_null(data: np.ndarray) -> None:
+    data[np.isinf(data)] = 0.0  # (refused: test_json_refuses_infinite_values)
+    doc = json.loads(to_json(Table({}, 0.01, 0, CHANNELS, data)))
+    got = np.array([[np.nan if v is None else v for v in doc["data"][n]] for n, _ in CHANNELS])
+    assert np.array_equal(got.T, data, equal_nan=True)
+    number = ~np.isnan(data)
+    assert np.array_equal(np.signbit(got.T[number]), np.signbit(data[number]))  # -0.0 too
+
+
+def test_csv_writes_unmeasured_and_infinite_samples_as_python_does() -> None:
+    data = np.ones((6, 4))
+    data[1, 2] = np.nan  # a sample a rig dropped
+    data[4, 3] = -np.inf  # (a diverging run with saturation off)
+    rows = to_csv(Table({}, 0.5, 0, CHANNELS, data)).splitlines()[-6:]
+    assert rows[1] == "0.5,1.0,1.0,nan,1.0" and rows[4] == "2.0,1.0,1.0,1.0,-inf"
+
+
 def test_csv_header_names_the_run_its_changes_and_units() -> None:
     comments, _, _ = parse_csv(to_csv(make_table()))
     assert comments == [
@@ -99,7 +139,7 @@ def test_every_format_comes_in_parts_that_join_to_the_whole_reading_part_by_part
 
     rec = Recording(HEADER, 1e-3, table.k0, 1000, CHANNELS, read, CHANGES)
     parts = list(iter_csv(rec, rows=128))
-    assert len(parts) == 1 + 8 and "".join(parts) == to_csv(table)
+    assert len(parts) == 1 + 8 and b"".join(parts).decode() == to_csv(table)
     assert max(i1 - i0 for i0, i1 in reads) == 128  # never more than a part at once
     reads.clear()
     assert b"".join(iter_json(rec, rows=300)) == to_json(table)
@@ -200,6 +240,16 @@ def test_mat_round_trip_is_exact() -> None:
     )
 
 
+@pytest.mark.parametrize("n", [0, 1, 3, 1000])
+@pytest.mark.parametrize("name", ["t", "abcd", "abcde", "x_theta_dot_filtered"])
+def test_a_streamed_mat_column_is_what_scipy_writes_byte_for_byte(name: str, n: int) -> None:
+    values = np.linspace(-1.0, 2.0, n)
+    out = io.BytesIO()
+    scipy.io.savemat(out, {name: values[:, None]}, format="5", oned_as="column")
+    parts = [values[: n // 2], values[n // 2 :]]
+    assert b"".join(export._mat_column(name, n, parts)) == out.getvalue()[128:]
+
+
 def test_mat_names_are_matlab_identifiers() -> None:
     chans = (("1x", "m"), ("a-b", "V"), ("t", "s"), ("end", "1"), ("a_b", "V"), ("β", "rad"))
     table = Table({"plant": "θ-rig"}, 0.5, 0, chans, np.arange(12.0).reshape(2, 6))
@@ -262,3 +312,26 @@ def test_an_empty_table_exports_in_every_format() -> None:
     assert to_csv(table).splitlines()[-1] == "t,r,u,theta,x_theta_dot"
     assert json.loads(to_json(table))["t"] == []
     assert scipy.io.loadmat(io.BytesIO(to_mat(table)))["t"].size == 0
+
+
+# -- memory --------------------------------------------------------------------
+@pytest.mark.parametrize("fmt", ["csv", "json", "mat"])
+def test_a_long_download_holds_a_few_parts_in_memory_not_the_recording(fmt: str) -> None:
+    """Ten parts of rows (5 MiB of doubles, about 12 MiB of text) written while the
+    Python allocator's peak stays under 16 MiB, issue 28's bound whatever the length."""
+    n = 10 * PART
+    ramp = np.linspace(0.0, 1.0, PART * len(CHANNELS)).reshape(PART, len(CHANNELS))
+
+    def read(i0: int, i1: int) -> np.ndarray:
+        return ramp[: i1 - i0] + i0  # made when read, as the store does
+
+    rec = Recording(HEADER, 1e-3, 0, n, CHANNELS, read, CHANGES)
+    write = {"csv": iter_csv, "json": iter_json, "mat": iter_mat}[fmt]
+    tracemalloc.start()
+    try:
+        sent = sum(len(part) for part in write(rec))
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert sent > n * len(CHANNELS) * 8  # (more than the recording's doubles went out)
+    assert peak < 16 * 2**20, f"{fmt}: {peak / 2**20:.1f} MiB at the peak"

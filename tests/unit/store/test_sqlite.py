@@ -222,6 +222,27 @@ def test_any_range_reads_back_exactly(
     assert np.array_equal(got, source[k0:k1][: max(0, (k1 if k1 is not None else N) - k0)])
 
 
+def test_a_few_rows_of_a_long_chunk_read_back_exactly_in_any_part(store: SQLiteStore) -> None:
+    """A fast run writes chunks of 200,000 rows; a download reads a few thousand at a
+    time, from inside one (only those rows' bytes are read from the blob)."""
+    rng = np.random.default_rng(13)
+    store.create_run(record("r-1"))
+    source = fill(store, "r-1", [rng.standard_normal((n, NCH)) for n in (5_000, 20_000, 3)])
+    for k0 in range(0, 25_003, 997):
+        assert np.array_equal(store.read("r-1", k0, k0 + 1_234), source[k0 : k0 + 1_234])
+
+
+def test_a_chunk_shorter_than_its_rows_is_a_damaged_file_not_wrong_numbers(
+    store: SQLiteStore,
+) -> None:
+    store.create_run(record("r-1"))
+    fill(store, "r-1", [np.ones((10, NCH)), np.ones((10, NCH))])
+    with sqlite3.connect(store.path) as db:  # (what a damaged disk could leave)
+        db.execute("UPDATE chunks SET data = substr(data, 1, 8) WHERE k0 = 10")
+    with pytest.raises(ElabError, match="chunk at 10 holds 8 bytes.*damaged"):
+        store.read("r-1", 12, 15)
+
+
 def test_n_stored_counts_the_appended_samples(filled: tuple[SQLiteStore, np.ndarray]) -> None:
     store, _ = filled
     assert store.get_run("r-1").n_stored == N
