@@ -18,8 +18,10 @@ from __future__ import annotations
 import io
 import json
 import math
+import os
 import re
 import struct
+import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
@@ -267,8 +269,7 @@ def iter_mat(rec: Recording, rows: int = PART) -> Iterator[bytes]:
     yield from _mat_column("t", rec.n, (rec.t(i0, i0 + m) for i0, m in _spans(rec.n, rows)))
     yield _mat({"Ts": np.float64(rec.Ts), "k0": np.float64(rec.k0)})
     names = _matlab_names([n for n, _ in rec.channels])
-    for j, var in enumerate(names):
-        yield from _mat_column(var, rec.n, (d[:, j] for _, d in rec.parts(rows)))
+    yield from _mat_channels(rec, names, rows)
     meta: dict[str, Any] = {
         "channels": np.array(names, dtype=object),
         "units": np.array([f"{n} [{u}]" for n, u in rec.channels], dtype=object),
@@ -406,6 +407,32 @@ def _mat_column(name: str, n: int, parts: Iterable[Array]) -> Iterator[bytes]:
         written += values.shape[0]
     if written != n:  # a head that promised n values: the file would not load
         raise DimensionError(f"{name}", written, f"{n} values, as the variable's head says")
+
+
+def _mat_channels(rec: Recording, names: list[str], rows: int) -> Iterator[bytes]:
+    """The channels' elements, each an ``n×1`` double variable, from one pass over the
+    recording: each part's columns are written at their places in a temporary file, which
+    is then sent a MiB at a time (a v5 variable is one contiguous column: a pass per
+    channel read the store ten times)."""
+    heads = [_mat_column_head(var, rec.n) for var in names]
+    at = [0]  # where each channel's element starts in the file
+    for head in heads:
+        at.append(at[-1] + len(head) + 8 * rec.n)
+    with tempfile.TemporaryFile(prefix="elab-mat-") as f:
+        fd = f.fileno()
+        for j, head in enumerate(heads):
+            os.pwrite(fd, head, at[j])
+        read = 0
+        for i0, data in rec.parts(rows):
+            for j, head in enumerate(heads):
+                column = np.ascontiguousarray(data[:, j], dtype="<f8")
+                os.pwrite(fd, column.data, at[j] + len(head) + 8 * i0)
+            read += data.shape[0]
+        if read != rec.n:  # heads that promised n values: the file would not load
+            raise DimensionError("rows", read, f"{rec.n}, as the variables' heads say")
+        f.seek(0)
+        while part := f.read(1 << 20):
+            yield part
 
 
 def _mat_column_head(name: str, n: int) -> bytes:
