@@ -7,8 +7,9 @@ web process imports only when it checks a controller itself (elab/sim/__init__.p
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from elab._lazy import Where, lazy_exports
 
 if TYPE_CHECKING:
     from elab.controllers.file_format import FORMATS, Controller
@@ -17,7 +18,7 @@ if TYPE_CHECKING:
     from elab.controllers.templates import law_fields, law_file, template
 
 #: each exported name: its module
-_EXPORTS = {
+_EXPORTS: dict[str, Where] = {
     "FORMATS": "elab.controllers.file_format",
     "Controller": "elab.controllers.file_format",
     "format_of": "elab.controllers.files",
@@ -44,9 +45,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'elab.controllers' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_EXPORTS[name]), name)
-    globals()[name] = value  # the next lookup is a plain one
-    return value
+__getattr__ = lazy_exports(__name__, _EXPORTS)

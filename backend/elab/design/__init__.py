@@ -21,8 +21,9 @@ process that only checks and stores a model (the web process) does without.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from elab._lazy import Where, lazy_exports
 
 if TYPE_CHECKING:
     from elab.design.analysis import (
@@ -52,7 +53,7 @@ if TYPE_CHECKING:
     from elab.design.synthesis import LQR, Placement, design_lqr, design_place, dlqr, lqr, place
 
 #: each exported name: its module
-_EXPORTS = {
+_EXPORTS: dict[str, Where] = {
     "Analysis": "elab.design.analysis",
     "RankReport": "elab.design.analysis",
     "Stability": "elab.design.analysis",
@@ -119,9 +120,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'elab.design' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_EXPORTS[name]), name)
-    globals()[name] = value  # the next lookup is a plain one
-    return value
+__getattr__ = lazy_exports(__name__, _EXPORTS)

@@ -11,8 +11,9 @@ scipy and numba (seconds of imports), which a module that needs only the signals
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from elab._lazy import Where, lazy_exports
 
 if TYPE_CHECKING:
     from elab.sim.batch import Batch
@@ -24,7 +25,7 @@ if TYPE_CHECKING:
     from elab.sim.spec import CompiledRun, RunSpec, compile_run
 
 #: each exported name: (its module, its name there)
-_EXPORTS = {
+_EXPORTS: dict[str, Where] = {
     "Batch": ("elab.sim.batch", "Batch"),
     "DiscreteController": ("elab.sim.controllers", "DiscreteController"),
     "discretise": ("elab.sim.controllers", "discretise"),
@@ -65,11 +66,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    try:
-        module, attr = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'elab.sim' has no attribute {name!r}") from None
-    value = getattr(importlib.import_module(module), attr)
-    globals()[name] = value  # the next lookup is a plain one
-    return value
+__getattr__ = lazy_exports(__name__, _EXPORTS)
