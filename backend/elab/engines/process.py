@@ -170,9 +170,16 @@ class ProcessEngine:
 
     async def _call(self, command: Callable[[int], wire.Command]) -> RunRecord | int | None:
         """Send the command made for a fresh id; its answer."""
-        if not self._first.is_set():  # the server has just started: wait for the engine
+        if not self._first.is_set():  # the server has just started: wait for the engine,
+            # as long as for an answer (a client is not held for the engine's whole start)
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._first.wait(), _STARTUP)
+                await asyncio.wait_for(self._first.wait(), self.command_timeout)
+        if not self._first.is_set():
+            raise Unavailable(
+                f"the {self.kind} engine is starting (the server has just started); "
+                "try again in a few seconds",
+                retry_after=2.0,
+            )
         if not self._ready or self._writer is None:
             raise Unavailable(
                 f"the {self.kind} engine is not running ({self._problem}); it "
