@@ -194,8 +194,9 @@ class JobPool:
 
     async def run(self, fn: Callable[..., T], *args: Any, progress: Progress | None = None) -> T:
         """``fn(*args, progress=…)`` in a worker (``progress`` called here, on the loop, for
-        each report), or the :class:`ElabError` it raised."""
-        worker = await self._free_worker()
+        each report), or the :class:`ElabError` it raised. A job that must wait for a
+        worker says so first, through ``progress``: why, and how long at most."""
+        worker = await self._free_worker(progress)
         self.busy += 1
         healthy = False
         try:
@@ -223,10 +224,17 @@ class JobPool:
         self._all.remove(worker)
         return self._spawn()
 
-    async def _free_worker(self) -> _Worker:
-        """An idle worker that is ready, within ``wait`` seconds in all."""
+    async def _free_worker(self, progress: Progress | None = None) -> _Worker:
+        """An idle worker that is ready, within ``wait`` seconds in all; ``progress`` hears
+        why it waits, if it must."""
         loop = asyncio.get_running_loop()
         deadline = loop.time() + self.wait
+        if progress is not None and self._idle.empty():
+            progress(
+                f"waiting for a free {self.names.work} worker: all {self.workers} busy; "
+                f"up to {self.wait:g} s ({self.names.wait}), then 429",
+                0.0,
+            )
         try:
             worker = await asyncio.wait_for(self._idle.get(), self.wait)
         except TimeoutError:
@@ -235,6 +243,12 @@ class JobPool:
                 f" and none was free within {self.wait:g} s; retry later",
                 retry_after=self.wait,
             ) from None
+        if progress is not None and not worker.ready:
+            progress(
+                f"waiting for the {self.names.work} worker to start (it was replaced after "
+                f"the last job); up to {max(0.0, deadline - loop.time()):.0f} s more",
+                0.0,
+            )
         try:
             await asyncio.wait_for(worker.until_ready(), max(0.0, deadline - loop.time()))
         except TimeoutError:

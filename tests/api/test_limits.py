@@ -8,12 +8,13 @@ import json
 import threading
 import time
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import httpx
 import numpy as np
 import pytest
 
-from tests.api.server import Server, until
+from tests.api.server import TLS, Server, until
 
 HEAVY_MODELS = [{"kind": "oe", "nb": 8, "nf": 8, "nk": nk} for nk in (1, 2, 3)] + [
     {"kind": "armax", "na": 8, "nb": 8, "nc": 8, "nk": nk} for nk in (1, 2, 3)
@@ -154,3 +155,35 @@ def test_an_identification_whose_client_leaves_stops(server: Server) -> None:
         assert time.monotonic() - t < 10
     small = ident_body(heavy_file(2000), [{"kind": "arx", "na": 2, "nb": 2, "nk": 1}])
     assert httpx.post(server.url + "/api/v1/ident", json=small, timeout=60).status_code == 200
+
+
+def test_an_identification_waiting_for_a_worker_says_why_and_how_long(limited: Server) -> None:
+    """The one worker busy with a long job: a second identification, of a run's data and
+    streamed, first says it waits for a worker, for how long at most (ELAB_IDENT_WAIT) and
+    what then; it ends in that 429's error, not silence. (An uploaded table is parsed by
+    a worker before the stream begins: that wait is the request's own 429, which says
+    the same.)"""
+    until(lambda: limited.status()["ident"] == {"workers": 1, "busy": 0, "starting": 0}, 60)
+    with limited.client() as c:
+        run = c.post("/runs", json={"plant": "flexible_link", "duration": 2, "pace": "fast"})
+        rid = run.json()["id"]
+        until(lambda: c.get(f"/runs/{rid}").json()["finished_at"], 60)
+    heavy = ident_body(heavy_file(), HEAVY_MODELS)
+    with ThreadPoolExecutor(1) as pool:
+        long_job = pool.submit(
+            httpx.post, limited.url + "/api/v1/ident", json=heavy, timeout=120, verify=TLS
+        )
+        until(lambda: limited.status()["ident"]["busy"] == 1, 60)
+        of_run = {
+            "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
+            "models": [{"kind": "arx", "na": 2, "nb": 2, "nk": 1}],
+        }
+        with limited.client() as c:
+            r = c.post("/ident", json=of_run, headers={"accept": "application/x-ndjson"})
+        assert r.status_code == 200, r.text
+        lines = [json.loads(line) for line in r.text.splitlines()]
+        first, last = lines[0]["progress"], lines[-1]
+        assert "waiting for a free identification worker: all 1 busy" in first["stage"]
+        assert "up to 1 s (ELAB_IDENT_WAIT), then 429" in first["stage"]
+        assert last["error"]["code"] == "too_many" and "ELAB_IDENT_WORKERS" in str(last)
+        assert long_job.result().status_code == 422  # (its own time limit)
