@@ -45,6 +45,7 @@ PART = 65_536
 #: rows at a time for CSV, which writes every column of them (8,192 rows of 10 columns:
 #: about 1.5 MiB of text)
 CSV_PART = 8_192
+_NUMPY = orjson.OPT_SERIALIZE_NUMPY  # orjson writes a numpy array's numbers itself
 
 
 @dataclass(frozen=True)
@@ -208,9 +209,6 @@ def _json_array(values: Array) -> bytes:
     return orjson.dumps(np.ascontiguousarray(values, dtype=np.float64), option=_NUMPY)
 
 
-_NUMPY = orjson.OPT_SERIALIZE_NUMPY
-
-
 def _clean_times(t: np.ndarray, Ts: float) -> np.ndarray:
     """k·Ts without the float noise of the product (6.959, not 6.9590000000000005): rounded
     to six decimals below the sample time's, far inside one sample."""
@@ -262,8 +260,11 @@ def iter_mat(rec: Recording, rows: int = PART) -> Iterator[bytes]:
     ``"key: value"``) and, if any, ``param_changes`` (char rows). A channel
     name that is not a MATLAB identifier, or is taken, is sanitised
     (``"1x" → "c_1x"``, ``"a-b" → "a_b"``, ``"t" → "t_2"``). A v5 file is a 128-byte
-    header and one element per variable: each part is a file of one variable written by
-    ``scipy.io.savemat``, the header kept from the first only.
+    header and one element per variable. The columns' elements are written here: a head
+    that knows the length (byte for byte what ``scipy.io.savemat`` writes for the column),
+    then the doubles, ``t`` computed part by part and the channels from one pass over the
+    recording through a temporary file. The others are files of their variables written
+    by ``scipy.io.savemat``, the header kept from the first only.
     """
     yield _mat({}, header=True)
     yield from _mat_column("t", rec.n, (rec.t(i0, i0 + m) for i0, m in _spans(rec.n, rows)))
@@ -406,7 +407,7 @@ def _mat_column(name: str, n: int, parts: Iterable[Array]) -> Iterator[bytes]:
         yield np.ascontiguousarray(values, dtype="<f8").tobytes()
         written += values.shape[0]
     if written != n:  # a head that promised n values: the file would not load
-        raise DimensionError(f"{name}", written, f"{n} values, as the variable's head says")
+        raise DimensionError(name, written, f"{n} values, as the variable's head says")
 
 
 def _mat_channels(rec: Recording, names: list[str], rows: int) -> Iterator[bytes]:
