@@ -245,8 +245,8 @@ class JobPool:
             ) from None
         if progress is not None and not worker.ready:
             progress(
-                f"waiting for the {self.names.work} worker to start (it was replaced after "
-                f"the last job); up to {max(0.0, deadline - loop.time()):.0f} s more",
+                f"waiting for the {self.names.work} worker to start (a new worker loads "
+                f"its modules); up to {max(0.0, deadline - loop.time()):.0f} s more",
                 0.0,
             )
         try:
