@@ -245,6 +245,11 @@ def server_model(status: ManagerStatus, jobs: s.JobsInfo, uploads: s.UploadsInfo
     return s.ServerStatus(
         live_runs=status.live_runs,
         watchers=status.watchers,
+        delivery=s.DeliveryInfo(
+            lag_max_ms=round(status.delivery_lag_max * 1e3, 3),
+            catching_up=status.catching_up,
+            skipping=status.skipping,
+        ),
         stepper=timing,
         engine=_engine_model(st),
         store=s.StoreInfo(

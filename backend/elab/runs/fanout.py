@@ -275,6 +275,7 @@ class RunChannel:
         self.names = names
         self.codec = codec
         self.sender = sender or Sender()
+        self.Ts = Ts
         self.F = frame_samples(Ts)
         self.read = read
         self.edge = edge  # samples published as whole frames (or all, once ended)
@@ -330,6 +331,14 @@ class RunChannel:
 
     def _frame(self, k0: int, data: Array) -> bytes:
         return self.codec.frames(self.names, self.F, np.array([k0]), data[np.newaxis])[0]
+
+    def lag(self, w: Watcher) -> float:
+        """How far ``w`` is behind this run's stream (s): the samples published that it
+        has not been sent, from its oldest queued frame or from where its catching-up from
+        the recording stands (frames skipped for a slow watcher are not counted: it was
+        told of them)."""
+        oldest = w.pull_from if w.pull_from is not None else w.first_queued()
+        return 0.0 if oldest is None else max(0, self.edge - oldest) * self.Ts
 
     def moved(self) -> None:
         """More of the recording can be read (pulls waiting for it look again)."""

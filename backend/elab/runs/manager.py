@@ -53,6 +53,12 @@ class ManagerStatus:
     live_runs: int
     watchers: int
     engines: dict[str, EngineStatus]
+    #: how far the most belated watcher is behind its run's stream (s); how many are
+    #: catching up from the recording (they fell behind, or joined late) and how many are
+    #: having frames skipped (too slow for their queue; told so when they read again)
+    delivery_lag_max: float = 0.0
+    catching_up: int = 0
+    skipping: int = 0
 
 
 class RunManager(RunFollower):
@@ -100,10 +106,14 @@ class RunManager(RunFollower):
         return sum(r.state.live for r in self._runs.values())
 
     def status(self) -> ManagerStatus:
+        watching = [(ch, w) for ch in self._channels.values() for w in ch.watchers]
         return ManagerStatus(
             live_runs=self.live_count,
-            watchers=sum(len(ch.watchers) for ch in self._channels.values()),
+            watchers=len(watching),
             engines={mode: e.status() for mode, e in self.engines.items()},
+            delivery_lag_max=max((ch.lag(w) for ch, w in watching), default=0.0),
+            catching_up=sum(w.pull_from is not None for _, w in watching),
+            skipping=sum(w.skipped is not None for _, w in watching),
         )
 
     def engine_for(self, mode: str) -> Engine:

@@ -44,11 +44,17 @@ def test_blocked_watcher_skips_is_told_and_resumes_completely() -> None:
             await asyncio.sleep(0)
         await asyncio.sleep(0.01)
         assert len([m for m in got_fast if m["type"] == "frame"]) == 50  # never waited
+        # what /server reports: the fast watcher is not behind; the blocked one is behind
+        # by everything after its oldest queued frame (the 2nd: the 1st is being sent) and
+        # is having frames skipped
+        assert ch.lag(fast) == 0.0 and slow.skipped is not None
+        assert abs(ch.lag(slow) - (1000 - 20) * 0.001) < 1e-9
         gate.set()
         await asyncio.sleep(0.01)
         notice = next(m for m in got_slow if m["type"] == "skipped")
         ch.resume_from(slow, notice["from_seq"])
         await asyncio.sleep(0.05)
+        assert ch.lag(slow) == 0.0 and slow.pull_from is None  # caught up
         for w, t in zip((fast, slow), tasks, strict=True):
             w.close()
             t.cancel()

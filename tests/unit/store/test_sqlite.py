@@ -239,7 +239,7 @@ def test_a_chunk_shorter_than_its_rows_is_a_damaged_file_not_wrong_numbers(
     fill(store, "r-1", [np.ones((10, NCH)), np.ones((10, NCH))])
     with sqlite3.connect(store.path) as db:  # (what a damaged disk could leave)
         db.execute("UPDATE chunks SET data = substr(data, 1, 8) WHERE k0 = 10")
-    with pytest.raises(ElabError, match="chunk at 10 holds 8 bytes.*damaged"):
+    with pytest.raises(ElabError, match=r"chunk at 10 holds 8 bytes.*damaged"):
         store.read("r-1", 12, 15)
 
 

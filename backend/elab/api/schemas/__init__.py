@@ -49,6 +49,7 @@ from elab.api.schemas.errors import (
     FieldError,
 )
 from elab.api.schemas.health import (
+    DeliveryInfo,
     EngineInfo,
     HealthInfo,
     JobsInfo,
@@ -199,6 +200,7 @@ __all__ = [
     "ControllerReportOut",
     "ControllerUpload",
     "CorrelationOut",
+    "DeliveryInfo",
     "DemoInfo",
     "DemoPin",
     "DesignOut",

@@ -97,9 +97,27 @@ class RigInfo(Model):
     latency_max_us: float | None
 
 
+class DeliveryInfo(Model):
+    """The watchers' side of the streams: what tick lateness cannot show (a stepper on
+    time whose frames wait in a slow watcher's queue)."""
+
+    lag_max_ms: float = Field(
+        description="how far the most belated watcher is behind its run's stream (ms): the "
+        "samples published that it has not been sent yet"
+    )
+    catching_up: int = Field(
+        description="watchers served from the recording (they fell behind, or joined late)"
+    )
+    skipping: int = Field(
+        description="watchers too slow for their queue (ELAB_WATCHER_FRAMES): frames are "
+        "skipped for them, which they are told when they read again"
+    )
+
+
 class ServerStatus(Model):
     live_runs: int
     watchers: int = Field(description="websocket watchers connected, all runs")
+    delivery: DeliveryInfo
     stepper: StepperTiming
     engine: EngineInfo
     store: StoreInfo
