@@ -48,12 +48,14 @@ Progress = Callable[[str, float], None]
 
 @dataclass(frozen=True)
 class Names:
-    """What a pool's errors call its work and its settings."""
+    """What a pool's errors call its work and its settings, and what to change when a
+    job runs past the time limit (``advice``)."""
 
     work: str = "identification"
     workers: str = "ELAB_IDENT_WORKERS"
     timeout: str = "ELAB_IDENT_TIMEOUT"
     wait: str = "ELAB_IDENT_WAIT"
+    advice: str = "fewer samples, a smaller order search or fewer models"
 
 
 _FORKSERVER = multiprocessing.get_context("forkserver")
@@ -209,7 +211,7 @@ class JobPool:
                 "body",
                 f"a job over {self.timeout:g} s",
                 f"work that finishes within {self.names.timeout} = {self.timeout:g} s: "
-                "fewer samples, a smaller order search or fewer models",
+                + self.names.advice,
             ) from None
         except ElabError:
             healthy = worker.proc.is_alive()  # the job failed; the worker may be fine

@@ -40,9 +40,16 @@ def lab(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
     srv.stop()
 
 
+#: s a client waits for an upload's answer: past the server's own 60 s for its check
+#: (ELAB_TRIAL_TIMEOUT), which beside two CPU hogs took over 30 s
+UPLOAD_CAP = 90
+
+
 def upload(c: object, source: str, plant: str = "flexible_link") -> dict[str, object]:
     r = c.post(  # type: ignore[attr-defined]
-        "/controllers", json={"plant": plant, "format": "py", "content": source}
+        "/controllers",
+        json={"plant": plant, "format": "py", "content": source},
+        timeout=UPLOAD_CAP,
     )
     assert r.status_code == 201, r.text
     return r.json()  # type: ignore[no-any-return]
@@ -166,7 +173,9 @@ def test_random_and_mutated_python_never_crashes_and_refused_files_are_not_kept(
 ) -> None:
     with lab.stranger() as c:
         r = c.post(
-            "/controllers", json={"plant": "flexible_link", "format": "py", "content": content}
+            "/controllers",
+            json={"plant": "flexible_link", "format": "py", "content": content},
+            timeout=UPLOAD_CAP,
         )
         assert r.status_code in (201, 422), r.text[:300]
         kept = c.get("/controllers").json()["controllers"]

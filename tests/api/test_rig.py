@@ -39,11 +39,12 @@ RIG_RUN = {
 
 
 def call(srv: Server, method: str, path: str, **kw: Any) -> httpx.Response:
-    """One request; a cap of 120 s, past the server's own 60 s for a rig trial
-    (``ELAB_TRIAL_TIMEOUT``): a Python controller's trial is 50,000 sandbox round trips,
-    a second quiet and tens of seconds beside two CPU hogs."""
+    """One request; a cap of 330 s, past this server's own 300 s for a rig trial
+    (``ELAB_TRIAL_TIMEOUT``, 60 by default): a Python controller's trial is 50,000 sandbox
+    round trips in a niced worker, a few seconds quiet and over a minute beside two CPU
+    hogs."""
     with srv.client() as c:
-        return c.request(method, path, **{"timeout": 120, **kw})
+        return c.request(method, path, **{"timeout": 330, **kw})
 
 
 def armed(srv: Server) -> dict[str, Any] | None:
@@ -86,6 +87,7 @@ def srv(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
         ELAB_RIG="emulator",
         ELAB_RIG_WATCHDOG="200",
         ELAB_INSTRUCTORS=str(instructors_file(data.parent)),
+        ELAB_TRIAL_TIMEOUT="300",  # (see call())
     ).start()
     try:
         until(lambda: (server.status().get("rig") or {}).get("connected"), 60)

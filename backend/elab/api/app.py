@@ -133,7 +133,12 @@ def create_app(settings: Settings | None = None) -> Starlette:
             timeout=settings.trial_timeout,
             wait=settings.ident_wait,
             names=Names(
-                "controller trial", "ELAB_TRIAL_WORKERS", "ELAB_TRIAL_TIMEOUT", "ELAB_IDENT_WAIT"
+                "controller trial",
+                "ELAB_TRIAL_WORKERS",
+                "ELAB_TRIAL_TIMEOUT",
+                "ELAB_IDENT_WAIT",
+                "a controller whose step computes faster (a trial runs it tens of thousands "
+                "of times) or a shorter run; on a loaded server, try again",
             ),
             preload=controllers.JOB_MODULES,
         )

@@ -36,7 +36,14 @@ from elab.plants import PLANTS, get_plant
 from elab.store.base import ControllerStore, StoredController
 
 # what a trial worker imports before it takes a check (elab.jobs)
-JOB_MODULES = ("elab.api.controllers", "elab.engines.coded", "elab.controllers.report")
+#: what the trial workers import once (their fork server): the upload check and the rig's
+#: trial (:mod:`elab.runs.rigdesk`), never imported by the web process
+JOB_MODULES = (
+    "elab.api.controllers",
+    "elab.engines.coded",
+    "elab.controllers.report",
+    "elab.engines.rigtrial",
+)
 
 MEDIA = {
     "toml": "application/toml",

@@ -152,15 +152,13 @@ class RigDesk:
         """The run's rig trial (:mod:`elab.engines.rigtrial`), passed, or
         :class:`~elab.errors.InvalidInput` naming ``controller`` and what tripped. A
         passed trial is remembered for the same controller, signals and duration."""
-        compile_for_rig, rig_trial = await asyncio.to_thread(_rig_code)
-        await asyncio.to_thread(compile_for_rig, spec)  # a law the rig cannot run at all
         key = _trial_key(spec)
         trial = self._passed.get(key)
-        if trial is None:
+        if trial is None:  # (a law the rig cannot run at all: the trial's InvalidInput)
             if self.trials is not None:
-                trial = await self.trials.run(rig_trial, spec)
+                trial = await self.trials.run(_trial, spec)
             else:
-                trial = await asyncio.to_thread(rig_trial, spec)
+                trial = await asyncio.to_thread(_trial, spec)
         problem = trial.problem()
         if problem is not None:
             raise InvalidInput(
@@ -181,14 +179,14 @@ class RigDesk:
         return await self.view(who or Identity(""), change.queue)
 
 
-def _rig_code() -> tuple[Callable[[RunSpec], object], Callable[[RunSpec], RigTrial]]:
-    """The rig's law compiler and trial, imported here, on a thread: they bring
-    python-control and numba (seconds of imports), which must never run on the event loop
-    (the web process starts without them: docs/architecture.md, start-up)."""
-    from elab.engines.riglaw import compile_for_rig
+def _trial(spec: RunSpec) -> RigTrial:
+    """:func:`elab.engines.rigtrial.rig_trial`, named here: the web process hands it to a
+    trial worker (which imported the trial's modules once: ``controllers.JOB_MODULES``)
+    without importing them itself; they bring python-control and numba, seconds of
+    imports (docs/architecture.md, start-up)."""
     from elab.engines.rigtrial import rig_trial
 
-    return compile_for_rig, rig_trial
+    return rig_trial(spec)
 
 
 def _trial_key(spec: RunSpec) -> str:
