@@ -16,6 +16,8 @@ import os
 import statistics
 import sys
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -116,24 +118,32 @@ def _run(browser: Browser, base_url: str, decimate: bool, schematic: bool = True
     return figures
 
 
-def bench_live_plot() -> str:
-    """The markdown section of docs/benchmarks.md for issue 4's live plot goal."""
+@contextmanager
+def app_in_browser() -> Iterator[tuple[Server, Browser]]:
+    """A fresh ``elab serve`` (its own data directory) and headless Chromium, for the
+    browser benchmarks (this one and tests/bench/page.py); both stopped after."""
     if not APP.exists():
         raise RuntimeError(f"the app is not built ({APP} is missing): make install builds it")
-    load0 = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as data:
         server = Server(Path(data)).start()
         try:
             with sync_playwright() as p:
                 browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
                 try:
-                    dec = _run(browser, server.url, decimate=True)
-                    alone = _run(browser, server.url, decimate=True, schematic=False)
-                    raw = _run(browser, server.url, decimate=False)
+                    yield server, browser
                 finally:
                     browser.close()
         finally:
             server.stop()
+
+
+def bench_live_plot() -> str:
+    """The markdown section of docs/benchmarks.md for issue 4's live plot goal."""
+    load0 = os.getloadavg()[0]
+    with app_in_browser() as (server, browser):
+        dec = _run(browser, server.url, decimate=True)
+        alone = _run(browser, server.url, decimate=True, schematic=False)
+        raw = _run(browser, server.url, decimate=False)
     load1 = os.getloadavg()[0]
     ms = [f.busy * 1000 / f.fps if f.fps else float("inf") for f in (dec, raw)]
     return f"""### Live plot in the browser (issue 4)

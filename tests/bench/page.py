@@ -28,13 +28,12 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from playwright.sync_api import Browser, Request, sync_playwright
+from playwright.sync_api import Browser, Request
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from tests.api.server import Server  # noqa: E402
-from tests.bench.liveplot import APP, ARGS, CHROMIUM  # noqa: E402
+from tests.bench.liveplot import app_in_browser  # noqa: E402
 
 PLOTLY = ROOT / "frontend" / "node_modules" / "plotly.js-basic-dist-min" / "plotly-basic.min.js"
 PAGE = "/plants/flexible_link/analysis"
@@ -113,24 +112,13 @@ def _spread(xs: list[float], fmt: str) -> str:
 
 def bench_page() -> str:
     """The markdown section of docs/benchmarks.md for issue 28's page goals."""
-    if not APP.exists():
-        raise RuntimeError(f"the app is not built ({APP} is missing): make install builds it")
     load0 = os.getloadavg()[0]
-    with tempfile.TemporaryDirectory() as data:
-        server = Server(Path(data)).start()
-        try:
-            with sync_playwright() as p, _peer_site() as peer_url:
-                browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-                try:
-                    _load(browser, server.url + PAGE)  # the server's first analyses: warm
-                    lab, peer = [], []
-                    for _ in range(REPEAT):  # interleaved: both see the same load
-                        lab.append(_load(browser, server.url + PAGE))
-                        peer.append(_load(browser, peer_url))
-                finally:
-                    browser.close()
-        finally:
-            server.stop()
+    with app_in_browser() as (server, browser), _peer_site() as peer_url:
+        _load(browser, server.url + PAGE)  # the server's first analyses: warm
+        lab, peer = [], []
+        for _ in range(REPEAT):  # interleaved: both see the same load
+            lab.append(_load(browser, server.url + PAGE))
+            peer.append(_load(browser, peer_url))
     load1 = os.getloadavg()[0]
     lab_first = [x.first_plot_s for x in lab]
     peer_first = [x.first_plot_s for x in peer]
