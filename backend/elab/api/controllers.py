@@ -35,7 +35,6 @@ from elab.laws import CodeController, ControlLaw, is_code
 from elab.plants import PLANTS, get_plant
 from elab.store.base import ControllerStore, StoredController
 
-# what a trial worker imports before it takes a check (elab.jobs)
 #: what the trial workers import once (their fork server): the upload check and the rig's
 #: trial (:mod:`elab.runs.rigdesk`), never imported by the web process
 JOB_MODULES = (

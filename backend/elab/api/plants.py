@@ -224,6 +224,7 @@ def _leaves_range(p: Plant, y: np.ndarray) -> tuple[int, int, float, float] | No
 async def design_lqr(request: Request) -> Response:
     """LQR state feedback from Q and R"""
     p, req = await plant_and_body(request, s.LQRRequest)
+    # design.design_lqr looked up on the thread: its first lookup imports python-control
     res = await asyncio.to_thread(
         computed, lambda *a: design.design_lqr(*a), p, req.Q, req.R, field="Q", value=req.Q
     )
@@ -235,6 +236,7 @@ async def design_place(request: Request) -> Response:
     """Pole placement: K from closed-loop poles"""
     p, req = await plant_and_body(request, s.PlaceRequest)
     poles = [complex(z.re, z.im) for z in req.poles]
+    # (looked up on the thread, as design_lqr's)
     res = await asyncio.to_thread(
         computed, lambda *a: design.design_place(*a), p, poles, field="poles", value=req.poles
     )
