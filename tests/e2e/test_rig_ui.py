@@ -89,7 +89,9 @@ def test_a_student_runs_on_the_rig_and_presses_the_emergency_stop(
     you = queue.get_by_test_id("rig-you")
     expect(you).to_have_text("You drive the rig: armed, start your run.")
     expect(queue.get_by_text("Your slot ends in")).to_contain_text(re.compile(r"\d:\d\d"))
-    page.locator("#f-duration").fill("60")
+    # long enough for the second person's steps below (over a minute beside two CPU hogs);
+    # the emergency stop ends it
+    page.locator("#f-duration").fill("200")
     page.get_by_role("button", name="Start", exact=True).click()
     panel = page.locator(".run-panel")
     # after the rig trial (five emulated rigs in a niced worker: seconds beside two CPU hogs)

@@ -39,11 +39,21 @@ def send_estop(address: str, who: str) -> None:
     """Send the emergency stop; :class:`Unavailable` if no rig engine listens."""
     datagram = PREFIX + who.encode("utf-8", "replace")[: MAX_DATAGRAM - len(PREFIX)]
     with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
+        # a listener that stopped reading (its engine stopped with SIGSTOP) and whose
+        # buffer is full would block the send for ever
+        sock.settimeout(1.0)
         try:
             sock.sendto(datagram, address)
-        except (ConnectionRefusedError, FileNotFoundError) as exc:
+        except (ConnectionRefusedError, FileNotFoundError, BrokenPipeError) as exc:
+            # (EPIPE: the listener's socket was closing as the datagram went)
             raise Unavailable(
                 f"no rig engine listens for emergency stops here ({exc.strerror})",
+                retry_after=1.0,
+            ) from None
+        except TimeoutError:
+            raise Unavailable(
+                "the rig engine takes no emergency stops now (its socket is full: the engine "
+                "is stalled); its watchdog cuts the motor when the loop stops answering",
                 retry_after=1.0,
             ) from None
 

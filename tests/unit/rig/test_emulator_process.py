@@ -94,7 +94,12 @@ def test_the_watchdog_cuts_a_silent_host_until_enable(rig: Running) -> None:
         assert not driving[-1].status & Status.WATCHDOG_TRIPPED
         silent = listen(driver, 400)
         driver.command(Action.ENABLE)
-        after = drive(driver, 0.0, 50)
+        # answered until a sample says enabled (a cap of 3 s): samples sent before the
+        # emulator took the command may still wait unread while this process waits for a
+        # CPU (beside two CPU hogs, 50 of them were not enough)
+        after = drive(driver, 0.0, 1)
+        while not after[-1].status & Status.MOTOR_ENABLED and len(after) < 3000:
+            after += drive(driver, 0.0, 1)
     finally:
         driver.close()
     tripped = [i for i, s in enumerate(silent) if s.status & Status.WATCHDOG_TRIPPED]
