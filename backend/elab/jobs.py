@@ -61,14 +61,35 @@ class Names:
 _FORKSERVER = multiprocessing.get_context("forkserver")
 _PRELOAD: set[str] = set()  # what the fork server imports when it starts
 _PRELOAD_LOCK = threading.Lock()
+_STARTED: list[frozenset[str]] = []  # what it imported, once start_fork_server started it
 
 
 def import_in_fork_server(modules: Iterable[str]) -> None:
     """Have the fork server import ``modules`` (those asked for after it started are
-    imported by each process forked from it instead: slower, still correct)."""
+    imported by each process forked from it instead: slower, still correct, and logged)."""
+    with _PRELOAD_LOCK:
+        new = set(modules) - _PRELOAD
+        _PRELOAD.update(new)
+        _FORKSERVER.set_forkserver_preload(sorted(_PRELOAD))
+        if _STARTED and new - _STARTED[0]:
+            log.warning(
+                "the fork server started without %s: each process forked from it imports "
+                "them itself (add them to elab.api.preload)",
+                ", ".join(sorted(new - _STARTED[0])),
+            )
+
+
+def start_fork_server(modules: Iterable[str]) -> None:
+    """Start the fork server now, importing ``modules`` (and any asked for before): it
+    imports in its own process while the caller goes on. Without this call it starts at
+    the first process forked from it, and the caller waits for its imports then."""
+    import multiprocessing.forkserver
+
     with _PRELOAD_LOCK:
         _PRELOAD.update(modules)
         _FORKSERVER.set_forkserver_preload(sorted(_PRELOAD))
+        multiprocessing.forkserver.ensure_running()
+        _STARTED.append(frozenset(_PRELOAD))
 
 
 class Forked:

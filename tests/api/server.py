@@ -133,7 +133,8 @@ class Server:
 
     def stop(self) -> None:
         """Stop the server (SIGINT, then SIGKILL after 20 s) and fail if its web process
-        imported a heavy module on its event loop (``loopaudit/sitecustomize.py``)."""
+        imported a heavy module on its event loop (``loopaudit/sitecustomize.py``) or its
+        fork server started without a module asked for later."""
         if self.proc and self.proc.poll() is None:
             self.proc.send_signal(signal.SIGINT)
             try:
@@ -141,8 +142,15 @@ class Server:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+        self.check_audit()
+
+    def check_audit(self) -> None:
+        """Fail if the web process imported a heavy module on its event loop
+        (``loopaudit/sitecustomize.py``) or its fork server started without a module asked
+        for later (``api/preload.py``)."""
         stalls = self.loop_imports()
         assert not stalls, "imported on the web process's event loop:\n" + "\n".join(stalls)
+        assert "the fork server started without" not in self.log, self.log[-4000:]
 
     def loop_imports(self) -> list[str]:
         """The heavy imports this server's web process made on its event loop."""
@@ -156,6 +164,7 @@ class Server:
         assert self.proc is not None
         self.proc.send_signal(signal.SIGKILL)
         self.proc.wait()
+        self.check_audit()  # what it did up to its end
 
     def client(self) -> httpx.Client:
         """A client with this test's identity (the same browser for every call; a bare

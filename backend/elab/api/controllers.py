@@ -23,7 +23,7 @@ from starlette.responses import Response
 
 from elab import controllers as ctl
 from elab.access import Identity, display_name, may_control
-from elab.api import convert
+from elab.api import convert, preload
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.http import Param, endpoint, ok, query, read_body, read_model, within_budget
@@ -35,14 +35,8 @@ from elab.laws import CodeController, ControlLaw, is_code
 from elab.plants import PLANTS, get_plant
 from elab.store.base import ControllerStore, StoredController
 
-#: what the trial workers import once (their fork server): the upload check and the rig's
-#: trial (:mod:`elab.runs.rigdesk`), never imported by the web process
-JOB_MODULES = (
-    "elab.api.controllers",
-    "elab.engines.coded",
-    "elab.controllers.report",
-    "elab.engines.rigtrial",
-)
+#: what the trial workers import once (their fork server)
+JOB_MODULES = preload.TRIALS
 
 MEDIA = {
     "toml": "application/toml",

@@ -11,7 +11,8 @@ error found while estimating arrives as the stream's last line. Nothing is store
 The work runs in the server's identification workers (:mod:`elab.jobs`): at most
 ``ELAB_IDENT_WORKERS`` at once, each within ``ELAB_IDENT_TIMEOUT`` seconds, a request
 waiting for a worker at most ``ELAB_IDENT_WAIT`` seconds (then 429); a request whose
-client goes away stops its job.
+client goes away stops its job. An uploaded table is parsed by a worker before the stream
+starts (bad data: 422 in either mode), so that wait has no progress line.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from starlette.background import BackgroundTask
 from starlette.requests import Request
 from starlette.responses import Response, StreamingResponse
 
-from elab.api import identjson
+from elab.api import identjson, preload
 from elab.api import schemas as s
 from elab.api.auth import identity
 from elab.api.convert import Requested
@@ -41,17 +42,8 @@ from elab.ident.modeladvice import Physics, physics_of
 from elab.jobs import JobPool
 from elab.plants import get_plant
 
-# what the identification workers import before they take a job (elab.jobs): the jobs'
-# functions and the estimators they call lazily
-JOB_MODULES = (
-    "elab.api.identjson",
-    "elab.ident.files",
-    "elab.ident.nonparametric",
-    "elab.ident.pem",
-    "elab.ident.polynomial",
-    "elab.ident.subspace",
-    "elab.ident.validation",
-)
+# what the identification workers import before they take a job (elab.jobs)
+JOB_MODULES = preload.IDENT
 
 T = TypeVar("T")
 

@@ -31,14 +31,19 @@ def cmd_instructor(args: argparse.Namespace) -> str:
 def cmd_serve(args: argparse.Namespace) -> str:
     import os
 
+    from elab import jobs
+    from elab.api import preload
+
+    if args.data:  # before the fork server starts: what it forks inherits its environment
+        os.environ["ELAB_DATA"] = args.data
+    jobs.start_fork_server(preload.ALL)  # its imports beside the web app's (api/preload.py)
+
     import uvicorn
 
     from elab.api.app import create_app
     from elab.api.settings import Settings
     from elab.runtime import return_memory
 
-    if args.data:
-        os.environ["ELAB_DATA"] = args.data
     return_memory()  # before the app allocates: big requests give their memory back
     settings = Settings.from_env()
     if args.host not in ("0.0.0.0", "::", "") and args.host not in settings.hosts:
