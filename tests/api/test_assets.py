@@ -43,11 +43,18 @@ def test_an_asset_is_sent_as_the_builds_gzip_and_cached_under_its_hash(server: S
         )
         assert again.status_code == 304 and again.content == b""
         assert "immutable" in again.headers["cache-control"]
-        # a client that takes no gzip gets the file as it is
-        plain = http.get(url, headers={"accept-encoding": "identity"})
-        assert plain.status_code == 200 and plain.content == raw
-        assert "content-encoding" not in plain.headers
-        assert "immutable" in plain.headers["cache-control"]
+        # a client that takes no gzip gets the file as it is, one that refuses it by name too
+        for refusal in ("identity", "gzip;q=0, identity"):
+            plain = http.get(url, headers={"accept-encoding": refusal})
+            assert plain.status_code == 200 and plain.content == raw
+            assert "content-encoding" not in plain.headers
+            assert "immutable" in plain.headers["cache-control"]
+        # a JSON answer over the middleware's 4 KiB: gzipped, unless refused by name
+        spec = server.url + "/api/v1/openapi.json"
+        assert http.get(spec, headers={"accept-encoding": "gzip"}).headers["content-encoding"]
+        refused = http.get(spec, headers={"accept-encoding": "gzip;q=0"})
+        assert refused.status_code == 200 and "content-encoding" not in refused.headers
+        assert refused.json()["openapi"]
         # the page itself is never cached: it names the assets of the current build
         page = http.get(server.url + "/", headers={"accept-encoding": "gzip"})
         assert page.headers["cache-control"] == "no-cache"
@@ -73,8 +80,9 @@ def test_a_download_is_gzipped_at_the_fast_level_and_reads_back_whole(server: Se
             sent = b"".join(r.iter_raw())
         assert sent[:2] == b"\x1f\x8b" and sent[8] == 4, sent[:10]
         text = gzip.decompress(sent).decode()
-        plain = c.get(url, headers={"accept-encoding": "identity"})
-        assert "content-encoding" not in plain.headers and plain.text == text
+        for refusal in ("identity", "gzip;q=0"):
+            plain = c.get(url, headers={"accept-encoding": refusal})
+            assert "content-encoding" not in plain.headers and plain.text == text
         assert len([line for line in text.splitlines() if not line.startswith("#")]) == 5001
 
 

@@ -233,19 +233,49 @@ def test_commands_racing_over_rest_and_the_websocket_keep_the_connection(
     assert [m for m in msgs if m["type"] == "status" and m["state"] == "stopped"]
 
 
+def _fork_server_tree(web: int) -> list[int]:
+    """The fork server the web process ``web`` started and every process forked from it
+    (the engine, the job workers), from /proc."""
+    parents: dict[int, int] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue  # ended meanwhile
+        parents[int(stat.parent.name)] = int(fields[1])
+    roots = [
+        pid for pid, parent in parents.items() if parent == web and b"forkserver" in _cmdline(pid)
+    ]
+    tree = list(roots)
+    for pid in tree:  # breadth first: the list grows as it is walked
+        tree += [child for child, parent in parents.items() if parent == pid]
+    return tree
+
+
+def _cmdline(pid: int) -> bytes:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return b""
+
+
 def test_a_run_asked_for_while_the_engine_starts_waits_briefly_then_is_told_to_retry(
     tmp_path: Path,
 ) -> None:
     """The web process serves before its engine is up (the engine starts in the
     background): a run asked for then waits as long as for any answer
     (``ELAB_ENGINE_TIMEOUT``, 0.3 s here), then is 503 "starting" with a Retry-After,
-    never a hang or a 500; once /health is 200 the same request starts the run."""
+    never a hang or a 500; once /health is 200 the same request starts the run. The
+    engine is held back for sure, on any machine: the fork server it comes from (and
+    whatever it forked already) is stopped (SIGSTOP) as soon as the web process serves,
+    and let go after the 503."""
     srv = Server(tmp_path / "data", ELAB_ENGINE_TIMEOUT="0.3", ELAB_RIG="none")
     srv.log_path.parent.mkdir(parents=True, exist_ok=True)
     with srv.log_path.open("ab") as log:
         srv.proc = subprocess.Popen(
             [ELAB, "serve", "--port", str(srv.port)], env=srv.env, stdout=DEVNULL, stderr=log
         )
+    stopped: list[int] = []
     try:
         body = {"plant": "flexible_link", "duration": 1.0, "pace": "fast"}
         with httpx.Client(base_url=srv.url + "/api/v1", timeout=30, verify=TLS) as c:
@@ -256,16 +286,26 @@ def test_a_run_asked_for_while_the_engine_starts_waits_briefly_then_is_told_to_r
                 except httpx.TransportError:
                     return None  # not serving yet
 
-            first = until(health, 120, 0.02)
-            if first == 503:  # the engine still starting, as on any machine so far
-                said = c.get("/health").json()
-                assert said["status"] in ("unavailable", "ok"), said  # (it may be up by now)
+            # the fork server starts before the web app is imported (elab serve)
+            web = srv.proc.pid
+            forked = until(lambda: _fork_server_tree(web), 60, 0.01)
+            for pid in forked:
+                os.kill(pid, signal.SIGSTOP)
+                stopped.append(pid)
+            until(health, 120, 0.02)
+            said = c.get("/health")
+            if said.status_code == 503:  # the engine was not up before the stop
+                assert said.json()["status"] == "unavailable", said.text
                 r = c.post("/runs", json=body)
-                if r.status_code == 503:
-                    assert "starting" in r.json()["error"]["message"], r.text
-                    assert float(r.headers["retry-after"]) > 0
-                else:  # up within the wait
-                    assert r.status_code == 201, r.text
+                assert r.status_code == 503, r.text
+                assert "starting" in r.json()["error"]["message"], r.text
+                assert float(r.headers["retry-after"]) > 0
+            else:  # it was up already: the stop came too late to show the wait
+                assert said.status_code == 200, said.text
+                pytest.fail("the engine was up before the web process served")
+            for pid in stopped:
+                os.kill(pid, signal.SIGCONT)
+            stopped.clear()
             until(lambda: health() == 200, 120)
 
             def started() -> httpx.Response | None:
@@ -275,4 +315,6 @@ def test_a_run_asked_for_while_the_engine_starts_waits_briefly_then_is_told_to_r
             started_run = until(started, 60)
             assert started_run.status_code == 201, started_run.text
     finally:
+        for pid in stopped:
+            os.kill(pid, signal.SIGCONT)
         srv.stop()

@@ -15,7 +15,6 @@ from pydantic import ValidationError
 from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
-from starlette.middleware.gzip import GZipMiddleware
 from starlette.requests import ClientDisconnect, Request
 from starlette.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse, Response
 from starlette.routing import BaseRoute, Mount, Route, WebSocketRoute
@@ -40,6 +39,7 @@ from elab.api.http import (
     ENDPOINTS,
     GZIP_LEVEL,
     BodyTimeout,
+    GZip,
     Handler,
     Pending,
     Uploads,
@@ -214,7 +214,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
             Middleware(Guard, hosts=settings.hosts, origins=settings.origins),
             Middleware(Identify),
             Middleware(BodyTimeout, seconds=settings.body_timeout),
-            Middleware(GZipMiddleware, minimum_size=4096, compresslevel=GZIP_LEVEL),
+            Middleware(GZip, minimum_size=4096, compresslevel=GZIP_LEVEL),
         ],
         exception_handlers={
             ElabError: _error,

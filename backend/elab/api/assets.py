@@ -18,6 +18,8 @@ from starlette.responses import FileResponse, Response
 from starlette.staticfiles import NotModifiedResponse, StaticFiles
 from starlette.types import Scope
 
+from elab.api.http import accepts_gzip
+
 #: the file's name changes with its content: never stale
 IMMUTABLE = "public, max-age=31536000, immutable"
 
@@ -27,7 +29,7 @@ class Assets(StaticFiles):
 
     async def get_response(self, path: str, scope: Scope) -> Response:
         request_headers = Headers(scope=scope)
-        if "gzip" in request_headers.get("accept-encoding", "") and not path.endswith(".gz"):
+        if accepts_gzip(request_headers.get("accept-encoding", "")) and not path.endswith(".gz"):
             full, stat = await anyio.to_thread.run_sync(self.lookup_path, path + ".gz")
             if stat is not None and os.path.isfile(full):
                 media_type = guess_type(path)[0] or "application/octet-stream"

@@ -15,7 +15,7 @@ from starlette.responses import Response, StreamingResponse
 from elab.access import display_name
 from elab.api import convert
 from elab.api.auth import identity
-from elab.api.http import GZIP_LEVEL, Param, endpoint, query, query_float
+from elab.api.http import GZIP_LEVEL, Param, accepts_gzip, endpoint, query, query_float
 from elab.api.runs import manager
 from elab.errors import InvalidInput
 from elab.plants import get_plant
@@ -88,7 +88,7 @@ async def get_data(request: Request) -> Response:
     filename = f"{record.id}-{record.plant}.{fmt}"
     headers = {"content-disposition": f'attachment; filename="{filename}"'}
     parts = writers[fmt](rec)
-    if "gzip" in request.headers.get("accept-encoding", ""):  # (as GZipMiddleware decides)
+    if accepts_gzip(request.headers.get("accept-encoding", "")):  # (as the middleware decides)
         # compressed here, in the writer's thread, part by part (zlib lets the event loop
         # run meanwhile): the middleware would compress on the event loop, tens of ms a
         # part, and passes a response that says its encoding

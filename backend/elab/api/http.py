@@ -24,6 +24,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 from pydantic import BaseModel, ValidationError
+from starlette.datastructures import Headers
+from starlette.middleware.gzip import GZipMiddleware
 from starlette.requests import HTTPConnection, Request
 from starlette.responses import JSONResponse, Response
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
@@ -136,6 +138,43 @@ class Endpoint:
 #: any link faster than about 3 Mbit/s (docs/benchmarks.md, downloads).
 GZIP_LEVEL = 1
 ENDPOINTS: list[Endpoint] = []
+
+
+def accepts_gzip(accept_encoding: str) -> bool:
+    """Whether an ``Accept-Encoding`` header takes gzip (RFC 9110, 12.5.3): ``gzip`` (or
+    ``x-gzip``) listed with a weight above 0, or not listed and ``*`` with one. ``gzip;q=0``
+    refuses it, though the word is there (starlette's middleware looks for the word only);
+    an unreadable weight counts as 0 (the plain response is always acceptable)."""
+    weights: dict[str, float] = {}
+    for item in accept_encoding.split(","):
+        name, *params = (part.strip().lower() for part in item.split(";"))
+        q = 1.0
+        for param in params:
+            key, _, value = param.partition("=")
+            if key.strip() == "q":
+                try:
+                    q = float(value)
+                except ValueError:
+                    q = 0.0
+        if name:
+            weights[name] = q if math.isfinite(q) else 0.0
+    for name in ("gzip", "x-gzip"):
+        if name in weights:
+            return weights[name] > 0
+    return weights.get("*", 0.0) > 0
+
+
+class GZip(GZipMiddleware):
+    """starlette's gzip middleware, with a refusal (``gzip;q=0``) read as one
+    (:func:`accepts_gzip`)."""
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "http" and not accepts_gzip(
+            Headers(scope=scope).get("accept-encoding", "")
+        ):
+            await self.app(scope, receive, send)  # as it is
+            return
+        await super().__call__(scope, receive, send)
 
 
 def endpoint(

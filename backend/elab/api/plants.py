@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import asyncio
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from starlette.requests import Request
@@ -98,7 +98,7 @@ def _rank(r: design.RankReport, n: int) -> s.RankInfo:
 async def analysis(request: Request) -> Response:
     """Eigenvalues, stability verdict, controllability, observability, transfer functions"""
     p = plant_of(request)
-    a = await asyncio.to_thread(lambda: design.analyze(p))  # (its import: on the thread)
+    a = await asyncio.to_thread(_analyze, p)
     return ok(
         s.AnalysisInfo(
             plant=p.id,
@@ -224,10 +224,7 @@ def _leaves_range(p: Plant, y: np.ndarray) -> tuple[int, int, float, float] | No
 async def design_lqr(request: Request) -> Response:
     """LQR state feedback from Q and R"""
     p, req = await plant_and_body(request, s.LQRRequest)
-    # design.design_lqr looked up on the thread: its first lookup imports python-control
-    res = await asyncio.to_thread(
-        computed, lambda *a: design.design_lqr(*a), p, req.Q, req.R, field="Q", value=req.Q
-    )
+    res = await asyncio.to_thread(computed, _lqr, p, req.Q, req.R, field="Q", value=req.Q)
     return ok(_design_out(p, "lqr", res))
 
 
@@ -236,10 +233,7 @@ async def design_place(request: Request) -> Response:
     """Pole placement: K from closed-loop poles"""
     p, req = await plant_and_body(request, s.PlaceRequest)
     poles = [complex(z.re, z.im) for z in req.poles]
-    # (looked up on the thread, as design_lqr's)
-    res = await asyncio.to_thread(
-        computed, lambda *a: design.design_place(*a), p, poles, field="poles", value=req.poles
-    )
+    res = await asyncio.to_thread(computed, _place, p, poles, field="poles", value=req.poles)
     return ok(_design_out(p, "place", res))
 
 
@@ -252,6 +246,22 @@ def _design_out(
         K=np.ravel(res.K).tolist(),
         closed_loop_poles=convert.complex_list(res.poles),
     )
+
+
+# On threads, never on the event loop: the first lookup of a name of ``elab.design``
+# imports it and python-control (seconds on a loaded host; tests/api/loopaudit).
+
+
+def _analyze(p: Plant) -> design.Analysis:
+    return design.analyze(p)
+
+
+def _lqr(p: Plant, Q: Any, R: Any) -> design.LQR:
+    return design.design_lqr(p, Q, R)
+
+
+def _place(p: Plant, poles: list[complex]) -> design.Placement:
+    return design.design_place(p, poles)
 
 
 def _bode(p: Plant) -> design.Bode:

@@ -260,17 +260,15 @@ def iter_mat(rec: Recording, rows: int = PART) -> Iterator[bytes]:
     ``"key: value"``) and, if any, ``param_changes`` (char rows). A channel
     name that is not a MATLAB identifier, or is taken, is sanitised
     (``"1x" → "c_1x"``, ``"a-b" → "a_b"``, ``"t" → "t_2"``). A v5 file is a 128-byte
-    header and one element per variable. The columns' elements are written here: a head
-    that knows the length (byte for byte what ``scipy.io.savemat`` writes for the column),
-    then the doubles, ``t`` computed part by part and the channels from one pass over the
-    recording through a temporary file. The others are files of their variables written
-    by ``scipy.io.savemat``, the header kept from the first only.
+    header and one element per variable. The columns' elements are written here, ``t`` and
+    the channels from one pass over the recording (:func:`_mat_columns`); the others are
+    files of their variables written by ``scipy.io.savemat``, the header kept from the
+    first only. The variables come in the order of a ``savemat`` of ``Ts``, ``k0``, ``t``,
+    the channels, then the rest: byte for byte what it writes (a test compares them).
     """
-    yield _mat({}, header=True)
-    yield from _mat_column("t", rec.n, (rec.t(i0, i0 + m) for i0, m in _spans(rec.n, rows)))
-    yield _mat({"Ts": np.float64(rec.Ts), "k0": np.float64(rec.k0)})
+    yield _mat({"Ts": np.float64(rec.Ts), "k0": np.float64(rec.k0)}, header=True)
     names = _matlab_names([n for n, _ in rec.channels])
-    yield from _mat_channels(rec, names, rows)
+    yield from _mat_columns(rec, names, rows)
     meta: dict[str, Any] = {
         "channels": np.array(names, dtype=object),
         "units": np.array([f"{n} [{u}]" for n, u in rec.channels], dtype=object),
@@ -399,24 +397,13 @@ _MI_INT8, _MI_INT32, _MI_UINT32, _MI_DOUBLE, _MI_MATRIX = 1, 5, 6, 9, 14
 _MX_DOUBLE_CLASS = 6
 
 
-def _mat_column(name: str, n: int, parts: Iterable[Array]) -> Iterator[bytes]:
-    """The v5 element of an ``n×1`` double variable ``name``, its values from ``parts``."""
-    yield _mat_column_head(name, n)
-    written = 0
-    for values in parts:
-        yield np.ascontiguousarray(values, dtype="<f8").tobytes()
-        written += values.shape[0]
-    if written != n:  # a head that promised n values: the file would not load
-        raise DimensionError(name, written, f"{n} values, as the variable's head says")
-
-
-def _mat_channels(rec: Recording, names: list[str], rows: int) -> Iterator[bytes]:
-    """The channels' elements, each an ``n×1`` double variable, from one pass over the
-    recording: each part's columns are written at their places in a temporary file, which
-    is then sent a MiB at a time (a v5 variable is one contiguous column: a pass per
-    channel read the store ten times)."""
-    heads = [_mat_column_head(var, rec.n) for var in names]
-    at = [0]  # where each channel's element starts in the file
+def _mat_columns(rec: Recording, names: list[str], rows: int) -> Iterator[bytes]:
+    """The elements of ``t`` and of the channels (``names``), each an ``n×1`` double
+    variable, from one pass over the recording: each part's columns are written at their
+    places in a temporary file, which is then sent a MiB at a time (a v5 variable is one
+    contiguous column: a pass per channel read the store ten times)."""
+    heads = [_mat_column_head(var, rec.n) for var in ("t", *names)]
+    at = [0]  # where each variable's element starts in the file
     for head in heads:
         at.append(at[-1] + len(head) + 8 * rec.n)
     with tempfile.TemporaryFile(prefix="elab-mat-") as f:
@@ -425,10 +412,11 @@ def _mat_channels(rec: Recording, names: list[str], rows: int) -> Iterator[bytes
             os.pwrite(fd, head, at[j])
         read = 0
         for i0, data in rec.parts(rows):
-            for j, head in enumerate(heads):
-                column = np.ascontiguousarray(data[:, j], dtype="<f8")
-                os.pwrite(fd, column.data, at[j] + len(head) + 8 * i0)
-            read += data.shape[0]
+            m = data.shape[0]
+            for j, column in enumerate((rec.t(i0, i0 + m), *data.T)):
+                values = np.ascontiguousarray(column, dtype="<f8")
+                os.pwrite(fd, values.data, at[j] + len(heads[j]) + 8 * i0)
+            read += m
         if read != rec.n:  # heads that promised n values: the file would not load
             raise DimensionError("rows", read, f"{rec.n}, as the variables' heads say")
         f.seek(0)
