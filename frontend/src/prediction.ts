@@ -7,7 +7,7 @@
 import { api, ApiError } from "./api";
 import { fill, h } from "./dom";
 import { channelColor, LivePlot, type LiveTrace } from "./plot";
-import type { PlantDetail, RunPrediction } from "./protocol.gen";
+import type { PlantDetail, PredictionStep, RunPrediction, StepInfoOut } from "./protocol.gen";
 import { SampleRing } from "./series";
 import { display, fmt, quantity } from "./units";
 
@@ -66,12 +66,53 @@ export function gapText(p: RunPrediction, plant: PlantDetail): string {
   return `Run − prediction over ${p.compared.toLocaleString("en")} samples: ${parts.join(" · ")}`;
 }
 
+/** Steps shown in the table at most (the API gives the first 20). */
+export const STEPS_SHOWN = 5;
+
+type Characteristic = { name: string; title: string; value: (i: StepInfoOut, unit: string) => number | null; show: (x: number | null, unit: string) => string };
+
+/** What the table compares, as the design page names it (times from the step). */
+const CHARACTERISTICS: Characteristic[] = [
+  { name: "overshoot", title: "past the final value, in % of the change", value: (i) => i.overshoot, show: (x) => (x === null ? "—" : `${fmt(x, 3)} %`) },
+  { name: "rise time", title: "from 10 % to 90 % of the change", value: (i) => i.rise_time, show: (x) => (x === null ? "—" : `${fmt(x, 3)} s`) },
+  { name: "settling (2 %)", title: "until it stays within 2 % of the change; — : not settled within the step", value: (i) => i.settling_time, show: (x) => (x === null ? "not settled" : `${fmt(x, 3)} s`) },
+  { name: "error at the end", title: "target − final value", value: (i) => i.steady_state_error, show: (x, unit) => quantity(x, unit, 3) },
+];
+
+/** "t = 2 s: 30° → −30°" */
+export function stepName(st: PredictionStep): string {
+  return `t = ${fmt(st.t, 4)} s: ${quantity(st.start, st.unit, 3)} → ${quantity(st.target, st.unit, 3)}`;
+}
+
+/** The run's step characteristics beside the prediction's, a row per step (the first
+ * {@link STEPS_SHOWN}), each cell "run / model (run − model)". */
+export function stepTable(p: RunPrediction, plant: PlantDetail): HTMLElement | null {
+  if (!p.steps.length) return null;
+  const label = plant.outputs.find((o) => o.name === p.steps[0].output)?.label ?? p.steps[0].output;
+  const cell = (c: Characteristic, st: PredictionStep) => {
+    const run = st.run ? c.value(st.run, st.unit) : null;
+    const model = st.prediction ? c.value(st.prediction, st.unit) : null;
+    const diff = run !== null && model !== null ? c.show(run - model, st.unit).replace(/^(?!-|—)/, "+") : "";
+    return h("td", { "data-characteristic": c.name }, h("span.run", c.show(run, st.unit)), " / ", h("span.model", c.show(model, st.unit)), diff ? h("span.diff", ` (${diff})`) : "");
+  };
+  const rows = p.steps.slice(0, STEPS_SHOWN).map((st) => h("tr", h("th", { scope: "row" }, stepName(st)), ...CHARACTERISTICS.map((c) => cell(c, st))));
+  const more = p.steps.length - STEPS_SHOWN;
+  return h(
+    "div.step-compare",
+    // scrolls sideways on a narrow screen: reachable by keyboard, named for a screen reader
+    { "data-testid": "prediction-steps", tabindex: "0", role: "region", "aria-label": "steps of the reference, run against the model" },
+    h("table", h("caption", `Steps of the reference: ${label}, run / model (run − model)`), h("thead", h("tr", h("th", { scope: "col" }, "step"), ...CHARACTERISTICS.map((c) => h("th", { scope: "col", title: c.title }, c.name)))), h("tbody", ...rows)),
+    more > 0 ? h("p.note", `…and ${more} more step${more === 1 ? "" : "s"} (GET /runs/{id}/prediction lists the first 20).`) : "",
+  );
+}
+
 export class PredictionView {
   readonly root: HTMLElement;
   readonly series: PredictionSeries;
   readonly plot: LivePlot;
   private readonly summary = h("p.prediction-gap", { "data-testid": "prediction-gap", "aria-live": "polite" });
   private readonly notes = h("ul.prediction-notes");
+  private readonly steps = h("div.prediction-steps");
   private readonly message = h("p.error", { role: "alert" });
   private closed = false;
   private readonly plotDiv = h("div.diff-plot", { "data-testid": "prediction-diff", "aria-label": "run minus prediction" });
@@ -97,6 +138,7 @@ export class PredictionView {
       h("h3", "Run against the model's prediction"),
       h("p.note", "Dotted in the plot above: ", prediction.model, "."),
       this.summary,
+      this.steps,
       this.notes,
       this.message,
       this.plotDiv,
@@ -117,6 +159,8 @@ export class PredictionView {
   /** The server's summary of the gap, and what the prediction leaves out. */
   update(p: RunPrediction): void {
     fill(this.summary, p.compared ? gapText(p, this.plant) : "The run has no samples to compare yet.");
+    const table = stepTable(p, this.plant);
+    fill(this.steps, ...(table ? [table] : []));
     const notes = [...p.notes];
     if (p.diverged_at !== null) notes.unshift(`The predicted loop ends at t = ${fmt(p.diverged_at, 3)} s: it diverges there (or the controller failed).`);
     if (p.replayed) notes.push(`${p.replayed} live change${p.replayed === 1 ? "" : "s"} of gains or reference replayed at the sample each took effect.`);

@@ -146,6 +146,7 @@ export interface ElabProtocol {
   PredefinedController?: PredefinedController;
   PredictedChannel?: PredictedChannel;
   PredictionGap?: PredictionGap;
+  PredictionStep?: PredictionStep;
   RankInfo?: RankInfo;
   ResidualsOut?: ResidualsOut;
   Resume?: Resume;
@@ -2164,6 +2165,27 @@ export interface PredictionGap {
   t_max: number;
 }
 /**
+ * One step of the recorded reference (constant from ``t`` for ``span`` s; the first
+ * 20 steps) and the reference output's response to it in the run and in the
+ * prediction, with the design page's characteristics (``StepInfoOut``: times in s from
+ * the step, overshoot in % of the change), each measured from where its own output was
+ * at the step (the run's: ``start``) toward ``target`` (absolute, the output's
+ * ``unit``). Null: fewer than two samples measured.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "PredictionStep".
+ */
+export interface PredictionStep {
+  output: string;
+  unit: string;
+  t: number;
+  span: number;
+  start: number;
+  target: number;
+  run: StepInfoOut | null;
+  prediction: StepInfoOut | null;
+}
+/**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "RigExtend".
  */
@@ -2362,7 +2384,8 @@ export interface RunList {
  * far the recording is from it. ``n``: samples predicted (the run's, or the first
  * ``ELAB_PREDICTION_SAMPLES``); ``compared``: recorded samples compared so far (a live
  * run's grow); ``diverged_at``: s where the predicted loop diverged or the predicted
- * controller failed (the prediction ends there).
+ * controller failed (the prediction ends there); ``steps``: each step of the reference
+ * over the samples compared, the run's response beside the prediction's.
  *
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
  * via the `definition` "RunPrediction".
@@ -2377,6 +2400,7 @@ export interface RunPrediction {
   diverged_at: number | null;
   channels: PredictedChannel[];
   gaps: PredictionGap[];
+  steps: PredictionStep[];
   notes: string[];
 }
 /**

@@ -195,7 +195,9 @@ export class RunPanel {
     this.setReason(run.status, run.error);
     this.setCompute(run.compute);
     void this.offerPin();
-    if (run.mode === "rig") {
+    // the rig's gap to its model, and a design's run against the response it predicted:
+    // the evidence is the point of both
+    if (run.mode === "rig" || run.experiment === "design") {
       this.predictionBox.checked = true;
       void this.showPrediction(true);
     }

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import control as ct
 import httpx
 import numpy as np
 import pytest
@@ -62,6 +63,25 @@ def test_a_noise_free_simulation_is_its_own_prediction(server: Server) -> None:
     )
     theta = np.array(pred["channels"][1]["values"])
     assert np.max(np.abs(theta - sim.y[:, 0])) < 1e-6
+    # each step of the square wave: the run's characteristics are the prediction's, and
+    # python-control's step_info of the recording's own samples
+    with server.client() as c:
+        rec = c.get(f"/runs/{run['id']}/data?format=json").json()
+    t, y = np.array(rec["t"]), np.array(rec["data"]["theta"])
+    assert [(st["t"], st["span"]) for st in pred["steps"]] == [(0.0, 1.0), (1.0, 1.0), (2.0, 1.0)]
+    for st, sign in zip(pred["steps"], (1, -1, 1), strict=True):
+        assert st["output"] == "theta" and st["unit"] == "rad"
+        assert st["target"] == pytest.approx(sign * math.radians(30))
+        for key, value in st["run"].items():
+            assert value == pytest.approx(st["prediction"][key], abs=1e-6), key
+        k = (t >= st["t"] - 1e-9) & (t < st["t"] + st["span"] - 1e-9)
+        seg = y[k] - st["start"]
+        theirs = ct.step_info(seg, t[k] - st["t"])
+        assert st["start"] == pytest.approx(y[k][0])
+        assert st["run"]["overshoot"] == pytest.approx(theirs["Overshoot"], abs=1e-6)
+        assert st["run"]["rise_time"] == pytest.approx(theirs["RiseTime"], abs=1.5e-3)
+        assert st["run"]["settling_time"] == pytest.approx(theirs["SettlingTime"], abs=1.5e-3)
+        assert st["run"]["overshoot"] > 1  # the seed's LQR overshoots a little on θ
 
 
 def test_a_live_change_is_replayed_at_its_sample(server: Server) -> None:

@@ -7,6 +7,7 @@ import io
 import re
 from pathlib import Path
 
+import control as ct
 import httpx
 import numpy as np
 import pytest
@@ -260,6 +261,30 @@ def test_design_lqr_compare_and_run(page: Page, server: Server, shots: Path) -> 
     page.locator("#f-duration").fill("1")
     page.get_by_role("button", name="Run with this K").click()
     expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=20_000)
+    # the design's run is drawn against its prediction at once, and its step compared with
+    # the model's in numbers: those python-control's step_info gives on the recording
+    expect(page.get_by_test_id("show-prediction")).to_be_checked()
+    steps = page.get_by_test_id("prediction-steps")
+    expect(steps.locator("tbody tr")).to_have_count(1, timeout=30_000)
+    expect(steps.locator("tbody th")).to_have_text("t = 0 s: 0° → 30°")
+    page.wait_for_function(
+        """() => document.querySelector('[data-testid=live-plot]').data
+          .some(t => t.name.endsWith(', predicted') && t.x.length)"""
+    )
+    rid = run_id(page)
+    rec = httpx.get(f"{server.url}/api/v1/runs/{rid}/data?format=json", timeout=30).json()
+    t, theta = np.array(rec["t"]), np.array(rec["data"]["theta"])
+    pred = httpx.get(f"{server.url}/api/v1/runs/{rid}/prediction", timeout=60).json()
+    model = np.array(next(c["values"] for c in pred["channels"] if c["name"] == "theta"))
+    ours = ct.step_info(theta - theta[0], t - t[0])
+    theirs = ct.step_info(model - model[0], t[: model.size] - t[0])
+    cell = steps.locator('td[data-characteristic="overshoot"]')
+    run_os, model_os = (float(v) for v in re.findall(r"(-?[\d.]+) %", cell.inner_text())[:2])
+    assert run_os == pytest.approx(ours["Overshoot"], rel=2e-3, abs=0.01)  # (3 digits shown)
+    assert model_os == pytest.approx(theirs["Overshoot"], rel=2e-3, abs=0.01)
+    rise = steps.locator('td[data-characteristic="rise time"]').inner_text()
+    run_rise = float(re.match(r"([\d.]+) s", rise).group(1))  # type: ignore[union-attr]
+    assert run_rise == pytest.approx(ours["RiseTime"], rel=5e-3, abs=1.5e-3)
     page.screenshot(path=shots / "design.png", full_page=True)
 
 

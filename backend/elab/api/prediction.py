@@ -4,6 +4,7 @@ went from it (:mod:`elab.runs.prediction`), made in a controller-trial worker.""
 from __future__ import annotations
 
 import asyncio
+from typing import TYPE_CHECKING
 
 from pydantic import ValidationError
 from starlette.requests import Request
@@ -21,6 +22,9 @@ from elab.plants import Plant, get_plant
 from elab.runs.prediction import Predicted, Replayed, compare, predict
 from elab.sim.spec import RunSpec
 from elab.store.base import ParamChange, RunRecord
+
+if TYPE_CHECKING:
+    from elab.design.response import StepInfo
 
 
 @endpoint(
@@ -55,7 +59,9 @@ async def get_prediction(request: Request) -> Response:
     stored, read = m.durable(record.id)
     n = record.n_stored if stored is None else min(stored, record.n_stored)
     names = [name for name, _ in record.channels]
-    compared, gaps = await asyncio.to_thread(compare, predicted, names, read, n, record.Ts)
+    ref = plant.outputs[plant.reference_output].name
+    offset = float((plant.C @ plant.operating_point)[plant.reference_output])
+    seen = await asyncio.to_thread(compare, predicted, names, read, n, record.Ts, (ref, offset))
     units = dict(record.channels)
     labels = {"u": plant.inputs[0].label} | {c.name: c.label for c in plant.outputs}
     notes = list(predicted.notes)
@@ -70,7 +76,7 @@ async def get_prediction(request: Request) -> Response:
             model=_model(record, plant),
             Ts=record.Ts,
             n=int(predicted.values.shape[0]),
-            compared=compared,
+            compared=seen.compared,
             replayed=predicted.replayed,
             diverged_at=predicted.diverged_at,
             channels=[
@@ -90,11 +96,30 @@ async def get_prediction(request: Request) -> Response:
                     max_abs=g.max_abs,
                     t_max=g.t_max,
                 )
-                for g in gaps
+                for g in seen.gaps
+            ],
+            steps=[
+                s.PredictionStep(
+                    output=st.output,
+                    unit=units.get(st.output, ""),
+                    t=st.t,
+                    span=st.span,
+                    start=st.start,
+                    target=st.target,
+                    run=_info(st.run),
+                    prediction=_info(st.prediction),
+                )
+                for st in seen.steps
             ],
             notes=notes,
         )
     )
+
+
+def _info(info: StepInfo | None) -> s.StepInfoOut | None:
+    if info is None:
+        return None
+    return s.StepInfoOut(**{k: convert.finite_or_none(v) for k, v in vars(info).items()})
 
 
 def _model(record: RunRecord, plant: Plant) -> str:

@@ -20,6 +20,8 @@ import math
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable, Hashable, Sequence
 from dataclasses import dataclass, replace
+from itertools import pairwise
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,6 +30,9 @@ from elab.engines.settings import CodeSettings
 from elab.laws import ControlLaw, is_code
 from elab.sim.signals import Signal
 from elab.sim.spec import RunSpec
+
+if TYPE_CHECKING:
+    from elab.design.response import StepInfo
 
 Array = NDArray[np.float64]
 PART = 65_536  # recorded rows compared at a time
@@ -135,18 +140,116 @@ class Gap:
     t_max: float
 
 
+#: the fewest samples of constant reference that make a step worth characterising
+MIN_STEP_SAMPLES = 20
+#: steps characterised at most (a 1-hour square wave has thousands)
+MAX_STEPS = 20
+
+
+@dataclass(frozen=True)
+class StepComparison:
+    """One step of the reference (constant from ``t`` for ``span`` s), the reference
+    output's response in the run and in the prediction: the design page's
+    characteristics (:func:`elab.design.step_info`) of each, measured from where its own
+    output was at the step (the run's: ``start``) toward ``target`` (both absolute);
+    ``None`` where a response has fewer than two measured samples."""
+
+    output: str
+    t: float
+    span: float
+    start: float
+    target: float
+    run: StepInfo | None
+    prediction: StepInfo | None
+
+
+def step_segments(r: Array, min_samples: int = MIN_STEP_SAMPLES) -> list[tuple[int, int]]:
+    """``(k0, k1)`` of each span where the reference ``r`` holds one value for at least
+    ``min_samples`` samples (a step, a square wave's half period; a sine has none), the
+    first :data:`MAX_STEPS`."""
+    if r.size == 0:
+        return []
+    edges = np.flatnonzero(np.abs(np.diff(r)) > 1e-12 * np.maximum(1.0, np.abs(r[1:]))) + 1
+    bounds = [0, *edges.tolist(), r.size]
+    spans = [(a, b) for a, b in pairwise(bounds) if b - a >= min_samples]
+    return spans[:MAX_STEPS]
+
+
+def step_response_info(y: Array, Ts: float, start: float, target: float) -> StepInfo | None:
+    """The characteristics of one span's samples ``y`` (NaN: not measured, left out) as a
+    step from ``start`` to ``target``: :func:`elab.design.step_info` of ``y − start``
+    toward ``target − start``, its peak and steady state given back in absolute terms."""
+    from elab.design import step_info  # on the thread that compares (python-control)
+
+    k = np.flatnonzero(np.isfinite(y))
+    if k.size < 2:
+        return None
+    info = step_info(k * Ts, y[k] - start, target - start)
+    return replace(info, peak=info.peak + start, steady_state=info.steady_state + start)
+
+
+def compare_steps(
+    predicted: Predicted,
+    output: str,
+    r: Array,
+    y: Array,
+    offset: float,
+    Ts: float,
+) -> tuple[StepComparison, ...]:
+    """Each step of the recorded reference ``r`` (the reference output ``output``'s,
+    ``offset`` its operating point) with the run's response ``y`` and the prediction's,
+    over the samples both have."""
+    if output not in predicted.names:
+        return ()
+    j = predicted.names.index(output)
+    m = min(r.size, y.size, predicted.values.shape[0])
+    steps = []
+    for k0, k1 in step_segments(r[:m]):
+        target = float(r[k0]) + offset
+        model = predicted.values[k0:k1, j]
+        start = float(y[k0]) if math.isfinite(y[k0]) else float(model[0])  # (a rig's gap)
+        steps.append(
+            StepComparison(
+                output=output,
+                t=k0 * Ts,
+                span=(k1 - k0) * Ts,
+                start=start,
+                target=target,
+                run=step_response_info(y[k0:k1], Ts, start, target),
+                prediction=step_response_info(model, Ts, float(model[0]), target),
+            )
+        )
+    return tuple(steps)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """A recording against its prediction: samples ``compared``, the ``gaps`` per
+    channel, the ``steps`` of its reference."""
+
+    compared: int
+    gaps: tuple[Gap, ...]
+    steps: tuple[StepComparison, ...]
+
+
 def compare(
     predicted: Predicted,
     names: Sequence[str],
     read: Callable[[int, int], Array],
     n: int,
     Ts: float,
-) -> tuple[int, tuple[Gap, ...]]:
-    """Samples compared (the first ``min(n, predicted)`` of the recording, ``names`` its
-    columns, ``read(k0, k1)`` its rows) and the gap of each predicted channel recorded,
-    over the samples measured (not those a rig dropped)."""
+    reference: tuple[str, float] | None = None,
+) -> Comparison:
+    """The first ``min(n, predicted)`` samples of the recording (``names`` its columns,
+    ``read(k0, k1)`` its rows) against the prediction: the gap of each predicted channel
+    recorded, over the samples measured (not those a rig dropped), and, given the
+    ``reference`` output's name and operating point, each step of the recorded reference
+    ``r`` (:func:`compare_steps`)."""
     m = min(n, predicted.values.shape[0])
     cols = [(j, names.index(name)) for j, name in enumerate(predicted.names) if name in names]
+    follow = reference is not None and "r" in names and reference[0] in names
+    r = np.empty(m if follow else 0)
+    y = np.empty(m if follow else 0)
     sq = np.zeros(len(cols))
     seen = np.zeros(len(cols))  # samples measured (a rig's dropped ones are NaN)
     worst = np.zeros(len(cols))
@@ -154,6 +257,10 @@ def compare(
     for k0 in range(0, m, PART):
         rows = read(k0, min(m, k0 + PART))
         k1 = k0 + rows.shape[0]
+        if follow:
+            assert reference is not None
+            r[k0:k1] = rows[:, names.index("r")]
+            y[k0:k1] = rows[:, names.index(reference[0])]
         for i, (j, c) in enumerate(cols):
             d = rows[:, c] - predicted.values[k0:k1, j]
             finite = np.isfinite(d)
@@ -174,7 +281,9 @@ def compare(
         )
         for i, (j, _) in enumerate(cols)
     )
-    return m, gaps
+    if reference is None or not follow:
+        return Comparison(m, gaps, ())
+    return Comparison(m, gaps, compare_steps(predicted, reference[0], r, y, reference[1], Ts))
 
 
 class Predictions:

@@ -11,6 +11,7 @@ from pydantic.json_schema import SkipJsonSchema
 from elab.api.schemas.base import Finite, Model
 from elab.api.schemas.controllers import ComputeTimes
 from elab.api.schemas.laws import Controller, PredefinedController
+from elab.api.schemas.plants import StepInfoOut
 from elab.api.schemas.signals import Signal
 
 
@@ -213,13 +214,32 @@ class PredictionGap(Model):
     t_max: float
 
 
+class PredictionStep(Model):
+    """One step of the recorded reference (constant from ``t`` for ``span`` s; the first
+    20 steps) and the reference output's response to it in the run and in the
+    prediction, with the design page's characteristics (``StepInfoOut``: times in s from
+    the step, overshoot in % of the change), each measured from where its own output was
+    at the step (the run's: ``start``) toward ``target`` (absolute, the output's
+    ``unit``). Null: fewer than two samples measured."""
+
+    output: str
+    unit: str
+    t: float
+    span: float
+    start: float
+    target: float
+    run: StepInfoOut | None
+    prediction: StepInfoOut | None
+
+
 class RunPrediction(Model):
     """What the model predicts for a run (the same plant model, law, reference, excitation,
     start state and actuator limit with ideal sensors, its live changes replayed) and how
     far the recording is from it. ``n``: samples predicted (the run's, or the first
     ``ELAB_PREDICTION_SAMPLES``); ``compared``: recorded samples compared so far (a live
     run's grow); ``diverged_at``: s where the predicted loop diverged or the predicted
-    controller failed (the prediction ends there)."""
+    controller failed (the prediction ends there); ``steps``: each step of the reference
+    over the samples compared, the run's response beside the prediction's."""
 
     run_id: str
     model: str
@@ -230,4 +250,5 @@ class RunPrediction(Model):
     diverged_at: float | None
     channels: list[PredictedChannel]
     gaps: list[PredictionGap]
+    steps: list[PredictionStep]
     notes: list[str]
