@@ -129,6 +129,7 @@ export interface ElabProtocol {
   OeSpec?: OeSpec;
   OpenLoopController?: OpenLoopController;
   OrderRow?: OrderRow;
+  OutcomeMark?: OutcomeMark;
   "PIDController-Input"?: PIDController;
   "PIDController-Output"?: PIDControllerOut;
   "PRBSSignal-Input"?: PRBSSignal;
@@ -899,6 +900,10 @@ export interface RunSummaryInfo {
    * a Python controller's time per step over the run, once it ended
    */
   compute: ComputeTimes | null;
+  /**
+   * how it went beyond its status, once it ended ([]: nothing to say; null: not known, a live run or one recorded before outcomes were kept)
+   */
+  outcome: OutcomeMark[] | null;
   url: string;
   /**
    * who started it, as others see them (guest 3f2a, a name)
@@ -913,6 +918,22 @@ export interface RunSummaryInfo {
    * the caller may pause, resume, stop, change and delete it (its owner or an instructor)
    */
   can_control: boolean;
+}
+/**
+ * Something about how a run went that its state alone would hide, from the sample
+ * ``k`` (at ``t`` s) on: ``left_range`` (an output left its model's valid range),
+ * ``saturated`` (the input sat at the actuator's limit), ``beyond_actuator`` (saturation
+ * off and |u| above the actuator's limit), ``ran_away`` (a closed loop's output ended far
+ * from the reference); ``text`` says it with the numbers.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "OutcomeMark".
+ */
+export interface OutcomeMark {
+  kind: "left_range" | "saturated" | "beyond_actuator" | "ran_away";
+  k: number;
+  t: number;
+  text: string;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema
@@ -1106,6 +1127,10 @@ export interface RunInfo {
    * a Python controller's time per step over the run, once it ended
    */
   compute: ComputeTimes | null;
+  /**
+   * how it went beyond its status, once it ended ([]: nothing to say; null: not known, a live run or one recorded before outcomes were kept)
+   */
+  outcome: OutcomeMark[] | null;
   url: string;
   /**
    * who started it, as others see them (guest 3f2a, a name)

@@ -11,7 +11,8 @@ import { identity } from "./identity";
 import { type ChangeEntry, type ChangeLike, ParamLog, shortLabel } from "./paramlog";
 import { channelColor, LivePlot, type LiveTrace } from "./plot";
 import { PredictionView } from "./prediction";
-import type { ComputeTimes, PlantDetail, RunInfo } from "./protocol.gen";
+import { outcomeItems } from "./outcome";
+import type { ComputeTimes, OutcomeMark, PlantDetail, RunInfo } from "./protocol.gen";
 import { ReplayControls } from "./replay";
 import { RigRunBar } from "./rigrun";
 import { PlantSchematic } from "./schematicview";
@@ -40,9 +41,9 @@ export interface RunPanelOptions {
   awaitCompute?: boolean;
 }
 
-/** How often, and how long, an ended run's record is asked for its compute times. */
-const COMPUTE_POLL_MS = 300;
-const COMPUTE_POLL_TRIES = 40;
+/** How often, and how long, an ended run's record is asked for its outcome and compute times. */
+const END_POLL_MS = 300;
+const END_POLL_TRIES = 40;
 
 export class RunPanel {
   readonly root: HTMLElement;
@@ -58,7 +59,9 @@ export class RunPanel {
   private readonly noticeEl = h("p.notice", { "aria-live": "polite", "data-testid": "run-notice" });
   /** a Python controller's compute time per step over the run, once it ended */
   private readonly computeEl = h("p.compute", { "data-testid": "run-compute-time", hidden: true });
-  private computeAsked = false;
+  /** how the run went beyond its state (saturated, ran away…), once it ended */
+  private readonly outcomeEl = h("ul.outcome", { "data-testid": "run-outcome", role: "status", hidden: true });
+  private endAsked = false;
   private closed = false;
   private readonly demoSlot = h("span.group");
   private readonly buttons: Record<"pause" | "resume" | "stop", HTMLButtonElement>;
@@ -151,6 +154,7 @@ export class RunPanel {
       ),
       this.predictionSlot,
       this.computeEl,
+      this.outcomeEl,
       this.noticeEl,
       this.messageEl,
     );
@@ -194,6 +198,7 @@ export class RunPanel {
     this.setState(run.status);
     this.setReason(run.status, run.error);
     this.setCompute(run.compute);
+    this.setOutcome(run.outcome ?? null);
     void this.offerPin();
     // the rig's gap to its model, and a design's run against the response it predicted:
     // the evidence is the point of both
@@ -326,10 +331,22 @@ export class RunPanel {
     this.options.onState?.(state);
     this.rig?.follow(state);
     this.progress();
-    if (ended && this.options.awaitCompute && !this.computeAsked && !this.run.compute) {
-      this.computeAsked = true;
-      void this.fetchCompute();
+    if (ended && !this.endAsked && !this.hasEnd(this.run)) {
+      this.endAsked = true;
+      void this.fetchEnd();
     }
+  }
+
+  /** Whether a record holds what is written with a run's end: its outcome, and a Python
+   * controller's compute times when they are awaited. */
+  private hasEnd(info: RunInfo): boolean {
+    return info.outcome !== null && info.outcome !== undefined && (!this.options.awaitCompute || !!info.compute);
+  }
+
+  /** How the run went beyond its state, each mark the server's sentence. */
+  private setOutcome(marks: OutcomeMark[] | null): void {
+    this.outcomeEl.hidden = !marks?.length;
+    fill(this.outcomeEl, ...outcomeItems(marks ?? []));
   }
 
   /** A Python controller's compute time per step, and the round trip the run waited for. */
@@ -338,12 +355,12 @@ export class RunPanel {
     fill(this.computeEl, c ? computeText(c) : null);
   }
 
-  /** The ended run's record, asked until it has the compute times (written with the end,
-   * a moment after the stream says it ended). A failure the stream did not explain is
-   * shown as the record says it. */
-  private async fetchCompute(): Promise<void> {
-    for (let i = 0; i < COMPUTE_POLL_TRIES && !this.closed; i++) {
-      if (i) await new Promise((resolve) => setTimeout(resolve, COMPUTE_POLL_MS));
+  /** The ended run's record, asked until it has its outcome and compute times (written
+   * with the end, a moment after the stream says it ended). A failure the stream did not
+   * explain is shown as the record says it. */
+  private async fetchEnd(): Promise<void> {
+    for (let i = 0; i < END_POLL_TRIES && !this.closed; i++) {
+      if (i) await new Promise((resolve) => setTimeout(resolve, END_POLL_MS));
       let info: RunInfo;
       try {
         info = await api.run(this.run.id);
@@ -352,9 +369,10 @@ export class RunPanel {
       }
       if (this.closed) return;
       if (ENDED.has(info.status) && info.error && !this.messageEl.textContent) this.setReason(info.status, info.error);
-      if (info.compute) {
-        this.run = { ...this.run, compute: info.compute };
-        this.setCompute(info.compute);
+      if (info.compute) this.setCompute(info.compute);
+      this.setOutcome(info.outcome ?? null);
+      if (this.hasEnd(info)) {
+        this.run = { ...this.run, compute: info.compute, outcome: info.outcome };
         return;
       }
     }

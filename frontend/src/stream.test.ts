@@ -38,7 +38,7 @@ function run(status = "running", n_samples = 0): RunInfo {
   return {
     id: "r-1", plant: "flexible_link", mode: "simulation", experiment: "analysis", status: status as RunInfo["status"], Ts: 0.001,
     channels: [{ name: "y", unit: "rad" }], n_planned: 10_000, n_samples, frame_samples: F, created_at: 0, started_at: 0,
-    finished_at: null, error: null, compute: null, url: "/api/v1/runs/r-1", stream_url: "/api/v1/runs/r-1/stream", data_url: "/api/v1/runs/r-1/data", request: {}, param_changes: [],
+    finished_at: null, error: null, compute: null, outcome: null, url: "/api/v1/runs/r-1", stream_url: "/api/v1/runs/r-1/stream", data_url: "/api/v1/runs/r-1/data", request: {}, param_changes: [],
     owner: "guest 3f2a", private: false, mine: true, can_control: true,
   };
 }

@@ -6,7 +6,7 @@ import { identLine, serverMessage, WireError } from "./wire";
 const run = {
   id: "r-1", plant: "flexible_link", mode: "simulation", experiment: "analysis", status: "running", Ts: 0.001,
   channels: [{ name: "y", unit: "rad" }], n_planned: 10, n_samples: 0, created_at: 0, started_at: 0,
-  finished_at: null, error: null, compute: null, url: "/api/v1/runs/r-1", frame_samples: 20, stream_url: "/s", data_url: "/d",
+  finished_at: null, error: null, compute: null, outcome: null, url: "/api/v1/runs/r-1", frame_samples: 20, stream_url: "/s", data_url: "/d",
   request: {}, param_changes: [], owner: "guest 3f2a", private: false, mine: true, can_control: true,
 };
 const VALID: Record<ServerMessage["type"], ServerMessage> = {

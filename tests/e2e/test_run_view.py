@@ -241,3 +241,34 @@ def test_classroom_mode_scales_every_text(page: Page) -> None:
         assert sizes[True][s] > sizes[False][s], (s, sizes)
     assert sizes[True][".panel h2"] > sizes[True]["body"]  # headings above body text
     assert sizes[True][".hint"] >= 16, sizes[True]  # the small print is readable too
+
+
+def test_an_unstable_designs_run_says_how_it_went_on_its_page_and_in_the_list(
+    page: Page, owner: httpx.Client, shots: Path
+) -> None:
+    """A pole at +5: the run ends "finished", and its page and the runs list say it sat at
+    the actuator's limit and ran away, with the server's sentences."""
+    from elab.design import design_place
+    from elab.plants import get_plant
+
+    K_bad = design_place(get_plant("flexible_link"), [5.0, -10, -20, -30]).K.ravel().tolist()
+    rid = start(
+        owner,
+        pace="fast",
+        duration=3,
+        experiment="design",
+        controller={"kind": "state_feedback", "K": K_bad},
+        signal={"kind": "step", "amplitude": math.radians(30)},
+    )
+    theta_deg_when_done(owner, rid)
+    page.goto(f"/runs/{rid}")
+    expect(page.locator(".run-panel .badge").first).to_have_text("finished")
+    marks = page.get_by_test_id("run-outcome")
+    expect(marks.locator("li")).to_have_count(2, timeout=20_000)
+    expect(marks.locator("li[data-kind=saturated]")).to_contain_text("±10 V")
+    expect(marks.locator("li[data-kind=ran_away]")).to_contain_text("unstable, or a sign is wrong")
+    marks.screenshot(path=shots / "run-outcome.png")
+    page.goto("/runs")
+    chip = page.locator(f"tr[data-run='{rid}'] [data-testid=outcome-chip]")
+    expect(chip).to_have_text("⚠ saturated, ran away")
+    assert "unstable, or a sign is wrong" in (chip.get_attribute("title") or "")

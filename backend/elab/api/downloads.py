@@ -136,6 +136,8 @@ def _header(record: RunRecord) -> dict[str, str]:
     }
     if record.error:  # who stopped it and why, why it failed or was interrupted
         header["reason"] = record.error
+    if record.outcome:  # what "finished" alone would hide, each with where it began
+        header["outcome"] = "; ".join(m["text"] for m in record.outcome)
     return header
 
 

@@ -51,6 +51,7 @@ def _summary_fields(record: RunSummary, who: Identity) -> dict[str, Any]:
         "finished_at": record.finished_at,
         "error": record.error,
         "compute": record.compute,
+        "outcome": record.outcome,
         "url": f"/api/v1/runs/{record.id}",
         "owner": display_name(record.owner),
         "private": record.private,

@@ -30,12 +30,13 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from elab.engines.base import Block, Ended, EngineEvents, StoreHealth
+from elab.engines.outcome import OutcomeTracker
 from elab.errors import ElabError
 from elab.lifecycle import RunState
 from elab.store.base import ParamChange, RunStore, StoreError
@@ -52,6 +53,7 @@ class _Tail:
     nch: int
     stored: int = 0  # samples committed to the store
     chunks: list[tuple[int, Array]] = field(default_factory=list)  # not yet committed
+    outcome: OutcomeTracker | None = None  # follows the committed samples, in order
 
     @property
     def pending_bytes(self) -> int:
@@ -166,9 +168,11 @@ class Recorder:
             log.error("closing with data not stored: %s", exc)
 
     # -- from the engine (any thread) -------------------------------------------
-    def open(self, run_id: str, nch: int) -> None:
+    def open(self, run_id: str, nch: int, outcome: OutcomeTracker | None = None) -> None:
+        """A new run of ``nch`` columns; ``outcome`` follows its samples as they are
+        committed (on the writer thread), and its marks are stored with the run's end."""
         with self._lock:
-            self._tails[run_id] = _Tail(nch)
+            self._tails[run_id] = _Tail(nch, outcome=outcome)
 
     def append(self, block: Block) -> None:
         """A block of new samples (rows ``k0[i] ..`` of run ``run_ids[i]`` in ``data[i]``).
@@ -244,6 +248,7 @@ class Recorder:
             return
         self.store.append_many(batch)
         stored: dict[str, int] = {}
+        trackers: dict[str, OutcomeTracker] = {}
         with self._lock:
             for rid, n in counts.items():
                 tail = self._tails.get(rid)
@@ -252,6 +257,11 @@ class Recorder:
                 done, tail.chunks = tail.chunks[:n], tail.chunks[n:]
                 tail.stored += sum(d.shape[0] for _, d in done)
                 stored[rid] = tail.stored
+                if tail.outcome is not None:
+                    trackers[rid] = tail.outcome
+        for rid, k0, data in batch:  # (this thread alone feeds them: not under the lock)
+            if rid in trackers:
+                trackers[rid].add(k0, data)
         self._on_committed(stored)
 
     def _flush_ops(self) -> None:
@@ -276,6 +286,7 @@ class Recorder:
                         error=op.error if op.final else None,  # a pause's reason is news only
                         finished_at=time.time() if op.final else None,
                         compute=op.compute,
+                        outcome=self._outcome(op.run_id) if op.final else None,
                     )
             except StoreError:
                 raise
@@ -287,6 +298,13 @@ class Recorder:
                     self._tails.pop(op.run_id, None)
             if isinstance(op, _Status) and op.final:
                 self._on_stored(op.run_id)
+
+    def _outcome(self, run_id: str) -> list[dict[str, Any]] | None:
+        """The marks of an ending run's committed samples (``None``: not followed)."""
+        with self._lock:
+            tail = self._tails.get(run_id)
+            tracker = tail.outcome if tail is not None else None
+        return None if tracker is None else tracker.marks()
 
     def _decide_end(self, op: _Status) -> _Status:
         """Commit the ending run's samples still waiting (raises :class:`StoreError`), then

@@ -43,6 +43,7 @@ from elab.engines.base import (
     RunOrder,
     StoreHealth,
 )
+from elab.engines.outcome import OutcomeTracker
 from elab.engines.recorder import Recorder
 from elab.engines.riglaw import (
     RigLaw,
@@ -164,7 +165,7 @@ class RigEngine(HostLoop):
                 private=order.private,
             )
             self.store.create_run(record)  # not under the lock: the loop takes it
-            self.recorder.open(record.id, len(CHANNELS))
+            self.recorder.open(record.id, len(CHANNELS), OutcomeTracker.of(run, CHANNELS))
             active = ActiveRun(record, law, Supervisor(self.limits, run.Ts))
         except BaseException:
             if law is not None:

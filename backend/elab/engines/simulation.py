@@ -32,6 +32,7 @@ from elab.engines.base import (
     StoreHealth,
 )
 from elab.engines.coded import CodedRun
+from elab.engines.outcome import OutcomeTracker
 from elab.engines.recorder import Recorder
 from elab.engines.settings import EngineSettings
 from elab.engines.stepper import Stepper
@@ -159,7 +160,7 @@ class SimulationEngine:
             private=order.private,
         )
         self.store.create_run(record)
-        self.recorder.open(record.id, len(record.channels))
+        self.recorder.open(record.id, len(record.channels), OutcomeTracker.of(run, record.channels))
         self._runs[record.id] = run
         self._events.started(self.id, record)
         stepper = self.stepper

@@ -99,6 +99,9 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
             FOREIGN KEY (rig, place, user_id) REFERENCES rig_queue (rig, place, user_id)
                 DEFERRABLE INITIALLY DEFERRED)""",
     ),
+    (  # 9: how a run went beyond its state (elab.engines.outcome): its marks as JSON
+        "ALTER TABLE runs ADD COLUMN outcome TEXT",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 

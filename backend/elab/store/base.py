@@ -63,6 +63,9 @@ class RunSummary:
     private: bool = False  # only its owner and instructors may see it
     # a code controller's compute time per step (steps, median_us, p99_us, max_us, misses)
     compute: dict[str, float | int] | None = None
+    # what a "finished" alone would hide (elab.engines.outcome): kind, k, t, text each;
+    # None: not known (a live run, or one recorded before outcomes were kept)
+    outcome: list[dict[str, Any]] | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -242,6 +245,7 @@ class RunStore(Protocol):
         finished_at: float | None = None,
         error: str | None = None,
         compute: dict[str, float | int] | None = None,
+        outcome: list[dict[str, Any]] | None = None,
     ) -> None:
         """Set ``status`` and those of the other fields that are given."""
 

@@ -3,6 +3,7 @@
 import { ENDED } from "../access";
 import { api } from "../api";
 import { h, link } from "../dom";
+import { outcomeChip } from "../outcome";
 import type { RunSummaryInfo } from "../protocol.gen";
 import { fmt } from "../units";
 import { errorText } from "./common";
@@ -32,7 +33,7 @@ function table(runs: RunSummaryInfo[], actions?: RowActions): HTMLElement {
           h("td", r.plant),
           h("td", r.experiment),
           h("td.owner", r.mine ? h("span", { title: r.owner }, "you") : r.owner, r.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null),
-          h("td", h("span.badge", { "data-state": r.status }, r.status)),
+          h("td", h("span.badge", { "data-state": r.status }, r.status), " ", outcomeChip(r.outcome)),
           h("td", `${fmt(r.n_samples * r.Ts)} s`),
           h("td", new Date(r.created_at * 1000).toLocaleString()),
           actions ? h("td.actions-cell", rowAction(r, actions)) : null,

@@ -169,3 +169,20 @@ def test_a_file_made_immutable_is_a_persistent_fault(store: SQLiteStore) -> None
         _chattr("-i", *files)
     store.append("r-1", 10, np.ones((100, NCH)))
     assert store.get_run("r-1").n_stored == 110
+
+
+def test_a_version_8_file_opens_upgraded_its_runs_outcome_unknown(tmp_path: Path) -> None:
+    """Migration 9: a run's outcome (elab.engines.outcome). A run recorded before has
+    none (``None``: not known, not "nothing to say"); a run ending now keeps its marks."""
+    path = restored(Path(__file__).parents[2] / "reference" / "store" / "v8.sql", tmp_path / "v8")
+    with SQLiteStore(path) as store:
+        old = store.get_run("r-0000000000c8")
+        assert old.status == "finished" and old.outcome is None
+        assert store.read("r-0000000000c8").tolist() == [[0.5, 1.0, 0.0], [0.5, 2.0, 0.1]]
+        marks = [{"kind": "saturated", "k": 1, "t": 0.001, "text": "u sat"}]
+        store.set_status("r-0000000000c8", "finished", outcome=marks)
+        assert store.get_run("r-0000000000c8").outcome == marks
+        assert store.list_runs()[0][0].outcome == marks
+    conn = sqlite3.connect(path)
+    assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
+    conn.close()

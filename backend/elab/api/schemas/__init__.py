@@ -133,6 +133,7 @@ from elab.api.schemas.plants import (
 from elab.api.schemas.rig import RigExtend, RigPlace, RigQueueInfo
 from elab.api.schemas.runs import (
     ChannelInfo,
+    OutcomeMark,
     ParamChangeInfo,
     ParamDiff,
     ParamsApplied,
@@ -257,6 +258,7 @@ __all__ = [
     "OpenLoopController",
     "Order",
     "OrderRow",
+    "OutcomeMark",
     "PIDController",
     "PRBSSignal",
     "ParamChangeInfo",

@@ -98,6 +98,19 @@ RunStateName = Literal[
 ]
 
 
+class OutcomeMark(Model):
+    """Something about how a run went that its state alone would hide, from the sample
+    ``k`` (at ``t`` s) on: ``left_range`` (an output left its model's valid range),
+    ``saturated`` (the input sat at the actuator's limit), ``beyond_actuator`` (saturation
+    off and |u| above the actuator's limit), ``ran_away`` (a closed loop's output ended far
+    from the reference); ``text`` says it with the numbers."""
+
+    kind: Literal["left_range", "saturated", "beyond_actuator", "ran_away"]
+    k: int
+    t: float
+    text: str
+
+
 class RunSummaryInfo(Model):
     """A run in a list: without its request and parameter changes (``GET /runs/{id}``
     has them)."""
@@ -120,6 +133,11 @@ class RunSummaryInfo(Model):
     )
     compute: ComputeTimes | None = Field(
         None, description="a Python controller's time per step over the run, once it ended"
+    )
+    outcome: list[OutcomeMark] | None = Field(
+        None,
+        description="how it went beyond its status, once it ended ([]: nothing to say; "
+        "null: not known, a live run or one recorded before outcomes were kept)",
     )
     url: str
     owner: str = Field(description="who started it, as others see them (guest 3f2a, a name)")

@@ -112,7 +112,7 @@ def _faults() -> Iterator[None]:
         raise StoreError(f"{exc} ({name})", transient=transient) from exc
 
 
-def json_column(field: str, value: dict[str, Any]) -> str:
+def json_column(field: str, value: dict[str, Any] | list[Any]) -> str:
     try:
         return json.dumps(value, allow_nan=False)
     except (TypeError, ValueError) as e:

@@ -19,7 +19,7 @@ from elab.store.sqlite.connections import NEWEST_FIRST, SQLiteConnections, json_
 
 _SUMMARY = (
     "id, plant, mode, experiment, status, Ts, channels, n_planned, n_stored, "
-    "created_at, started_at, finished_at, error, engine, owner, private, compute"
+    "created_at, started_at, finished_at, error, engine, owner, private, compute, outcome"
 )
 _COLUMNS = _SUMMARY + ", spec"
 # the chunk holding ``start`` and every later one starting before ``stop`` (their rows:
@@ -59,11 +59,12 @@ class SQLiteRuns(SQLiteConnections):
             record.owner,
             int(record.private),
             None if record.compute is None else json_column("compute", record.compute),
+            None if record.outcome is None else json_column("outcome", record.outcome),
             json_column("spec", record.spec),
         )
         with self._transaction() as conn:
             try:
-                conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 18)})", row)
+                conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 19)})", row)
             except sqlite3.IntegrityError:
                 raise Conflict(f"run {record.id!r} already exists; choose another id") from None
 
@@ -76,12 +77,14 @@ class SQLiteRuns(SQLiteConnections):
         finished_at: float | None = None,
         error: str | None = None,
         compute: dict[str, float | int] | None = None,
+        outcome: list[dict[str, Any]] | None = None,
     ) -> None:
         given = {
             "started_at": started_at,
             "finished_at": finished_at,
             "error": error,
             "compute": None if compute is None else json_column("compute", compute),
+            "outcome": None if outcome is None else json_column("outcome", outcome),
         }
         values = {"status": _status(status)} | {k: v for k, v in given.items() if v is not None}
         sets = ", ".join(f"{k} = :{k}" for k in values)
@@ -310,6 +313,7 @@ def _summary_fields(row: tuple[Any, ...]) -> dict[str, Any]:
         owner,
         private,
         compute,
+        outcome,
     ) = row
     return {
         "id": id_,
@@ -329,6 +333,7 @@ def _summary_fields(row: tuple[Any, ...]) -> dict[str, Any]:
         "owner": owner,
         "private": bool(private),
         "compute": None if compute is None else json.loads(compute),
+        "outcome": None if outcome is None else json.loads(outcome),
     }
 
 
