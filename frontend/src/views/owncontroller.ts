@@ -136,6 +136,11 @@ export class OwnControllerView {
     } catch (err) {
       fill(this.status);
       fill(this.uploadMsg, `${file.name} was refused: ${err instanceof FileRefused ? err.message : errorText(err)}`);
+      // the report on screen was another file's: it goes, so that nothing reads as this
+      // file's (the earlier controller stays in "Your controllers", to open again)
+      this.selected = null;
+      this.reportBox.hidden = true;
+      fill(this.reportBox);
       return;
     }
     const verdict = c.report.domain === "trial" ? (c.report.stable ? "its trial runs ran through" : "its trial runs failed") : c.report.stable ? "stable" : "unstable";
