@@ -138,7 +138,7 @@ def _check(plant: Plant, law: ControlLaw) -> Report:
         T = min(max(plant.signal.duration, 5.0 / slowest), 600.0)
         u = step_response(loop, T, 4001, amplitude, u_output=-1).u
         peak = float(np.max(np.abs(u)))
-        warnings += _saturation(plant, amplitude, peak)
+        warnings += saturation(plant, amplitude, peak)
     return Report(
         plant=plant.id,
         kind=type(law).__name__,
@@ -179,7 +179,7 @@ def _discrete(plant: Plant, law: LTIController, problems: list[str], warnings: l
         T = min(max(plant.signal.duration, 1.0), 600.0)
         u = step(close(Model(P.A, P.B, P.C, P.D, law.dt), two_dof(law)), law.dt, amplitude, T).u
         peak = float(np.max(np.abs(u)))
-        warnings += _saturation(plant, amplitude, peak)
+        warnings += saturation(plant, amplitude, peak)
     return Report(
         plant=plant.id,
         kind="LTIController",
@@ -196,7 +196,9 @@ def _discrete(plant: Plant, law: LTIController, problems: list[str], warnings: l
     )
 
 
-def _saturation(plant: Plant, amplitude: float, peak: float) -> list[str]:
+def saturation(plant: Plant, amplitude: float, peak: float) -> list[str]:
+    """The warning of a step of ``amplitude`` asking for a ``peak`` |u| beyond the
+    actuator: the same words for every report (linear, discrete, a code trial's)."""
     if peak <= plant.u_max:
         return []
     return [

@@ -110,6 +110,24 @@ def test_a_failing_controller_is_a_problem_in_the_report_with_its_line() -> None
     assert not unstable.rig_ready
 
 
+@pytest.mark.parametrize("Kp", [5.0, 30.0])
+def test_the_same_law_as_a_file_and_as_python_gets_the_same_peak_and_words(Kp: float) -> None:
+    """u = Kp (r − θ): the declarative report (the linear loop) and the Python trial (the
+    controller's own answers, before the actuator's limit) agree on the peak |u| for the
+    step within 1 %, and say saturation in the same sentence, or neither does."""
+    from elab.controllers.report import check
+
+    plant = get_plant("flexible_link")
+    declared = check(plant, PID(Kp=Kp))
+    code = f"class Controller:\n    def step(self, t, y, r):\n        return {Kp} * (r - y[0])\n"
+    coded = trial(plant, CodeController(code), LOOSE)
+    assert declared.peak_u is not None and coded.peak_u is not None
+    assert coded.peak_u == pytest.approx(declared.peak_u, rel=0.01)
+    said = [w for w in declared.warnings if "saturates" in w]
+    assert [w for w in coded.warnings if "saturates" in w] == said
+    assert bool(said) == (Kp * plant.signal.amplitude > plant.u_max)
+
+
 def test_a_saturating_or_slow_controller_gets_warnings() -> None:
     plant = get_plant("flexible_link")
     code = "class Controller:\n    def step(self, t, y, r):\n        return 50.0 * (r - y[0])\n"
