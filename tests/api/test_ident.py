@@ -73,8 +73,11 @@ def test_dryer_upload_reproduces_the_published_results(server: Server) -> None:
 
 
 def test_progress_lines_then_the_result(server: Server) -> None:
+    models = [{"kind": "arx", "na": 2, "nb": 2, "nk": 3}, {"kind": "n4sid", "order": 2}]
     r = _ident(
-        server, {"data": _file(), "arx_search": {"nk": [1, 10]}}, accept="application/x-ndjson"
+        server,
+        {"data": _file(), "arx_search": {"nk": [1, 10]}, "models": models},
+        accept="application/x-ndjson",
     )
     assert r.status_code == 200 and r.headers["content-type"].startswith("application/x-ndjson")
     for line in r.text.splitlines():  # every line is an IdentLine of the wire schema
@@ -82,6 +85,13 @@ def test_progress_lines_then_the_result(server: Server) -> None:
     lines = [json.loads(x) for x in r.text.splitlines()]
     progress = [ln["progress"]["done"] for ln in lines[:-1]]
     assert len(progress) >= 10 and progress == sorted(progress) and progress[-1] == 1.0
+    # each model is named before it is estimated (seconds each: never a silent bar)
+    stages = [ln["progress"]["stage"] for ln in lines[:-1]]
+    estimated = lines[-1]["result"]["models"]
+    n = len(estimated)
+    assert n == 2 and [st for st in stages if st.startswith("estimating ")] == [
+        f"estimating {m['name']}, model {i + 1} of {n}" for i, m in enumerate(estimated)
+    ], stages
     search = lines[-1]["result"]["analyses"]["arx_search"]
     assert len(search["rows"]) == 1000  # struc(1:10, 1:10, 1:10)
     assert min(row[3] for row in search["rows"]) <= 0.0022583  # [4 4 3] is among them

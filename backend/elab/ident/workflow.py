@@ -289,6 +289,7 @@ def _order_table(
     chosen = [m for m in plan.models if m.kind == "n4sid" and not m.orders.get("order")]
     if plan.n4sid_orders is None and not chosen:
         return None, None
+    report("subspace: the singular values of the data", 0.5)
     sub = decompose(ze, plan.horizon)
     choice = choose_order(sub, plan.n4sid_orders or range(1, min(10, sub.max_order) + 1))
     report("subspace", 0.6)
@@ -313,7 +314,10 @@ def _models(
         )
     best = 0 if orders is None else orders.best
     results = []
+    n = len(plan.models)
     for i, request in enumerate(plan.models):
+        # said before each model, which may take seconds (ARMAX and OE: several starts)
+        report(f"estimating {request.name}, model {i + 1} of {n}", 0.6 + 0.4 * i / n)
         model = _estimate(ze, request, sub, best, plan.horizon, i, plan.decimate > 1)
         result = assess(_name(request, model), model, ze, zv)
         chosen = request.kind == "n4sid" and not request.orders.get("order")
@@ -335,7 +339,7 @@ def _models(
             )
         results.append(replace(result, verdicts=verdicts))
         notes += model_notes(results[-1].name, model)
-        report(f"model {request.name}", 0.6 + 0.4 * (i + 1) / len(plan.models))
+        report(f"model {request.name}", 0.6 + 0.4 * (i + 1) / n)
     return tuple(results), notes
 
 
