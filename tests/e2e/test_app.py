@@ -357,9 +357,12 @@ def test_runs_list_filters_by_plant_and_opens_a_run(
     page.locator("#plant-filter").select_option("belt_conveyor")
     expect(page).to_have_url(re.compile(r"/runs\?plant=belt_conveyor$"))
     rows = page.locator("table.runs tbody tr")
-    expect(rows.first).to_contain_text("belt_conveyor")
-    for text in rows.all_inner_texts():
-        assert "belt_conveyor" in text
+    # people's names in the table, the ids in its data
+    expect(rows.first.locator("td[data-plant]")).to_have_text("Belt conveyor")
+    expect(rows.first.locator("td[data-experiment]")).to_have_text("System analysis")
+    for cell in rows.locator("td[data-plant]").all():
+        assert cell.get_attribute("data-plant") == "belt_conveyor"
+        assert cell.inner_text() == "Belt conveyor"
     page.screenshot(path=shots / "runs.png", full_page=True)
     rows.first.get_by_role("link").click()
     expect(page).to_have_url(re.compile(r"/runs/r-[0-9a-f]+$"))

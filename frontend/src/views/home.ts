@@ -31,8 +31,10 @@ export async function home(root: HTMLElement): Promise<() => void> {
   };
   const timer = setInterval(() => void showDemo(), DEMO_REFRESH_MS);
   await showDemo();
+  let names: Record<string, string> = {};
   try {
     const plants = await api.plants();
+    names = Object.fromEntries(plants.map((p) => [p.id, p.name]));
     fill(
       cards,
       ...plants.map((p) =>
@@ -59,7 +61,7 @@ export async function home(root: HTMLElement): Promise<() => void> {
     try {
       const list = await api.runs({ limit: 10 });
       const actions = { changed: () => void showRecent(), failed: (m: string) => fill(recentMsg, m) };
-      fill(recent, list.runs.length ? runTable(list.runs, actions) : h("p.muted", "No runs yet: start one from an experiment above."), list.total > list.runs.length ? h("p", link("/runs", `All ${list.total} runs`)) : null);
+      fill(recent, list.runs.length ? runTable(list.runs, actions, names) : h("p.muted", "No runs yet: start one from an experiment above."), list.total > list.runs.length ? h("p", link("/runs", `All ${list.total} runs`)) : null);
     } catch (err) {
       fill(recent, failure(err));
     }

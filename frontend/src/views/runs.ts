@@ -20,6 +20,7 @@ export async function runsPage(root: HTMLElement, _params: Record<string, string
   const plants = await api.plants().catch(() => []);
   const plant = h("select", { id: "plant-filter", "aria-label": "plant" }, h("option", { value: "" }, "all plants"), ...plants.map((p) => h("option", { value: p.id }, p.name)));
   plant.value = query.get("plant") ?? "";
+  const names = Object.fromEntries(plants.map((p) => [p.id, p.name]));
   let filter = filterFrom(query);
   let offset = Math.max(0, Number(query.get("offset")) || 0);
   const radios = FILTERS.map(([value, label]) => {
@@ -41,7 +42,7 @@ export async function runsPage(root: HTMLElement, _params: Record<string, string
     try {
       const list = await api.runs({ plant: plant.value || undefined, ...filterQuery(filter), limit: PAGE, offset });
       const actions = { changed: () => void load(), failed: (m: string) => fill(msg, m) };
-      fill(table, list.runs.length ? runTable(list.runs, actions) : h("p.muted", EMPTY[filter]));
+      fill(table, list.runs.length ? runTable(list.runs, actions, names) : h("p.muted", EMPTY[filter]));
       const prev = h("button", { type: "button", disabled: offset === 0, onclick: () => go(Math.max(0, offset - PAGE)) }, "Newer");
       const next = h("button", { type: "button", disabled: offset + PAGE >= list.total, onclick: () => go(offset + PAGE) }, "Older");
       fill(pager, prev, `${list.total ? offset + 1 : 0}–${Math.min(offset + PAGE, list.total)} of ${list.total}`, next);

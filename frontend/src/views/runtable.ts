@@ -6,7 +6,7 @@ import { h, link } from "../dom";
 import { outcomeChip } from "../outcome";
 import type { RunSummaryInfo } from "../protocol.gen";
 import { fmt } from "../units";
-import { errorText } from "./common";
+import { errorText, EXPERIMENTS } from "./common";
 
 export interface RowActions {
   /** a run was stopped or deleted: show the list again */
@@ -14,12 +14,13 @@ export interface RowActions {
   failed(message: string): void;
 }
 
-/** The table in a box that scrolls sideways on a narrow screen (the page itself never does). */
-export function runTable(runs: RunSummaryInfo[], actions?: RowActions): HTMLElement {
-  return h("div.table-scroll", table(runs, actions));
+/** The table in a box that scrolls sideways on a narrow screen (the page itself never does).
+ * `plants`: the plants' names by id (a plant not in it shows its id). */
+export function runTable(runs: RunSummaryInfo[], actions?: RowActions, plants: Record<string, string> = {}): HTMLElement {
+  return h("div.table-scroll", table(runs, actions, plants));
 }
 
-function table(runs: RunSummaryInfo[], actions?: RowActions): HTMLElement {
+function table(runs: RunSummaryInfo[], actions: RowActions | undefined, plants: Record<string, string>): HTMLElement {
   return h(
     "table.runs",
     h("thead", h("tr", h("th", "Run"), h("th", "Plant"), h("th", "Experiment"), h("th", "Owner"), h("th", "Status"), h("th", "Length"), h("th", "Started"), actions ? h("th", h("span.visually-hidden", "Actions")) : null)),
@@ -30,8 +31,8 @@ function table(runs: RunSummaryInfo[], actions?: RowActions): HTMLElement {
           "tr",
           { "data-run": r.id },
           h("td", link(`/runs/${r.id}`, h("span.mono", r.id))),
-          h("td", r.plant),
-          h("td", r.experiment),
+          h("td", { "data-plant": r.plant }, plants[r.plant] ?? r.plant),
+          h("td", { "data-experiment": r.experiment }, EXPERIMENTS[r.experiment]?.title ?? r.experiment),
           h("td.owner", r.mine ? h("span", { title: r.owner }, "you") : r.owner, r.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null),
           h("td", h("span.badge", { "data-state": r.status }, r.status), " ", outcomeChip(r.outcome)),
           h("td", `${fmt(r.n_samples * r.Ts)} s`),
