@@ -1,6 +1,8 @@
 // REST calls to /api/v1, typed by the generated wire protocol. Every failure becomes an
 // ApiError carrying the server's field errors, so a form can show each next to its field.
 import type {
+  HelpIndex,
+  HelpPage,
   AnalysisInfo,
   BodeList,
   ControllerUpload,
@@ -88,6 +90,8 @@ async function call<T>(method: string, path: string, body?: unknown): Promise<T>
 
 export const api = {
   plants: () => call<PlantSummary[]>("GET", "/plants"),
+  help: () => call<HelpIndex>("GET", "/help"),
+  helpPage: (name: string) => call<HelpPage>("GET", `/help/${encodeURIComponent(name)}`),
   plant: (id: string) => call<PlantDetail>("GET", `/plants/${encodeURIComponent(id)}`),
   analysis: (id: string) => call<AnalysisInfo>("GET", `/plants/${encodeURIComponent(id)}/analysis`),
   bode: (id: string) => call<BodeList>("GET", `/plants/${encodeURIComponent(id)}/bode`),

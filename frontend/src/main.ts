@@ -23,7 +23,7 @@ function shell(): HTMLElement {
   const main = h("main#main", { tabindex: "-1" });
   document.body.append(
     h("a.skip", { href: "#main" }, "Skip to content"),
-    h("div.topbar", link("/", h("span.logo", "E-Lab")), h("nav", link("/", "Experiments"), link("/runs", "Runs"), h("a", { href: "/api/v1/docs" }, "API")), whoAmI(), toggle),
+    h("div.topbar", link("/", h("span.logo", "E-Lab")), h("nav", link("/", "Experiments"), link("/runs", "Runs"), link("/help", "Help"), h("a", { href: "/api/v1/docs" }, "API")), whoAmI(), toggle),
     main,
   );
   return main;
@@ -67,5 +67,7 @@ router
   .add("/plants/:id/design", lazy(async () => (await import("./views/design")).designPage, true))
   .add("/runs", lazy(async () => (await import("./views/runs")).runsPage))
   .add("/runs/:id", lazy(async () => (await import("./views/run")).runPage, true))
-  .add("/account", lazy(async () => (await import("./views/account")).accountPage));
+  .add("/account", lazy(async () => (await import("./views/account")).accountPage))
+  .add("/help", lazy(async () => (await import("./views/help")).helpPage))
+  .add("/help/:name", lazy(async () => (await import("./views/help")).helpPage));
 void router.render();

@@ -98,6 +98,9 @@ export interface ElabProtocol {
   FitOut?: FitOut;
   Frame?: Frame;
   Hello?: Hello;
+  HelpEntry?: HelpEntry;
+  HelpIndex?: HelpIndex;
+  HelpPage?: HelpPage;
   IdentDataOut?: IdentDataOut;
   IdentDefaultsInfo?: IdentDefaultsInfo;
   IdentLine?: IdentLine;
@@ -1164,6 +1167,36 @@ export interface ParamChangeInfo {
   params: {
     [k: string]: unknown;
   };
+}
+/**
+ * A documentation page the app offers: its ``name`` (``GET /help/{name}``) and what
+ * it is for.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "HelpEntry".
+ */
+export interface HelpEntry {
+  name: string;
+  summary: string;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "HelpIndex".
+ */
+export interface HelpIndex {
+  pages: HelpEntry[];
+}
+/**
+ * A documentation page: its title (its first heading) and its markdown (links to
+ * other pages as ``name.md``).
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "HelpPage".
+ */
+export interface HelpPage {
+  name: string;
+  title: string;
+  markdown: string;
 }
 /**
  * The data as analysed (detrended), thinned to ≤ 5000 points per series: every

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import re
+
 from playwright.sync_api import Page, expect
 
 from tests.api.server import Server
@@ -98,3 +100,35 @@ def test_transfer_functions_say_what_they_map(page: Page) -> None:
         annotation = tf.locator("annotation").first.text_content() or ""
         assert annotation.startswith(f"\\frac{{\\{name}(s)}}{{u(s)}} = "), annotation
         assert symbol in tf.inner_text()
+
+
+def test_help_inside_the_app_from_an_experiment_page_to_a_term(page: Page) -> None:
+    """Issue 27, item 5: each experiment page says what the student will learn and links
+    its help; the help renders the docs, its links stay in the app, and a search finds a
+    term across the pages."""
+    page.goto("/plants/flexible_link/identification")
+    learn = page.get_by_test_id("learn")
+    expect(learn).to_contain_text("You will excite the plant")
+    learn.get_by_role("link", name="Help: the methods and the verdicts").click()
+    expect(page).to_have_url(re.compile(r"/help/identification$"))
+    expect(page.get_by_role("heading", name="System identification", level=1)).to_be_visible()
+    assert page.title() == "System identification · E-Lab"
+    # a link to another page of the help opens it in the app (no reload of the app)
+    page.evaluate("() => { window.__same = true; }")
+    page.get_by_role("link", name="Help", exact=True).first.click()
+    expect(page).to_have_url(re.compile(r"/help$"))
+    search = page.get_by_label("search the help")
+    search.fill("PRBS")
+    hits = page.get_by_test_id("help-results").get_by_role("link")
+    expect(hits.first).to_be_visible()
+    assert any(t.startswith("Glossary") for t in hits.all_inner_texts())
+    page.get_by_test_id("help-results").get_by_role(
+        "link", name=re.compile("^Glossary")
+    ).first.click()
+    expect(page).to_have_url(re.compile(r"/help/glossary#glossary$"))
+    expect(page.locator("article.help-page")).to_contain_text("pseudo-random binary sequence")
+    assert page.evaluate("() => window.__same") is True  # the router's, not a page load
+    search_nothing = "no-such-term-anywhere"
+    page.goto("/help")
+    page.get_by_label("search the help").fill(search_nothing)
+    expect(page.get_by_test_id("help-results")).to_contain_text("Nothing in the help says")

@@ -24,6 +24,7 @@ from elab.api import (  # noqa: F401  (registers their endpoints)
     controllers,
     designs,
     downloads,
+    helpdocs,
     ident,
     models,
     plants,
@@ -67,7 +68,15 @@ API = "/api/v1"
 #: The built browser app (``make install`` runs the frontend build into it).
 STATIC = Path(__file__).parent / "static"
 #: The app's own pages: each is answered with index.html and routed in the browser.
-APP_PAGES = ("/", "/plants/{rest:path}", "/runs", "/runs/{rest:path}", "/account")
+APP_PAGES = (
+    "/",
+    "/plants/{rest:path}",
+    "/runs",
+    "/runs/{rest:path}",
+    "/account",
+    "/help",
+    "/help/{rest:path}",
+)
 
 
 def create_app(settings: Settings | None = None) -> Starlette:

@@ -27,7 +27,8 @@ CONTROLLER_ID = Param(
     "controller_id", "path", "controller id (from POST /controllers)", required=True
 )
 TOKEN_ID = Param("token_id", "path", "token id (from POST /tokens)", required=True)
-PATH_PARAMS = {p.name: p for p in (PLANT_ID, RUN_ID, MODEL_ID, CONTROLLER_ID, TOKEN_ID)}
+HELP_PAGE = Param("page", "path", "help page name (from GET /help)", required=True)
+PATH_PARAMS = {p.name: p for p in (PLANT_ID, RUN_ID, MODEL_ID, CONTROLLER_ID, TOKEN_ID, HELP_PAGE)}
 PLANT_FILTER = Param(
     "plant", "query", "only those of this plant", {"type": "string", "enum": list(PLANTS)}
 )

@@ -201,6 +201,8 @@ WIRE_ROOTS: list[tuple[Any, Mode]] = [
     (s.ParamsApplied, "serialization"),
     (s.RunPrediction, "serialization"),
     (s.PlantSummary, "serialization"),
+    (s.HelpIndex, "serialization"),
+    (s.HelpPage, "serialization"),
     (s.PlantDetail, "serialization"),
     (s.AnalysisInfo, "serialization"),
     (s.BodeList, "serialization"),

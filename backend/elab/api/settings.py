@@ -100,6 +100,7 @@ class Settings:
     hosts: tuple[str, ...] = LOOPBACK
     origins: tuple[str, ...] = ()
     instructors: Path | None = None
+    docs: Path | None = None  # the help pages' markdown (None: the checkout's docs/)
     secure_cookies: bool = False
     session_hours: float = 12.0
     body_timeout: float = 10.0
@@ -179,6 +180,7 @@ class Settings:
             trusted_proxies=_names(env, "ELAB_TRUSTED_PROXIES", ()),
             origins=tuple(_origin(o) for o in _names(env, "ELAB_ORIGINS", ())),
             instructors=Path(env["ELAB_INSTRUCTORS"]) if env.get("ELAB_INSTRUCTORS") else None,
+            docs=Path(env["ELAB_DOCS"]) if env.get("ELAB_DOCS") else None,
             secure_cookies=_int(env, "ELAB_SECURE_COOKIES", 0, lo=0, hi=1) == 1,
             session_hours=_float(env, "ELAB_SESSION_HOURS", 12.0),
             rig=_rig(env),

@@ -2,7 +2,7 @@
 // tokens that let scripts act as you.
 import { identityLabel } from "../access";
 import { api } from "../api";
-import { copyText, fill, h } from "../dom";
+import { copyText, fill, h, link } from "../dom";
 import { identity } from "../identity";
 import type { Me, TokenCreated, TokenInfo } from "../protocol.gen";
 import { errorText, failure, loading, pageHeader } from "./common";
@@ -66,7 +66,7 @@ class AccountView {
       return;
     }
     if (!me.sign_in) {
-      fill(this.signIn, h("h2#sign-h", "Instructor sign-in"), h("p.muted", "This lab has no instructor accounts. Its operator makes them (docs/access.md); students need none."));
+      fill(this.signIn, h("h2#sign-h", "Instructor sign-in"), h("p.muted", "This lab has no instructor accounts. Its operator makes them (", link("/help/access", "Help: who may do what"), "); students need none."));
       return;
     }
     const name = h("input#sign-name", { name: "name", autocomplete: "username", required: true });

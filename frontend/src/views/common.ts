@@ -17,10 +17,25 @@ export function plantDetail(id: string): Promise<PlantDetail> {
   return p;
 }
 
-export const EXPERIMENTS: Record<string, { title: string; blurb: string }> = {
-  analysis: { title: "System analysis", blurb: "Eigenvalues, stability, transfer functions, Bode; a closed-loop run with gains you tune live." },
-  identification: { title: "Identification", blurb: "Excite with PRBS, sine or step; record the response and download it for identification." },
-  design: { title: "Controller design", blurb: "Design state feedback by LQR or pole placement, compare with the predefined controller, run it." },
+export const EXPERIMENTS: Record<string, { title: string; blurb: string; learn: string; help: [string, string] }> = {
+  analysis: {
+    title: "System analysis",
+    blurb: "Eigenvalues, stability, transfer functions, Bode; a closed-loop run with gains you tune live.",
+    learn: "You will read a plant's model as numbers (its poles, its transfer functions, its Bode plot) and see what they predict in a closed-loop run. Changing a gain while the run goes shows how each one shapes the response.",
+    help: ["glossary", "the words of the lab"],
+  },
+  identification: {
+    title: "Identification",
+    blurb: "Excite with PRBS, sine or step; record the response and download it for identification.",
+    learn: "You will excite the plant, record how it answers and estimate a model from the data alone. The verdicts say whether the data and each model can be trusted, and why.",
+    help: ["identification", "the methods and the verdicts"],
+  },
+  design: {
+    title: "Controller design",
+    blurb: "Design state feedback by LQR or pole placement, compare with the predefined controller, run it.",
+    learn: "You will design a controller on the model, see the response it predicts, then run it and compare the run with the prediction. Your own controller (a file or Python) gets the same checks.",
+    help: ["controllers", "controller files and Python"],
+  },
 };
 
 /** The page's header, which also names the browser tab after the page. */
@@ -59,8 +74,10 @@ export async function experimentPage(root: HTMLElement, plantId: string, experim
     return () => undefined;
   }
   const { content, cleanup } = build(plant);
-  const title = EXPERIMENTS[experiment]?.title.toLowerCase() ?? experiment;
-  root.replaceChildren(pageHeader(`${plant.name}: ${title}`, [[`/plants/${plant.id}`, plant.name]]), plantTabs(plant, `/plants/${plant.id}/${experiment}`), content);
+  const known = EXPERIMENTS[experiment];
+  const title = known?.title.toLowerCase() ?? experiment;
+  const learn = known ? h("p.lead.learn", { "data-testid": "learn" }, known.learn, " ", link(`/help/${known.help[0]}`, `Help: ${known.help[1]}`), ".") : "";
+  root.replaceChildren(pageHeader(`${plant.name}: ${title}`, [[`/plants/${plant.id}`, plant.name]], learn), plantTabs(plant, `/plants/${plant.id}/${experiment}`), content);
   return cleanup;
 }
 

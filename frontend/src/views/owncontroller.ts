@@ -5,7 +5,7 @@
 // compute time per step once it ended.
 import { api, templateUrl, type UploadedController } from "../api";
 import { FileRefused, MAX_FILE_BYTES, kib, uploadOf, type ControllerFormat } from "../controllerfile";
-import { fill, h } from "../dom";
+import { fill, h, link } from "../dom";
 import { durationField, SignalForm, StartOptions } from "../experiment";
 import { FieldSet } from "../forms";
 import type { PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
@@ -95,7 +95,7 @@ export class OwnControllerView {
     const links = TEMPLATES.map(([format, label]) => h("a", { href: templateUrl(p.id, format), download: `${p.id}-controller.${format}`, "data-format": format }, label));
     return [
       h("p", "Bring a controller as a file: state feedback, PID, any linear controller or open loop, or Python code (a class Controller with step(t, y, r) → u, run in a sandbox). Start from a template: it holds this plant's predefined controller, every field explained."),
-      h("p.templates", "Templates: ", ...links.flatMap((a, i) => (i ? [" · ", a] : [a]))),
+      h("p.templates", "Templates: ", ...links.flatMap((a, i) => (i ? [" · ", a] : [a])), " · ", link("/help/controllers", "every field explained")),
       h(
         "div.dropzone",
         h("label", { for: this.fileInput.id }, "Upload a controller file"),

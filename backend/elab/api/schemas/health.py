@@ -133,3 +133,24 @@ class HealthInfo(Model):
 
     status: Literal["ok", "degraded", "unavailable"]
     problems: list[str]
+
+
+class HelpEntry(Model):
+    """A documentation page the app offers: its ``name`` (``GET /help/{name}``) and what
+    it is for."""
+
+    name: str
+    summary: str
+
+
+class HelpIndex(Model):
+    pages: list[HelpEntry]
+
+
+class HelpPage(Model):
+    """A documentation page: its title (its first heading) and its markdown (links to
+    other pages as ``name.md``)."""
+
+    name: str
+    title: str
+    markdown: str
