@@ -68,6 +68,7 @@ router
   .add("/runs", lazy(async () => (await import("./views/runs")).runsPage))
   .add("/runs/:id", lazy(async () => (await import("./views/run")).runPage, true))
   .add("/account", lazy(async () => (await import("./views/account")).accountPage))
+  .add("/compare", lazy(async () => (await import("./views/compare")).comparePage, true))
   .add("/help", lazy(async () => (await import("./views/help")).helpPage))
   .add("/help/:name", lazy(async () => (await import("./views/help")).helpPage));
 void router.render();

@@ -272,3 +272,60 @@ def test_an_unstable_designs_run_says_how_it_went_on_its_page_and_in_the_list(
     chip = page.locator(f"tr[data-run='{rid}'] [data-testid=outcome-chip]")
     expect(chip).to_have_text("⚠ saturated, ran away")
     assert "unstable, or a sign is wrong" in (chip.get_attribute("title") or "")
+
+
+def test_two_runs_compared_by_link_and_their_csv_holds_both(
+    page: Page, owner: httpx.Client, shots: Path
+) -> None:
+    """Issue 27's acceptance: two runs ticked in Runs open /compare; the same link in a
+    fresh browser context (another visitor) draws both and saves one CSV holding both
+    recordings, sample by sample."""
+    square = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
+    first = start(owner, pace="fast", duration=2, signal=square)
+    softer = {"kind": "state_feedback", "K": [8.0, -40.0, 1.5, 0.4]}
+    second = start(owner, pace="fast", duration=1.5, signal=square, controller=softer)
+    rec = {rid: theta_deg_when_done(owner, rid) for rid in (first, second)}
+    page.goto("/runs")
+    link = page.get_by_test_id("compare-link")
+    expect(link).to_have_attribute("aria-disabled", "true")
+    for rid in (first, second):
+        page.get_by_label(f"compare run {rid}").check()
+    expect(link).to_have_attribute("aria-disabled", "false")
+    href = link.get_attribute("href")
+    assert href is not None and set(href.split("=")[1].split(",")) == {first, second}
+
+    # the link alone, in a fresh context: another visitor sees the same comparison
+    browser = page.context.browser
+    assert browser is not None
+    other = browser.new_context(base_url=page.url.split("/runs")[0], accept_downloads=True)
+    try:
+        fresh = other.new_page()
+        fresh.goto(f"/compare?runs={first},{second}")
+        plot = fresh.get_by_test_id("compare-plot")
+        expect(plot).to_be_visible()
+        fresh.wait_for_function(
+            "() => (document.querySelector('[data-testid=compare-plot]')?.data || []).length"
+        )
+        names = plot.evaluate("d => d.data.map(t => t.name)")
+        tags = [n[:3] for n in names]
+        assert tags.count("a: ") == tags.count("b: ") == 3, names
+        expect(fresh.locator("[data-compare=b] table.settings")).to_contain_text("K")
+        fresh.screenshot(path=shots / "compare.png", full_page=True)
+        with fresh.expect_download() as info:
+            fresh.get_by_test_id("compare-csv").click()
+        text = Path(info.value.path()).read_text()
+    finally:
+        other.close()
+    lines = [ln for ln in text.splitlines() if ln and not ln.startswith("#")]
+    header = lines[0].split(",")
+    rows = [ln.split(",") for ln in lines[1:]]
+    assert len(rows) == max(rec[first].size, rec[second].size) == 2000
+    a_theta, b_theta = header.index("a:theta (rad)"), header.index("b:theta (rad)")
+    got_a = np.degrees([float(r[a_theta]) for r in rows])
+    got_b = np.degrees([float(r[b_theta]) for r in rows if r[b_theta]])
+    np.testing.assert_allclose(got_a, rec[first], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got_b, rec[second], rtol=0, atol=1e-9)
+    # the same link with a run of another plant, or one run, says why not
+    belt = start(owner, plant="belt_conveyor", pace="fast", duration=0.5)
+    page.goto(f"/compare?runs={first},{belt}")
+    expect(page.get_by_test_id("compare-error")).to_contain_text("compare runs of one plant")

@@ -76,6 +76,7 @@ APP_PAGES = (
     "/account",
     "/help",
     "/help/{rest:path}",
+    "/compare",
 )
 
 

@@ -27,12 +27,25 @@ export async function runsPage(root: HTMLElement, _params: Record<string, string
     const input = h("input", { type: "radio", name: "show", value, checked: value === filter, onchange: () => ((filter = value), go(0)) });
     return h("label.inline", input, ` ${label}`);
   });
+  const chosen = new Set<string>();
+  const compareLink = h("a.button", { "data-testid": "compare-link", "aria-disabled": "true" }, "Compare the two ticked");
+  const picked = () => {
+    const ids = [...chosen];
+    const ready = ids.length === 2;
+    compareLink.setAttribute("aria-disabled", String(!ready));
+    if (ready) {
+      compareLink.setAttribute("href", `/compare?runs=${ids.join(",")}`);
+      compareLink.setAttribute("data-link", "");
+    } else compareLink.removeAttribute("href");
+    fill(compareLink, ready ? "Compare the two ticked" : `Tick two runs to compare (${ids.length} ticked)`);
+  };
+  picked();
   const table = h("div");
   const pager = h("div.toolbar");
   const msg = h("p.error", { role: "alert", "data-testid": "runs-error" });
   root.append(
     pageHeader("Runs", [["/runs", "Runs"]], h("p.lead", "Every run on this lab you may see, newest first. Open one to follow it live or replay it.")),
-    h("div.toolbar", h("div.group", { role: "radiogroup", "aria-label": "which runs" }, ...radios), h("label.inline", "Plant ", plant)),
+    h("div.toolbar", h("div.group", { role: "radiogroup", "aria-label": "which runs" }, ...radios), h("label.inline", "Plant ", plant), compareLink),
     msg,
     table,
     pager,
@@ -41,7 +54,7 @@ export async function runsPage(root: HTMLElement, _params: Record<string, string
   const load = async () => {
     try {
       const list = await api.runs({ plant: plant.value || undefined, ...filterQuery(filter), limit: PAGE, offset });
-      const actions = { changed: () => void load(), failed: (m: string) => fill(msg, m) };
+      const actions = { changed: () => void load(), failed: (m: string) => fill(msg, m), compare: { chosen, picked } };
       fill(table, list.runs.length ? runTable(list.runs, actions, names) : h("p.muted", EMPTY[filter]));
       const prev = h("button", { type: "button", disabled: offset === 0, onclick: () => go(Math.max(0, offset - PAGE)) }, "Newer");
       const next = h("button", { type: "button", disabled: offset + PAGE >= list.total, onclick: () => go(offset + PAGE) }, "Older");

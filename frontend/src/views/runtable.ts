@@ -12,6 +12,9 @@ export interface RowActions {
   /** a run was stopped or deleted: show the list again */
   changed(): void;
   failed(message: string): void;
+  /** the runs ticked to compare (a column of checkboxes when given); `picked` is called
+   * after each tick */
+  compare?: { chosen: Set<string>; picked(): void };
 }
 
 /** The table in a box that scrolls sideways on a narrow screen (the page itself never does).
@@ -23,13 +26,14 @@ export function runTable(runs: RunSummaryInfo[], actions?: RowActions, plants: R
 function table(runs: RunSummaryInfo[], actions: RowActions | undefined, plants: Record<string, string>): HTMLElement {
   return h(
     "table.runs",
-    h("thead", h("tr", h("th", "Run"), h("th", "Plant"), h("th", "Experiment"), h("th", "Owner"), h("th", "Status"), h("th", "Length"), h("th", "Started"), actions ? h("th", h("span.visually-hidden", "Actions")) : null)),
+    h("thead", h("tr", actions?.compare ? h("th", h("span.visually-hidden", "Compare")) : null, h("th", "Run"), h("th", "Plant"), h("th", "Experiment"), h("th", "Owner"), h("th", "Status"), h("th", "Length"), h("th", "Started"), actions ? h("th", h("span.visually-hidden", "Actions")) : null)),
     h(
       "tbody",
       ...runs.map((r) =>
         h(
           "tr",
           { "data-run": r.id },
+          actions?.compare ? h("td", compareBox(r, actions.compare)) : null,
           h("td", link(`/runs/${r.id}`, h("span.mono", r.id))),
           h("td", { "data-plant": r.plant }, plants[r.plant] ?? r.plant),
           h("td", { "data-experiment": r.experiment }, EXPERIMENTS[r.experiment]?.title ?? r.experiment),
@@ -42,6 +46,21 @@ function table(runs: RunSummaryInfo[], actions: RowActions | undefined, plants: 
       ),
     ),
   );
+}
+
+/** A run's tick for comparing. */
+function compareBox(r: RunSummaryInfo, compare: NonNullable<RowActions["compare"]>): HTMLInputElement {
+  return h("input", {
+    type: "checkbox",
+    "aria-label": `compare run ${r.id}`,
+    checked: compare.chosen.has(r.id),
+    onchange: (ev: Event) => {
+      const box = ev.target as HTMLInputElement;
+      if (box.checked) compare.chosen.add(r.id);
+      else compare.chosen.delete(r.id);
+      compare.picked();
+    },
+  });
 }
 
 /** Stop for a live run, Delete for an ended one; nothing for runs the viewer may not control. */
