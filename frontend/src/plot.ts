@@ -225,6 +225,9 @@ export class LivePlot {
     const layout: Partial<Plotly.Layout> = {
       ...baseLayout(),
       height: Math.max(320, this.div.clientHeight || 420),
+      // the container's own width: plotly's autosize follows the window, not a container
+      // that grows by itself (a run presented on the whole screen)
+      width: this.div.clientWidth || undefined,
       xaxis: { title: { text: "time t (s)" }, range: xRange, showgrid: true, anchor: axisId(nAxes) as Plotly.XAxisName },
       ...Object.fromEntries(
         domains(nAxes).map((domain, i) => [axisKey(i + 1), { title: { text: this.options.yTitles[i] }, domain, anchor: "x", zeroline: true, range: yRanges[i] }]),

@@ -62,6 +62,11 @@ export class RunPanel {
   /** how the run went beyond its state (saturated, ran away…), once it ended */
   private readonly outcomeEl = h("ul.outcome", { "data-testid": "run-outcome", role: "status", hidden: true });
   private endAsked = false;
+  /** the run alone on the screen, the plot as large as it goes (a projector); Esc leaves */
+  private readonly presentButton = h("button.present", { type: "button", "data-testid": "present", "aria-pressed": "false", onclick: () => this.present(!this.root.classList.contains("presenting")) }, "Present");
+  private readonly onKey = (ev: KeyboardEvent) => {
+    if (ev.key === "Escape" && this.root.classList.contains("presenting")) this.present(false);
+  };
   private closed = false;
   private readonly demoSlot = h("span.group");
   private readonly buttons: Record<"pause" | "resume" | "stop", HTMLButtonElement>;
@@ -131,6 +136,7 @@ export class RunPanel {
         this.connEl,
         h("span.owner", { "data-testid": "run-owner" }, controlLabel(run)),
         run.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null,
+        this.presentButton,
       ),
       this.rig?.root,
       h("div.run-view", this.plotDiv, this.schematic.root),
@@ -343,6 +349,17 @@ export class RunPanel {
     return info.outcome !== null && info.outcome !== undefined && (!this.options.awaitCompute || !!info.compute);
   }
 
+  /** The run alone on the screen (the plot filling it, the drawing over its top left
+   * corner, where the oldest samples are, the controls folded away), or back in its page. */
+  present(on: boolean): void {
+    this.root.classList.toggle("presenting", on);
+    this.presentButton.setAttribute("aria-pressed", String(on));
+    fill(this.presentButton, on ? "Leave (Esc)" : "Present");
+    if (on) document.addEventListener("keydown", this.onKey);
+    else document.removeEventListener("keydown", this.onKey);
+    this.plot.dirty();
+  }
+
   /** How the run went beyond its state, each mark the server's sentence. */
   private setOutcome(marks: OutcomeMark[] | null): void {
     this.outcomeEl.hidden = !marks?.length;
@@ -447,6 +464,7 @@ export class RunPanel {
 
   destroy(): void {
     this.closed = true;
+    document.removeEventListener("keydown", this.onKey);
     this.stream.close();
     this.replay?.destroy();
     this.schematic.destroy();

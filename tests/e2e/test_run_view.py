@@ -329,3 +329,42 @@ def test_two_runs_compared_by_link_and_their_csv_holds_both(
     belt = start(owner, plant="belt_conveyor", pace="fast", duration=0.5)
     page.goto(f"/compare?runs={first},{belt}")
     expect(page.get_by_test_id("compare-error")).to_contain_text("compare runs of one plant")
+
+
+def test_a_run_presented_on_a_projector_is_mostly_plot(
+    page: Page, owner: httpx.Client, shots: Path
+) -> None:
+    """Issue 27, item 4: at 1920×1080 in classroom mode, Present leaves the run alone on
+    the screen: the live plot covers at least 80 % of the viewport, the plant drawing sits
+    over its top left corner, the controls are folded away; Esc brings the page back."""
+    square = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
+    rid = start(owner, pace="fast", duration=3, signal=square)
+    theta_deg_when_done(owner, rid)
+    page.set_viewport_size({"width": 1920, "height": 1080})
+    page.goto("/")
+    page.evaluate("localStorage.setItem('elab.classroom', '1')")
+    page.goto(f"/runs/{rid}")
+    expect(page.locator(".run-panel .badge").first).to_have_text("finished")
+    page.get_by_test_id("present").click()
+    plot = page.get_by_test_id("live-plot")
+    page.wait_for_function(
+        """() => { const d = document.querySelector('[data-testid=live-plot]');
+          const r = d.getBoundingClientRect();
+          return r.height > 900 && d._fullLayout
+            && Math.abs(d._fullLayout.height - r.height) < 2
+            && Math.abs(d._fullLayout.width - r.width) < 2; }"""
+    )
+    box = plot.bounding_box()
+    assert box is not None
+    assert box["width"] * box["height"] >= 0.8 * 1920 * 1080, box
+    drawing = page.get_by_test_id("schematic").bounding_box()
+    # over the top left corner (the oldest samples), not the newest at the right edge
+    assert drawing is not None and drawing["x"] + drawing["width"] < box["x"] + box["width"] / 2
+    expect(page.get_by_role("button", name="Model prediction")).to_have_count(0)
+    expect(page.locator(".run-panel .toolbar")).to_be_hidden()
+    page.screenshot(path=shots / "run-presented.png")
+    page.keyboard.press("Escape")
+    expect(page.get_by_test_id("present")).to_have_text("Present")
+    expect(page.locator(".run-panel .toolbar")).to_be_visible()
+    small = plot.bounding_box()
+    assert small is not None and small["height"] < box["height"]
