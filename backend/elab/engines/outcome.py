@@ -16,7 +16,8 @@ The rules, each checked on the recorded (measured) samples:
 - **beyond the actuator**: saturation off and ``|u|`` above the actuator's limit; the
   first sample and the largest ``|u|``.
 - **ran away**: a closed loop whose reference output ends more than :data:`RUNAWAY` times
-  the reference's largest magnitude away from it (as the controller trial's "runs away").
+  the reference's largest magnitude away from it (as the controller trial's "runs away"),
+  that magnitude at least :data:`RUNAWAY_FLOOR` (5° or 50 mm: a loop held at r = 0).
 """
 
 from __future__ import annotations
@@ -39,6 +40,9 @@ SATURATED_S = 1.0
 SATURATED_SHARE = 0.1
 #: how many times the reference's largest magnitude the end may be off before "ran away"
 RUNAWAY = 10.0
+#: the least magnitude "ran away" measures against, by the output's unit: a loop held at
+#: r = 0 (regulation, an input excitation) ran away only past 10 times this
+RUNAWAY_FLOOR = {"rad": math.radians(5.0), "m": 0.05}
 #: relative margin under the limit that counts as at the limit (round-off of the clip)
 AT_LIMIT = 1e-9
 
@@ -210,16 +214,20 @@ class OutcomeTracker:
         if self._feedback and self._end is not None:
             r, y = self._end
             err = abs(y - self._offset - r)
-            scale = max(self._r_max, 1e-12)
-            if err > RUNAWAY * scale and err > 0:
-                unit = self.units.get(self._y_name, "")
+            unit = self.units.get(self._y_name, "")
+            scale = max(self._r_max, RUNAWAY_FLOOR.get(unit, 1.0))
+            if err > RUNAWAY * scale:
                 out.append(
                     self._mark(
                         "ran_away",
                         self.n - 1,
-                        f"{self._y_name} ended {_q(err, unit)} from the reference, "
-                        f"{err / scale:.3g} times its largest value: the loop is unstable, "
-                        "or a sign is wrong",
+                        f"{self._y_name} ended {_q(err, unit)} from the reference"
+                        + (
+                            f", {err / self._r_max:.3g} times its largest value"
+                            if self._r_max > 0
+                            else " (held at 0)"
+                        )
+                        + ": the loop is unstable, or a sign is wrong",
                     )
                 )
         return sorted(out, key=lambda m: int(m["k"]))

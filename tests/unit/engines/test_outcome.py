@@ -112,3 +112,17 @@ def test_dropped_samples_and_an_empty_run_are_quiet() -> None:
     assert tracker.marks() == []
     empty, _ = rows(RunSpec(FLEX, FLEX.predefined, Step(0.5), duration=0.1))
     assert empty.marks() == []
+
+
+def test_a_loop_held_at_zero_runs_away_only_far_from_it() -> None:
+    """A regulation (r = 0) from a start 3° off: the seed's LQR brings θ back to 0 and has
+    nothing to say (its small end error is no runaway); the pole at +5 from the same start
+    runs away, said against the held reference."""
+    x0 = (math.radians(3), 0.0, 0.0, 0.0)
+    calm = RunSpec(FLEX, FLEX.predefined, Step(0.0), duration=3.0, x0=x0)
+    assert marks(calm) == []
+    K = design_place(FLEX, [5.0, -10.0, -20.0, -30.0]).K
+    wild = RunSpec(FLEX, StateFeedback(tuple(K.ravel())), Step(0.0), duration=6.0, x0=x0)
+    got = {m["kind"]: m for m in marks(wild)}
+    assert "ran_away" in got, got
+    assert "(held at 0)" in str(got["ran_away"]["text"])
