@@ -368,3 +368,28 @@ def test_a_run_presented_on_a_projector_is_mostly_plot(
     expect(page.locator(".run-panel .toolbar")).to_be_visible()
     small = plot.bounding_box()
     assert small is not None and small["height"] < box["height"]
+
+
+CUT_INPUTS = """() => [...document.querySelectorAll(
+    'main input:not([type=checkbox]):not([type=radio]):not([type=range]):not([type=file]),'
+    + 'main select')]
+  .filter(e => e.offsetParent !== null && e.scrollWidth > e.clientWidth + 1)
+  .map(e => `${e.id || e.name || e.getAttribute('aria-label')}: ${e.value}`)"""
+
+
+@pytest.mark.parametrize("width,height", [(1920, 1080), (1280, 800)])
+@pytest.mark.parametrize("view", ["analysis", "design", "identification"])
+def test_no_input_is_cut_off_in_classroom_mode(
+    page: Page, view: str, width: int, height: int
+) -> None:
+    """Issue 27: in classroom mode the gain fields showed "-93.561" of -93.5614. Every
+    visible input and select shows its whole value (its scroll width within its box)."""
+    page.set_viewport_size({"width": width, "height": height})
+    page.goto("/")
+    page.evaluate("localStorage.setItem('elab.classroom', '1')")
+    page.goto(f"/plants/flexible_link/{view}")
+    page.locator("main .field input").first.wait_for()
+    if view == "design":
+        page.get_by_role("button", name="Design").click()
+        expect(page.get_by_test_id("gain")).to_contain_text("K = [")
+    assert page.evaluate(CUT_INPUTS) == []
