@@ -395,3 +395,24 @@ def test_the_link_model_reads_the_models_physics_from_an_identification_run(
     value = float(b.split("±")[0])
     assert abs(value / 355.31 - 1) < 0.01, b  # the seed's A: −(A[3,1] + A[2,1])
     table.screenshot(path=shots / "ident-link.png")
+
+
+def test_the_closed_loop_step_is_a_runs_size_and_says_its_peak_input(
+    page: Page, server: Server
+) -> None:
+    """Issue 27: the analysis page's closed-loop step was 1 rad (57°) and asked for about
+    20 V without a word. Now it is the runs' default reference (30° on the flexible link),
+    and the page states its peak |u| against the actuator's limit, as the API computes it."""
+    page.goto("/plants/flexible_link/analysis")
+    expect(page.get_by_role("heading", name=re.compile("Closed loop"))).to_have_text(
+        "Closed loop (a 30° step of servo angle θ, a run's default)"
+    )
+    peak = page.get_by_test_id("step-peak-u")
+    expect(peak).to_contain_text("Peak |u|")
+    step = httpx.post(
+        f"{server.url}/api/v1/plants/flexible_link/step",
+        json={"controller": {"kind": "predefined"}, "amplitude": np.radians(30)},
+    ).json()
+    shown = float(re.search(r"Peak \|u\| ([\d.]+) V", peak.inner_text()).group(1))  # type: ignore[union-attr]
+    assert shown == pytest.approx(max(abs(v) for v in step["u"]), rel=1e-3)  # (4 digits)
+    assert ("saturates" in peak.inner_text()) == (shown > 10)

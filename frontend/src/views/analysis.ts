@@ -10,7 +10,7 @@ import { tex } from "../markdown";
 import { chart, purge } from "../plot";
 import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
 import { RunPanel } from "../runpanel";
-import { fmt } from "../units";
+import { fmt, quantity } from "../units";
 import { downloadButton, errorText, experimentPage, failure, loading, showApiError } from "./common";
 import { RigModeChoice, type RunMode } from "./rigmode";
 import { StepPlot } from "./stepplot";
@@ -256,7 +256,12 @@ class AnalysisView {
     this.steps.push(open, closedPlot);
     const info = h("p.note");
     const update = h("button", { type: "button", onclick: () => void closed() }, "Update with the gains in the form");
-    fill(el, h("h2", "Step responses"), h("div.two", h("div", h("h3", "Open loop (unit step of u)"), open.root), h("div", h("h3", "Closed loop (step of the reference)"), closedPlot.root, info, update)));
+    // the closed loop's step as big as a run's default reference (30° for the flexible
+    // link), not 1 rad (57°, asking for about 20 V): the numbers a run will meet
+    const ref = p.outputs.find((o) => o.name === p.reference_output);
+    const amplitude = ("amplitude" in p.default_signal ? p.default_signal.amplitude : 0) || 1;
+    const size = quantity(amplitude, ref?.unit ?? "");
+    fill(el, h("h2", "Step responses"), h("div.two", h("div", h("h3", "Open loop (unit step of u)"), open.root), h("div", h("h3", `Closed loop (a ${size} step of ${ref?.label ?? p.reference_output}, a run's default)`), closedPlot.root, info, update)));
     try {
       open.show(await api.step(p.id, {}));
     } catch (err) {
@@ -269,10 +274,13 @@ class AnalysisView {
         return;
       }
       try {
-        const s = await api.step(p.id, { controller });
+        const s = await api.step(p.id, { controller, amplitude });
         closedPlot.show(s);
         const i = s.info;
-        fill(info, `Closed-loop poles: ${s.verdict}. `, i ? `Rise time ${fmt(i.rise_time)} s, 2 % settling ${fmt(i.settling_time)} s, overshoot ${fmt(i.overshoot)} %.` : "");
+        const peak = Math.max(0, ...s.u.map(Math.abs));
+        const limit = `${fmt(peak)} V against the actuator's ±${fmt(p.u_max)} V`;
+        const verdict = peak > p.u_max ? `${limit}: a run saturates and will not follow this linear response` : `${limit}: within it`;
+        fill(info, `Closed-loop poles: ${s.verdict}. `, i ? `Rise time ${fmt(i.rise_time)} s, 2 % settling ${fmt(i.settling_time)} s, overshoot ${fmt(i.overshoot)} %. ` : "", h("span", { "data-testid": "step-peak-u" }, `Peak |u| ${verdict}.`));
       } catch (err) {
         fill(info, err instanceof ApiError ? err.message : String(err));
       }
