@@ -416,3 +416,12 @@ def test_the_closed_loop_step_is_a_runs_size_and_says_its_peak_input(
     shown = float(re.search(r"Peak \|u\| ([\d.]+) V", peak.inner_text()).group(1))  # type: ignore[union-attr]
     assert shown == pytest.approx(max(abs(v) for v in step["u"]), rel=1e-3)  # (4 digits)
     assert ("saturates" in peak.inner_text()) == (shown > 10)
+
+
+def test_a_model_without_an_actuator_limit_says_so_where_runs_start(page: Page) -> None:
+    page.goto("/plants/double_pendulum/analysis")
+    expect(page.get_by_test_id("saturation-off")).to_contain_text("input is not limited")
+    expect(page.get_by_test_id("step-peak-u")).to_contain_text("Peak |u|")
+    page.goto("/plants/flexible_link/analysis")
+    expect(page.get_by_test_id("learn")).to_be_visible()
+    expect(page.get_by_test_id("saturation-off")).to_have_count(0)

@@ -279,7 +279,8 @@ class AnalysisView {
         const i = s.info;
         const peak = Math.max(0, ...s.u.map(Math.abs));
         const limit = `${fmt(peak)} V against the actuator's ±${fmt(p.u_max)} V`;
-        const verdict = peak > p.u_max ? `${limit}: a run saturates and will not follow this linear response` : `${limit}: within it`;
+        const beyond = p.saturate ? "a run saturates and will not follow this linear response" : "the model's actuator is not limited (saturation off), a real motor would not give it";
+        const verdict = peak > p.u_max ? `${limit}: ${beyond}` : `${limit}: within it`;
         fill(info, `Closed-loop poles: ${s.verdict}. `, i ? `Rise time ${fmt(i.rise_time)} s, 2 % settling ${fmt(i.settling_time)} s, overshoot ${fmt(i.overshoot)} %. ` : "", h("span", { "data-testid": "step-peak-u" }, `Peak |u| ${verdict}.`));
       } catch (err) {
         fill(info, err instanceof ApiError ? err.message : String(err));

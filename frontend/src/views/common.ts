@@ -77,7 +77,10 @@ export async function experimentPage(root: HTMLElement, plantId: string, experim
   const known = EXPERIMENTS[experiment];
   const title = known?.title.toLowerCase() ?? experiment;
   const learn = known ? h("p.lead.learn", { "data-testid": "learn" }, known.learn, " ", link(`/help/${known.help[0]}`, `Help: ${known.help[1]}`), ".") : "";
-  root.replaceChildren(pageHeader(`${plant.name}: ${title}`, [[`/plants/${plant.id}`, plant.name]], learn), plantTabs(plant, `/plants/${plant.id}/${experiment}`), content);
+  // a model whose actuator is not limited says so where its runs start (its u can reach
+  // tens of volts, and a run marks that "beyond the actuator")
+  const unlimited = plant.saturate ? "" : h("p.note.saturation-off", { "data-testid": "saturation-off" }, `This model's input is not limited: u may go beyond the actuator's ±${plant.u_max} V (a real motor would saturate there). A run that does says so.`);
+  root.replaceChildren(pageHeader(`${plant.name}: ${title}`, [[`/plants/${plant.id}`, plant.name]], learn, unlimited), plantTabs(plant, `/plants/${plant.id}/${experiment}`), content);
   return cleanup;
 }
 
