@@ -453,12 +453,15 @@ export class RunPanel {
     const n = this.ring.size;
     const t = new Float64Array(n);
     for (let i = 0; i < n; i++) t[i] = (k0 + i) * this.run.Ts;
+    // in the plot's units (degrees, mm): the numbers the plot shows; the recording's
+    // downloads (CSV, JSON, .mat) stay in SI
     const cols = this.run.channels.map((c) => {
-      const out = new Float32Array(n);
-      for (let i = 0; i < n; i++) out[i] = this.ring.at(c.name, k0 + i);
+      const { scale } = display(c.unit);
+      const out = new Float64Array(n);
+      for (let i = 0; i < n; i++) out[i] = this.ring.at(c.name, k0 + i) * scale;
       return out;
     });
-    const header = ["t (s)", ...this.run.channels.map((c) => `${c.name} (${c.unit})`)];
+    const header = ["t (s)", ...this.run.channels.map((c) => `${c.name} (${display(c.unit).unit})`)];
     saveText(`${this.run.id}-plot.csv`, csv(header, [t, ...cols]));
   }
 

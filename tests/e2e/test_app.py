@@ -317,11 +317,13 @@ def test_reconnects_after_a_network_blip_without_losing_samples(
         wait_samples(page, n)
         got = plot_data(page).splitlines()
         assert len(got) == n + 1
-        # every sample, in order, equal (as float32) to the recording
+        # every sample, in order, the recording's (held as float32 by the page) in the
+        # plot's degrees
         rec = httpx.get(f"{server.url}/api/v1/runs/{rid}/data?format=json&channels=theta").json()
-        col = got[0].split(",").index("theta (rad)")
-        mine = np.array([float(line.split(",")[col]) for line in got[1:]], dtype=np.float32)
-        assert np.array_equal(mine, np.asarray(rec["data"]["theta"], dtype=np.float32))
+        col = got[0].split(",").index("theta (°)")
+        mine = np.array([float(line.split(",")[col]) for line in got[1:]])
+        held = np.asarray(rec["data"]["theta"], dtype=np.float32).astype(np.float64)
+        np.testing.assert_allclose(mine, held * 180 / np.pi, rtol=1e-12, atol=1e-12)
     finally:
         context.close()
         proxy.close()
