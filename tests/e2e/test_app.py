@@ -113,10 +113,16 @@ def test_analysis_run_live_gain_change_stop_download_and_spectator(
     wait_samples(spectator, n)
     expect(spectator.locator(".run-panel .badge")).to_have_text("stopped")
     spectator.screenshot(path=shots / "run.png", full_page=True)
-    mine = plot_data(page)
-    theirs = plot_data(spectator)
-    assert mine == theirs
-    assert len(mine.splitlines()) == n + 1
+    mine = plot_data(page).splitlines()
+    theirs = plot_data(spectator).splitlines()
+    assert len(mine) == n + 1
+    # a late joiner starts 10 s before the live edge (runpanel.ts firstSeq): on a loaded
+    # machine the spectator's page opened more than 10 s into the run, so it may hold the
+    # run's last samples only; those are the owner's, row for row
+    assert theirs[0] == mine[0]  # the same columns
+    held = len(theirs) - 1
+    assert held >= min(n, 10_000), held
+    assert theirs[1:] == mine[len(mine) - held :]
     spectator.context.close()
 
 
