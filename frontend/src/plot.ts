@@ -110,6 +110,8 @@ export class LivePlot {
   private layoutKey = "";
   private yRanges: ([number, number] | null)[] = [];
   private readonly resize = new ResizeObserver(() => this.dirty());
+  /** purged: a draw already asked for (an animation frame away) does nothing */
+  private destroyed = false;
 
   constructor(
     readonly div: HTMLElement,
@@ -123,9 +125,10 @@ export class LivePlot {
   /** Redraw at the next animation frame that is at least MIN_FRAME_MS after the last draw
    * (many calls, one draw). */
   dirty(): void {
-    if (this.pending) return;
+    if (this.pending || this.destroyed) return;
     this.pending = true;
     const frame = (now: number) => {
+      if (this.destroyed) return; // purged meanwhile: plotly has nothing to draw into
       if (now - this.lastDraw < MIN_FRAME_MS) {
         requestAnimationFrame(frame);
         return;
@@ -167,6 +170,7 @@ export class LivePlot {
   }
 
   draw(): void {
+    if (this.destroyed) return;
     const { Ts, window } = this.options;
     const rings = [this.ring, ...this.traces.flatMap((tr) => (tr.ring ? [tr.ring] : []))];
     const held = Math.max(...rings.map((r) => r.end));
@@ -276,6 +280,7 @@ export class LivePlot {
   }
 
   destroy(): void {
+    this.destroyed = true;
     this.resize.disconnect();
     Plotly.purge(this.div);
   }
