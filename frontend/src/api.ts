@@ -88,6 +88,14 @@ async function call<T>(method: string, path: string, body?: unknown): Promise<T>
   return data as T;
 }
 
+/** A recording as the JSON download gives it (runs/export.py ``iter_json``). */
+export interface RecordingJson {
+  Ts: number;
+  k0: number;
+  t: number[];
+  data: Record<string, (number | null)[]>;
+}
+
 export const api = {
   plants: () => call<PlantSummary[]>("GET", "/plants"),
   help: () => call<HelpIndex>("GET", "/help"),
@@ -100,6 +108,9 @@ export const api = {
   place: (id: string, req: PlaceRequest) => call<DesignOut>("POST", `/plants/${encodeURIComponent(id)}/design/place`, req),
   runs: (query: RunsQuery = {}) => call<RunList>("GET", `/runs${queryString(query)}`),
   run: (id: string) => call<RunInfo>("GET", `/runs/${encodeURIComponent(id)}`),
+  /** A run's recording as JSON (the columns asked for): the download's `t`, `data`. */
+  recording: (id: string, channels: string[]) =>
+    call<RecordingJson>("GET", `/runs/${encodeURIComponent(id)}/data?${new URLSearchParams({ format: "json", channels: channels.join(",") }).toString()}`),
   /** the model's prediction of a run and how far its recording is from it so far */
   prediction: (id: string) => call<RunPrediction>("GET", `/runs/${encodeURIComponent(id)}/prediction`),
   createRun: (req: RunCreate) => call<RunInfo>("POST", "/runs", req),

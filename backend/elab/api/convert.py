@@ -7,7 +7,7 @@ import dataclasses
 import math
 import secrets
 from dataclasses import dataclass
-from typing import Any, assert_never
+from typing import TYPE_CHECKING, Any, assert_never
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,6 +19,9 @@ from elab.plants.base import Plant
 from elab.sim import signals as sig
 from elab.sim.spec import RunSpec
 from elab.store.base import JsonObject, RunRecord
+
+if TYPE_CHECKING:
+    from elab.design.response import StepInfo
 
 
 def law(model: s.Controller, plant: Plant) -> ControlLaw:
@@ -204,6 +207,11 @@ def complex_list(values: Any) -> list[s.Complex]:
 
 def finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
+
+
+def step_info(info: StepInfo) -> s.StepInfoOut:
+    """A step response's characteristics as the API gives them (undefined ones null)."""
+    return s.StepInfoOut(**{k: finite_or_none(v) for k, v in vars(info).items()})
 
 
 def finite_response(v: NDArray[np.float64]) -> list[float]:

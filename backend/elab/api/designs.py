@@ -103,9 +103,7 @@ def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
             t=r.t.tolist(),
             outputs={n: convert.finite_response(r.y[i]) for i, n in enumerate(names)},
             u=convert.finite_response(r.u),
-            info=None
-            if a.info is None
-            else s.StepInfoOut(**{k: convert.finite_or_none(v) for k, v in vars(a.info).items()}),
+            info=None if a.info is None else convert.step_info(a.info),
             poles=convert.complex_list(a.loop.poles),
             verdict=a.loop.verdict,
             cut=None,

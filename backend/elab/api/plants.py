@@ -186,7 +186,7 @@ def _step(p: Plant, law: ControlLaw, req: s.StepRequest) -> s.StepOut:
     info = None
     if loop == "closed" and cut is None and np.all(np.isfinite(r.y)):
         si = design.step_info(r.t, y_ref, req.amplitude)
-        info = s.StepInfoOut(**{k: convert.finite_or_none(v) for k, v in vars(si).items()})
+        info = convert.step_info(si)
     return s.StepOut(
         plant=p.id,
         loop=loop,

@@ -119,7 +119,7 @@ async def get_prediction(request: Request) -> Response:
 def _info(info: StepInfo | None) -> s.StepInfoOut | None:
     if info is None:
         return None
-    return s.StepInfoOut(**{k: convert.finite_or_none(v) for k, v in vars(info).items()})
+    return convert.step_info(info)
 
 
 def _model(record: RunRecord, plant: Plant) -> str:

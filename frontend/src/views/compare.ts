@@ -1,7 +1,7 @@
 // Two runs of a plant side by side (/compare?runs=a,b): their outputs and input drawn
 // together (the first solid, the second dashed), their settings and outcomes in two
 // columns, and one CSV holding both, sample by sample.
-import { api } from "../api";
+import { api, type RecordingJson } from "../api";
 import { csv, fill, h, link, saveText } from "../dom";
 import { outcomeWords } from "../outcome";
 import { chart, channelColor, type Series } from "../plot";
@@ -13,13 +13,7 @@ import { failure, loading, pageHeader, plantDetail } from "./common";
 /** The longest runs compared in the page (samples each); longer ones: their CSVs. */
 export const MAX_SAMPLES = 200_000;
 
-/** A recording as the JSON download gives it. */
-export interface Recording {
-  Ts: number;
-  k0: number;
-  t: number[];
-  data: Record<string, (number | null)[]>;
-}
+export type Recording = RecordingJson;
 
 /** Why two runs cannot be compared, or null. */
 export function refusal(a: RunInfo, b: RunInfo): string | null {
@@ -41,13 +35,6 @@ export function bothCsv(a: RunInfo, ra: Recording, b: RunInfo, rb: Recording, ch
   return lines + csv(header, [t, ...channels.map((c) => ra.data[c] ?? []), ...channels.map((c) => rb.data[c] ?? [])]);
 }
 
-async function recording(run: RunInfo, channels: string[]): Promise<Recording> {
-  const q = new URLSearchParams({ format: "json", channels: channels.join(",") });
-  const r = await fetch(`${run.data_url}?${q.toString()}`, { credentials: "same-origin" });
-  if (!r.ok) throw new Error(`run ${run.id}'s recording: ${r.status} ${r.statusText}`);
-  return (await r.json()) as Recording;
-}
-
 export async function comparePage(root: HTMLElement, _params: Record<string, string>, query: URLSearchParams): Promise<void> {
   const ids = (query.get("runs") ?? "").split(",").map((s) => s.trim()).filter(Boolean);
   const body = h("div", loading());
@@ -65,7 +52,7 @@ export async function comparePage(root: HTMLElement, _params: Record<string, str
   const channels = ["r", "u", ...plant.outputs.map((o) => o.name)].filter((c) => a.channels.some((x) => x.name === c) && b.channels.some((x) => x.name === c));
   let ra: Recording, rb: Recording;
   try {
-    [ra, rb] = await Promise.all([recording(a, channels), recording(b, channels)]);
+    [ra, rb] = await Promise.all([api.recording(a.id, channels), api.recording(b.id, channels)]);
   } catch (err) {
     return void fill(body, failure(err));
   }
