@@ -9,6 +9,7 @@ import math
 from typing import Any
 
 import httpx
+import numpy as np
 
 from elab.design import design_place
 from elab.plants import get_plant
@@ -54,13 +55,20 @@ def test_an_unstable_design_is_marked_on_its_record_in_the_list_and_in_its_csv(
         assert kinds == ["saturated", "ran_away"], run["outcome"]
         saturated, ran_away = run["outcome"]
         assert saturated["t"] == saturated["k"] * 1e-3 and saturated["t"] < 1.0
-        assert ran_away["k"] == 4999 and "unstable, or a sign is wrong" in ran_away["text"]
+        assert "unstable, or a sign is wrong" in ran_away["text"]
+        # where it ran away: from the recording, the first sample of the stretch to the end
+        # more than 10 × 30° off the reference
+        data = c.get(f"/runs/{bad['id']}/data", params={"format": "json"}).json()["data"]
+        off = np.abs(np.subtract(data["theta"], data["r"]))
+        k = int(np.flatnonzero(off <= 10 * math.radians(30))[-1]) + 1
+        assert 0 < k < 4999 and ran_away["k"] == k, (ran_away, k)
+        assert f"ran away from t = {k * 1e-3:.4g} s" in ran_away["text"]
         listed = {r["id"]: r for r in c.get("/runs", params={"limit": 50}).json()["runs"]}
         assert listed[bad["id"]]["outcome"] == run["outcome"]
         assert listed[good["id"]]["outcome"] == []
         csv = c.get(f"/runs/{bad['id']}/data", params={"format": "csv"}).text
         head = [line for line in csv.splitlines() if line.startswith("# outcome: ")]
         assert len(head) == 1 and "u sat at the actuator's limit" in head[0], head
-        assert "ran away" not in head[0] and "unstable, or a sign is wrong" in head[0]
+        assert "ran away from t = " in head[0] and "unstable, or a sign is wrong" in head[0]
         good_csv = c.get(f"/runs/{good['id']}/data", params={"format": "csv"}).text
         assert "# outcome:" not in good_csv

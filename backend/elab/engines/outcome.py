@@ -17,7 +17,9 @@ The rules, each checked on the recorded (measured) samples:
   first sample and the largest ``|u|``.
 - **ran away**: a closed loop whose reference output ends more than :data:`RUNAWAY` times
   the reference's largest magnitude away from it (as the controller trial's "runs away"),
-  that magnitude at least :data:`RUNAWAY_FLOOR` (5° or 50 mm: a loop held at r = 0).
+  that magnitude at least :data:`RUNAWAY_FLOOR` (5° or 50 mm: a loop held at r = 0); the
+  first sample of the stretch, reaching the end, where it was that far off (measured
+  against the reference's largest magnitude up to each sample).
 """
 
 from __future__ import annotations
@@ -95,6 +97,7 @@ class OutcomeTracker:
         self._beyond: tuple[int, float] | None = None  # first sample, largest |u|
         self._r_max = 0.0
         self._end: tuple[float, float] | None = None  # the last (r, y) measured
+        self._away: int | None = None  # the first sample of the stretch far off, to now
 
     @classmethod
     def of(cls, run: CompiledRun, channels: tuple[tuple[str, str], ...]) -> OutcomeTracker:
@@ -137,6 +140,8 @@ class OutcomeTracker:
         peak = float(np.nanmax(np.abs(r))) if not np.isnan(r).all() else math.nan
         if peak > self._r_max:
             self._r_max = peak
+        if self._feedback:
+            self._far_off(k0, rows[:, self._y], r)
         last_r, last_y = float(r[-1]), float(rows[-1, self._y])
         if math.isfinite(last_r) and math.isfinite(last_y):
             self._end = (last_r, last_y)
@@ -145,6 +150,22 @@ class OutcomeTracker:
             if measured.size:
                 self._end = (float(r[measured[-1]]), float(rows[measured[-1], self._y]))
         self.n = k0 + n
+
+    def _far_off(self, k0: int, y: Array, r: Array) -> None:
+        """Follow the stretch of samples more than :data:`RUNAWAY` times off the reference
+        (a sample a rig dropped, NaN, neither ends nor starts one)."""
+        unit = self.units.get(self._y_name, "")
+        limit = RUNAWAY * max(self._r_max, RUNAWAY_FLOOR.get(unit, 1.0))
+        with np.errstate(invalid="ignore"):
+            err = np.abs(y - self._offset - r)
+            far, near = err > limit, err <= limit
+        last_near = np.flatnonzero(near)
+        if last_near.size:
+            after = np.flatnonzero(far[last_near[-1] + 1 :])
+            self._away = k0 + int(last_near[-1]) + 1 + int(after[0]) if after.size else None
+        elif self._away is None:
+            first = np.flatnonzero(far)
+            self._away = k0 + int(first[0]) if first.size else None
 
     def _limit(self, k0: int, at: NDArray[np.bool_]) -> None:
         """Count the samples at the limit and the longest stretch of them, across parts."""
@@ -217,11 +238,13 @@ class OutcomeTracker:
             unit = self.units.get(self._y_name, "")
             scale = max(self._r_max, RUNAWAY_FLOOR.get(unit, 1.0))
             if err > RUNAWAY * scale:
+                k = self.n - 1 if self._away is None else self._away
                 out.append(
                     self._mark(
                         "ran_away",
-                        self.n - 1,
-                        f"{self._y_name} ended {_q(err, unit)} from the reference"
+                        k,
+                        f"{self._y_name} ran away from t = {k * self.Ts:.4g} s and ended "
+                        f"{_q(err, unit)} from the reference"
                         + (
                             f", {err / self._r_max:.3g} times its largest value"
                             if self._r_max > 0

@@ -53,7 +53,12 @@ def test_an_unstable_design_saturates_and_runs_away() -> None:
     saturated, ran_away = got
     assert float(saturated["t"]) < 1.0  # pinned from the first second on
     assert "±10 V" in str(saturated["text"]) and "in a row" in str(saturated["text"])
-    assert ran_away["k"] == 9999 and "unstable, or a sign is wrong" in str(ran_away["text"])
+    assert "unstable, or a sign is wrong" in str(ran_away["text"])
+    # from the first sample of the stretch to the end where θ is 10 × 30° or more off
+    _, data = rows(spec)
+    near = np.flatnonzero(np.abs(data[:, 2] - data[:, 0]) <= 10 * math.radians(30))
+    assert 0 < near[-1] + 1 < 9999 and ran_away["k"] == near[-1] + 1
+    assert f"ran away from t = {(near[-1] + 1) * 1e-3:.4g} s" in str(ran_away["text"])
 
 
 def test_open_loop_drift_is_not_a_runaway_but_its_saturation_is_said() -> None:
