@@ -115,7 +115,7 @@ export class PredictionView {
   private readonly steps = h("div.prediction-steps");
   private readonly message = h("p.error", { role: "alert" });
   private closed = false;
-  private readonly plotDiv = h("div.diff-plot", { "data-testid": "prediction-diff", "aria-label": "run minus prediction" });
+  private readonly plotDiv = h("div.diff-plot", { "data-testid": "prediction-diff", role: "figure", "aria-label": "run minus prediction" });
 
   constructor(
     prediction: RunPrediction,

@@ -113,6 +113,7 @@ export interface ElabProtocol {
   LQRRequest?: LQRRequest;
   "LTIControllerModel-Input"?: LTIControllerModel;
   "LTIControllerModel-Output"?: LTIControllerModelOut;
+  LessonStepInfo?: LessonStepInfo;
   LinkSpec?: LinkSpec;
   LoopOut?: LoopOut;
   LoopRequest?: LoopRequest;
@@ -1573,6 +1574,81 @@ export interface LQRRequest {
   R?: number | [number[], ...number[][]];
 }
 /**
+ * One run of the plant's lesson, ready to start: the fields of ``POST /runs`` it
+ * sets (with ``plant`` and ``experiment`` "analysis").
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "LessonStepInfo".
+ */
+export interface LessonStepInfo {
+  title: string;
+  text: string;
+  controller:
+    | PredefinedController
+    | StateFeedbackControllerOut
+    | PIDControllerOut
+    | LTIControllerModelOut
+    | OpenLoopController;
+  signal:
+    | StepSignalOut
+    | SquareSignalOut
+    | SineSignalOut
+    | ChirpSignalOut
+    | PRBSSignalOut
+    | SamplesSignal;
+  duration: number;
+  /**
+   * the absolute initial state (null: the operating point)
+   */
+  x0: number[] | null;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "StepSignal-Output".
+ */
+export interface StepSignalOut {
+  kind: "step";
+  amplitude: number;
+  t0: number;
+  offset: number;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "SquareSignal-Output".
+ */
+export interface SquareSignalOut {
+  kind: "square";
+  amplitude: number;
+  period: number;
+  offset: number;
+  duty: number;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "SineSignal-Output".
+ */
+export interface SineSignalOut {
+  kind: "sine";
+  amplitude: number;
+  /**
+   * Hz
+   */
+  frequency: number;
+  phase: number;
+  offset: number;
+}
+/**
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "PRBSSignal-Output".
+ */
+export interface PRBSSignalOut {
+  kind: "prbs";
+  amplitude: number;
+  order: number;
+  band: number;
+  offset: number;
+}
+/**
  * What the design page shows of a loop besides its step: poles, verdict, margins, root
  * locus, and the peak |u| a reference step of ``amplitude`` asks (null: unstable).
  *
@@ -1997,17 +2073,6 @@ export interface ModelPID {
   N?: number;
 }
 /**
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "PRBSSignal-Output".
- */
-export interface PRBSSignalOut {
-  kind: "prbs";
-  amplitude: number;
-  order: number;
-  band: number;
-  offset: number;
-}
-/**
  * One value a change altered: ``field`` as in the request (``signal.amplitude``,
  * ``controller.K.1``), values in SI units (``null``: not set).
  *
@@ -2136,42 +2201,11 @@ export interface PlantDetail {
    */
   integrating: boolean;
   identification: IdentDefaultsInfo1;
-  description: string;
-}
-/**
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "StepSignal-Output".
- */
-export interface StepSignalOut {
-  kind: "step";
-  amplitude: number;
-  t0: number;
-  offset: number;
-}
-/**
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "SquareSignal-Output".
- */
-export interface SquareSignalOut {
-  kind: "square";
-  amplitude: number;
-  period: number;
-  offset: number;
-  duty: number;
-}
-/**
- * This interface was referenced by `ElabProtocol`'s JSON-Schema
- * via the `definition` "SineSignal-Output".
- */
-export interface SineSignalOut {
-  kind: "sine";
-  amplitude: number;
   /**
-   * Hz
+   * the runs a presenter steps through with one key (the chapter's: the plant alone, an arbitrary gain, the designed controller)
    */
-  frequency: number;
-  phase: number;
-  offset: number;
+  lesson: LessonStepInfo[];
+  description: string;
 }
 /**
  * what the identification page proposes for this plant's runs, and why

@@ -36,10 +36,17 @@ export interface RunPanelOptions {
   onState?(state: string): void;
   /** a live parameter change arrived (the run page's table follows it) */
   onChange?(change: ChangeEntry): void;
+  /** a step of the plant's lesson: its caption in the run's bar, and what the presenter's
+   * key (→, Page Down, N) starts next while presenting (null: the last step) */
+  lesson?: { caption: string; next: (() => void) | null };
   /** a Python controller's run: once it ends, fetch its record for the controller's
    * compute time per step (the record has it a moment after the end) */
   awaitCompute?: boolean;
 }
+
+/** The keys that start a lesson's next step while presenting (a presenter's clicker sends
+ * Page Down). */
+const NEXT_KEYS = new Set(["ArrowRight", "PageDown", "n", "N"]);
 
 /** How often, and how long, an ended run's record is asked for its outcome and compute times. */
 const END_POLL_MS = 300;
@@ -65,13 +72,20 @@ export class RunPanel {
   /** the run alone on the screen, the plot as large as it goes (a projector); Esc leaves */
   private readonly presentButton = h("button.present", { type: "button", "data-testid": "present", "aria-pressed": "false", onclick: () => this.present(!this.root.classList.contains("presenting")) }, "Present");
   private readonly onKey = (ev: KeyboardEvent) => {
-    if (ev.key === "Escape" && this.root.classList.contains("presenting")) this.present(false);
+    if (!this.root.classList.contains("presenting")) return;
+    if (ev.key === "Escape") this.present(false);
+    const next = this.options.lesson?.next;
+    if (next && NEXT_KEYS.has(ev.key) && !ev.repeat) {
+      ev.preventDefault();
+      document.removeEventListener("keydown", this.onKey); // one key, one step
+      next();
+    }
   };
   private closed = false;
   private readonly demoSlot = h("span.group");
   private readonly buttons: Record<"pause" | "resume" | "stop", HTMLButtonElement>;
   private readonly windowSel: HTMLSelectElement;
-  private readonly plotDiv = h("div.live-plot", { "data-testid": "live-plot", "aria-label": "live plot of the run" });
+  private readonly plotDiv = h("div.live-plot", { "data-testid": "live-plot", role: "figure", "aria-label": "live plot of the run" });
   private readonly schematic: PlantSchematic;
   private replay: ReplayControls | null = null;
   private readonly replaySlot = h("div.replay-slot");
@@ -136,6 +150,7 @@ export class RunPanel {
         this.connEl,
         h("span.owner", { "data-testid": "run-owner" }, controlLabel(run)),
         run.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null,
+        options.lesson ? h("span.lesson-caption", { "data-testid": "lesson-caption" }, options.lesson.caption, options.lesson.next ? h("small", " (→ next)") : h("small", " (the last step)")) : null,
         this.presentButton,
       ),
       this.rig?.root,

@@ -267,6 +267,7 @@ def test_an_unstable_designs_run_says_how_it_went_on_its_page_and_in_the_list(
     expect(marks.locator("li")).to_have_count(2, timeout=20_000)
     expect(marks.locator("li[data-kind=saturated]")).to_contain_text("±10 V")
     expect(marks.locator("li[data-kind=ran_away]")).to_contain_text("unstable, or a sign is wrong")
+    expect(marks.locator("li[data-kind=ran_away]")).to_contain_text(re.compile(r"from t = \d"))
     marks.screenshot(path=shots / "run-outcome.png")
     page.goto("/runs")
     chip = page.locator(f"tr[data-run='{rid}'] [data-testid=outcome-chip]")
@@ -368,6 +369,48 @@ def test_a_run_presented_on_a_projector_is_mostly_plot(
     expect(page.locator(".run-panel .toolbar")).to_be_visible()
     small = plot.bounding_box()
     assert small is not None and small["height"] < box["height"]
+
+
+def test_a_presenter_steps_through_the_chapters_runs_with_one_key(
+    page: Page, owner: httpx.Client, shots: Path
+) -> None:
+    """Issue 27, item 4: *Present the lesson* starts the chapter's first run (the plant
+    alone) on the whole screen; one key (Page Down, what a presenter's clicker sends, or →)
+    stops it and starts the next: the arbitrary gain, then the LQR, each with its caption
+    and the settings the plant's lesson gives."""
+    lesson = owner.get("/plants/flexible_link").json()["lesson"]
+    page.set_viewport_size({"width": 1920, "height": 1080})
+    page.goto("/plants/flexible_link/analysis")
+    page.get_by_test_id("present-lesson").click()
+    runs: list[str] = []
+    for i, key in enumerate(["PageDown", "ArrowRight", None]):
+        panel = page.locator(".run-panel.presenting")
+        caption = panel.get_by_test_id("lesson-caption")
+        expect(caption).to_contain_text(f"{i + 1} of 3 · {lesson[i]['title']}")
+        rid = panel.get_attribute("data-run")
+        assert rid and rid not in runs
+        runs.append(rid)
+        page.wait_for_function(f"() => ({SAMPLES})() > 200")  # it streams
+        if i == 1:
+            page.screenshot(path=shots / "lesson-presented.png")
+        if key:
+            page.keyboard.press(key)
+            expect(page.locator(f".run-panel.presenting:not([data-run='{rid}'])")).to_be_attached()
+    expect(page.locator(".run-panel.presenting [data-testid=lesson-caption]")).to_contain_text(
+        "the last step"
+    )
+    page.keyboard.press("PageDown")  # after the last step: nothing more starts
+    page.keyboard.press("Escape")
+    expect(page.get_by_test_id("present")).to_have_text("Present")
+    for rid, step in zip(runs, lesson, strict=True):
+        run = owner.get(f"/runs/{rid}").json()
+        assert run["request"]["controller"] == step["controller"], run["request"]
+        assert run["request"]["duration"] == step["duration"]
+    # each key stopped the step before it; the last one goes on until Stop
+    assert [owner.get(f"/runs/{r}").json()["status"] for r in runs[:2]] == ["stopped"] * 2
+    assert owner.get(f"/runs/{runs[2]}").json()["status"] == "running"
+    page.locator(".run-panel").get_by_role("button", name="Stop").click()
+    expect(page.locator(".run-panel .badge").first).to_have_text("stopped")
 
 
 CUT_INPUTS = """() => [...document.querySelectorAll(

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from elab.api import schemas as s
 from elab.errors import InvalidInput
 from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, StateFeedback
-from elab.plants.base import Plant
+from elab.plants.base import Plant, SignalDefaults
 from elab.sim import signals as sig
 from elab.sim.spec import RunSpec
 from elab.store.base import JsonObject, RunRecord
@@ -110,7 +110,11 @@ def signal(model: Any) -> sig.Signal:
 
 
 def default_signal(plant: Plant) -> Any:
-    d = plant.signal
+    return signal_defaults(plant.signal)
+
+
+def signal_defaults(d: SignalDefaults) -> Any:
+    """The API's signal of a plant's defaults (its analysis run's, a lesson step's)."""
     if d.kind == "square":
         return s.SquareSignal.model_validate(
             {"kind": "square", "amplitude": d.amplitude, "period": d.period}

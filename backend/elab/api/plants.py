@@ -79,6 +79,17 @@ async def get_plant_detail(request: Request) -> Response:
                 why=p.identification.why,
             ),
             integrating=bool(np.min(np.abs(np.linalg.eigvals(p.A))) < 1e-9),
+            lesson=[
+                s.LessonStepInfo(
+                    title=step.title,
+                    text=step.text,
+                    controller=convert.law_model(step.law),
+                    signal=convert.signal_defaults(step.signal),
+                    duration=step.signal.duration,
+                    x0=None if step.signal.x0 is None else list(step.signal.x0),
+                )
+                for step in p.lesson
+            ],
             description=p.description,
         )
     )

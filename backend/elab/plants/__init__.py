@@ -4,7 +4,14 @@ from __future__ import annotations
 
 from elab.errors import NotFound
 from elab.plants import belt_conveyor, double_pendulum, flexible_link
-from elab.plants.base import Channel, Plant, Sensors, SignalDefaults, VelocityFilter
+from elab.plants.base import (
+    Channel,
+    LessonStep,
+    Plant,
+    Sensors,
+    SignalDefaults,
+    VelocityFilter,
+)
 
 PLANTS: dict[str, Plant] = {
     p.id: p for p in (flexible_link.PLANT, double_pendulum.PLANT, belt_conveyor.PLANT)
@@ -19,4 +26,13 @@ def get_plant(plant_id: str) -> Plant:
         raise NotFound("plant", plant_id, sorted(PLANTS)) from None
 
 
-__all__ = ["PLANTS", "Channel", "Plant", "Sensors", "SignalDefaults", "VelocityFilter", "get_plant"]
+__all__ = [
+    "PLANTS",
+    "Channel",
+    "LessonStep",
+    "Plant",
+    "Sensors",
+    "SignalDefaults",
+    "VelocityFilter",
+    "get_plant",
+]

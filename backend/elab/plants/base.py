@@ -66,6 +66,19 @@ class SignalDefaults:
 
 
 @dataclass(frozen=True)
+class LessonStep:
+    """One run of a plant's lesson: the sequence a presenter steps through with one key
+    (the chapter's: the plant alone, an arbitrary gain, the designed controller).
+    ``signal`` holds its reference (the input in volts for an open loop), duration and
+    start."""
+
+    title: str
+    text: str
+    law: ControlLaw
+    signal: SignalDefaults
+
+
+@dataclass(frozen=True)
 class IdentDefaults:
     """What the identification page proposes for a run of this plant: the models (the
     CLI's syntax), how many samples to keep one of (``decimate``) and why."""
@@ -109,6 +122,7 @@ class Plant(StateSpaceShape):
     modes: tuple[str, ...] = ("simulation",)
     notes: tuple[str, ...] = field(default=())
     identification: IdentDefaults = IdentDefaults()
+    lesson: tuple[LessonStep, ...] = ()
 
     @property
     def output_ranges(self) -> tuple[tuple[int, float, float], ...]:

@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import math
 
-from elab.laws import StateFeedback
+from elab.laws import OpenLoop, StateFeedback
 from elab.plants.base import (
     Channel,
+    LessonStep,
     Plant,
     Sensors,
     SignalDefaults,
@@ -34,6 +35,11 @@ STATES = (
     Channel("beta1_dot", "rad/s", "pendulum 1 rate β̇₁"),
     Channel("beta2_dot", "rad/s", "pendulum 2 rate β̇₂"),
 )
+
+#: the predefined controller: the chapter's LQR (seed §4.2)
+LQR = StateFeedback(K=(-1.0, 17549.1681, -4772.05208, -32.9730917, 3063.80861, 756.623012))
+#: pendulum 1 released 0.5° from upright, the rest at the operating point
+RELEASED = (0.0, math.radians(0.5), math.pi, 0.0, 0.0, 0.0)
 
 PLANT = Plant(
     id="double_pendulum",
@@ -60,19 +66,18 @@ PLANT = Plant(
     Ts=0.001,
     reference_output=0,
     reference_state=0,
-    predefined=StateFeedback(
-        K=(-1.0, 17549.1681, -4772.05208, -32.9730917, 3063.80861, 756.623012)
-    ),
+    predefined=LQR,
     predefined_design="LQR, Q = diag(100, 5e9, 5e9, 1, 1, 1), R = 100",
     sensors=Sensors(quantum=(ENCODER_QUANTUM,) * 3, noise_std=(2e-4,) * 3),
-    # the loop's slowest poles (−0.06 ± 0.04j) take about 60 s to bring the disc to a
-    # step; pendulum 1 released 0.5° from upright shows the balancing: the disc swings
-    # about 45° to catch it, both pendulums move by about half a degree
+    # the loop's slowest poles (−0.06 ± 0.04j) bring the disc within 2 % of a step after
+    # 114 s (the run lasts a tenth longer: tests/unit/test_plant_defaults.py); pendulum 1
+    # released 0.5° from upright shows the balancing: the disc swings about 45° to catch
+    # it, both pendulums move by about half a degree
     signal=SignalDefaults(
         kind="step",
         amplitude=math.radians(10),
-        duration=60.0,
-        x0=(0.0, math.radians(0.5), math.pi, 0.0, 0.0, 0.0),
+        duration=130.0,
+        x0=RELEASED,
     ),
     operating_point=frozen_matrix([[0, 0, math.pi, 0, 0, 0]])[0],
     initial_state_ranges=(
@@ -87,5 +92,32 @@ PLANT = Plant(
     notes=(
         "There is no hardware for this plant, only its linearised model: identification "
         "here runs on that model, in closed loop.",
+    ),
+    # the chapter's pendulum in three runs (seed §4.2), each from pendulum 1 released 0.5°
+    # from upright: nothing holds it, the arbitrary gain k = [10 … 10] (Fig. 4.31), the LQR
+    lesson=(
+        LessonStep(
+            "The plant alone",
+            "Open loop, no voltage: pendulum 1, released half a degree from upright, falls "
+            "and leaves the linear model's range within a second.",
+            OpenLoop(),
+            SignalDefaults(kind="step", amplitude=0.0, duration=1.0, x0=RELEASED),
+        ),
+        LessonStep(
+            "An arbitrary gain",
+            "State feedback with the chapter's arbitrary k = [10 10 10 10 10 10]: the "
+            "loop is unstable: the pendulum falls as if nothing held it, while the "
+            "controller asks for more than the actuator's ±10 V.",
+            StateFeedback(K=(10.0,) * 6),
+            SignalDefaults(kind="step", amplitude=0.0, duration=1.0, x0=RELEASED),
+        ),
+        LessonStep(
+            "The LQR design",
+            "The predefined LQR catches the falling pendulum: the disc swings about 45° "
+            "and both pendulums stay within a degree of upright. It asks for up to 153 V: "
+            "saturation is off for this model, a real motor would not follow.",
+            LQR,
+            SignalDefaults(kind="step", amplitude=0.0, duration=20.0, x0=RELEASED),
+        ),
     ),
 )

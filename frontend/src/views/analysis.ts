@@ -9,7 +9,7 @@ import { FieldSet, type NumberField } from "../forms";
 import { tex } from "../markdown";
 import { chart, purge } from "../plot";
 import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
-import { RunPanel } from "../runpanel";
+import { RunPanel, type RunPanelOptions } from "../runpanel";
 import { fmt, quantity } from "../units";
 import { downloadButton, errorText, experimentPage, failure, loading, showApiError } from "./common";
 import { RigModeChoice, type RunMode } from "./rigmode";
@@ -74,6 +74,7 @@ class AnalysisView {
       this.formMsg,
       this.applied,
     );
+    if (plant.lesson.length) this.panels.append(this.lessonPanel());
     this.runArea.append(h("div.panel.empty", h("p", "Press Start: the closed loop runs in real time and its response draws here as it goes. Change a gain or the reference while it runs and apply it; the change is recorded at its sample.")));
     this.root = h("div", h("div.split", form, this.runArea), this.panels);
   }
@@ -127,9 +128,53 @@ class AnalysisView {
     }
   }
 
-  private attach(info: RunInfo): void {
+  /** The plant's lesson: its runs listed, presented one after another with one key. */
+  private lessonPanel(): HTMLElement {
+    const steps = this.plant.lesson;
+    return h(
+      "section.panel.wide.lesson",
+      { "data-testid": "lesson" },
+      h("h2", "Lesson: the chapter's runs, one key each"),
+      h("ol", ...steps.map((step) => h("li", h("strong", step.title), ": ", step.text))),
+      h("div.actions", h("button", { type: "button", "data-testid": "present-lesson", onclick: () => void this.lessonStep(0) }, "Present the lesson")),
+      h("small.hint", "Each run starts in simulation and fills the screen: → or Page Down (a presenter's clicker) stops it and starts the next, Esc leaves."),
+    );
+  }
+
+  /** Start step `i` of the lesson, presented, in place of the page's run. */
+  private async lessonStep(i: number): Promise<void> {
+    const steps = this.plant.lesson;
+    const step = steps[i];
+    fill(this.formMsg);
+    const req: RunCreate = {
+      plant: this.plant.id,
+      mode: "simulation",
+      experiment: "analysis",
+      controller: step.controller,
+      signal: step.signal,
+      duration: step.duration,
+      pace: "realtime",
+      private: this.startOptions.private,
+      ...(step.x0 ? { x0: step.x0 } : {}),
+    };
+    const previous = this.run;
+    let info: RunInfo;
+    try {
+      info = await api.createRun(req);
+    } catch (err) {
+      previous?.present(false); // the reason shows under the form
+      fill(this.formMsg, `The lesson's step ${i + 1} did not start: ${errorText(err)}`);
+      return;
+    }
+    const next = i + 1 < steps.length ? () => void this.lessonStep(i + 1) : null;
+    this.attach(info, { caption: `${i + 1} of ${steps.length} · ${step.title}: ${step.text}`, next });
+    this.run?.present(true);
+    await this.startOptions.retire(previous).catch((err: unknown) => fill(this.formMsg, `The previous run goes on: ${errorText(err)}`));
+  }
+
+  private attach(info: RunInfo, lesson?: RunPanelOptions["lesson"]): void {
     this.run?.destroy();
-    this.run = new RunPanel(info, this.plant, { outputs: this.chosenOutputs(), onState: (s) => this.onState(s, info) });
+    this.run = new RunPanel(info, this.plant, { outputs: this.chosenOutputs(), onState: (s) => this.onState(s, info), lesson });
     fill(this.runArea, this.run.root);
     history.replaceState(null, "", `${location.pathname}?run=${info.id}`);
   }

@@ -32,6 +32,20 @@ class IdentDefaultsInfo(Model):
     why: str
 
 
+class LessonStepInfo(Model):
+    """One run of the plant's lesson, ready to start: the fields of ``POST /runs`` it
+    sets (with ``plant`` and ``experiment`` "analysis")."""
+
+    title: str
+    text: str
+    controller: Controller
+    signal: Signal
+    duration: float
+    x0: list[float] | None = Field(
+        None, description="the absolute initial state (null: the operating point)"
+    )
+
+
 class PlantDetail(PlantSummary):
     A: list[list[float]]
     B: list[list[float]]
@@ -64,6 +78,11 @@ class PlantDetail(PlantSummary):
     )
     identification: IdentDefaultsInfo = Field(
         description="what the identification page proposes for this plant's runs, and why"
+    )
+    lesson: list[LessonStepInfo] = Field(
+        default_factory=list,
+        description="the runs a presenter steps through with one key (the chapter's: the "
+        "plant alone, an arbitrary gain, the designed controller)",
     )
     description: str
 
