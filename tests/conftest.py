@@ -70,6 +70,7 @@ LONGEST_FIRST = (
     "tests/e2e/test_design_on_models.py",
     "tests/api/test_rig_machine.py",
     "tests/unit/engines/test_rig_engine.py",
+    "tests/e2e/test_accessibility.py",
 )
 
 
