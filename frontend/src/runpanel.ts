@@ -87,6 +87,8 @@ export class RunPanel {
   private readonly windowSel: HTMLSelectElement;
   private readonly plotDiv = h("div.live-plot", { "data-testid": "live-plot", role: "figure", "aria-label": "live plot of the run" });
   private readonly schematic: PlantSchematic;
+  /** the plot beside the plant's drawing */
+  private readonly viewEl: HTMLElement;
   private replay: ReplayControls | null = null;
   private readonly replaySlot = h("div.replay-slot");
   /** the run's live parameter changes, each with what it altered */
@@ -118,6 +120,7 @@ export class RunPanel {
       yTitles: this.yTitles(plant),
     });
     this.schematic = new PlantSchematic(plant, run, this.ring);
+    this.viewEl = h("div.run-view", this.plotDiv, this.schematic.root);
     this.changes = new ParamLog(run.request, plant);
     this.addChanges(run.param_changes);
 
@@ -154,7 +157,7 @@ export class RunPanel {
         this.presentButton,
       ),
       this.rig?.root,
-      h("div.run-view", this.plotDiv, this.schematic.root),
+      this.viewEl,
       this.replaySlot,
       h(
         "div.toolbar",
@@ -331,7 +334,7 @@ export class RunPanel {
   overlay(run: RunInfo, label: string): CompanionRun {
     this.companion?.destroy();
     this.companion = new CompanionRun(run, label, ringCapacity(run), () => this.plot.dirty());
-    this.plotDiv.before(this.companion.root);
+    this.viewEl.before(this.companion.root); // above the plot and drawing, not in their grid
     this.plot.setTraces(this.traces());
     return this.companion;
   }

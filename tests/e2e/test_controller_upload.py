@@ -121,6 +121,14 @@ def test_template_edit_upload_report_run_list_delete(
         "control u, predefined controller",
     ):
         expect(legend).to_contain_text(label)
+    # the plot is the largest thing of the comparison (issue 27: the label took the
+    # plot's column and the plot the drawing's 220 px one)
+    plot = panel.get_by_test_id("live-plot").bounding_box()
+    drawing = panel.get_by_test_id("schematic").bounding_box()
+    whole = panel.bounding_box()
+    assert plot and drawing and whole
+    assert plot["width"] * plot["height"] > 2 * drawing["width"] * drawing["height"], (plot, drawing)
+    assert plot["width"] > 0.6 * whole["width"], (plot, whole)
     page.screenshot(path=shots / "controller-run.png", full_page=True)
 
     rid = panel.get_attribute("data-run")
