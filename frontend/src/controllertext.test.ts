@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { amountText, complexText, computeText, formatText, lawText, marginText, peakText, poleList, verdictText, verdictWord } from "./controllertext";
+import { amountText, complexText, computeText, formatText, LATE_NOT_SLOW, lawText, marginText, peakText, poleList, verdictText, verdictWord } from "./controllertext";
 
 describe("lawText", () => {
   it("writes state feedback as K = [...] with its estimate", () => {
@@ -72,8 +72,11 @@ describe("verdictText", () => {
 describe("computeText", () => {
   it("writes a Python controller's compute time per step in µs, and how many were late", () => {
     const c = { steps: 20000, median_us: 41.23, p99_us: 88.14, max_us: 1234.5, round_trip_median_us: 120.4, round_trip_p99_us: 250, misses: 3, slow: 0 };
-    expect(computeText(c)).toBe("Compute time per step: median 41.2 µs, p99 88.1 µs (max 1230 µs); round trip median 120 µs, p99 250 µs; 3 late of 20,000 steps");
+    expect(computeText(c)).toBe("Compute time per step: median 41.2 µs, p99 88.1 µs (max 1230 µs); round trip median 120 µs, p99 250 µs; 3 late of 20,000 steps" + LATE_NOT_SLOW);
     expect(computeText({ ...c, slow: 2 })).toMatch(/3 late of 20,000 steps, 2 of them slower than the deadline in the controller itself$/);
+    expect(computeText({ ...c, slow: 0 })).toBe(computeText(c));
+    expect(computeText(c)).toMatch(/3 late of 20,000 steps, none of them slow in the controller itself: the machine was busy/);
+    expect(computeText({ ...c, misses: 0, slow: 0 })).toMatch(/0 late of 20,000 steps$/);
   });
 });
 

@@ -112,6 +112,10 @@ export function verdictWord(r: Pick<ControllerReportOut, "stable" | "domain">): 
   return r.stable ? "stable" : "unstable";
 }
 
+/** Late answers none of which the controller's own compute time made: not counted
+ * against it (the same words as the server's report). */
+export const LATE_NOT_SLOW = ", none of them slow in the controller itself: the machine was busy (a simulation waits for them; on the rig each would hold the last u)";
+
 /** µs to the 3 significant digits that matter at that scale: 41.23 → "41.2". */
 const us = (x: number) => fmt(x, 3);
 
@@ -123,6 +127,6 @@ export function computeText(c: ComputeTimes): string {
     `Compute time per step: median ${us(c.median_us)} µs, p99 ${us(c.p99_us)} µs (max ${us(c.max_us)} µs); ` +
     `round trip median ${us(c.round_trip_median_us)} µs, p99 ${us(c.round_trip_p99_us)} µs; ` +
     `${c.misses.toLocaleString("en")} late of ${c.steps.toLocaleString("en")} steps` +
-    (c.slow ? `, ${c.slow.toLocaleString("en")} of them slower than the deadline in the controller itself` : "")
+    (c.slow ? `, ${c.slow.toLocaleString("en")} of them slower than the deadline in the controller itself` : c.misses ? LATE_NOT_SLOW : "")
   );
 }

@@ -127,7 +127,8 @@ def test_template_edit_upload_report_run_list_delete(
     drawing = panel.get_by_test_id("schematic").bounding_box()
     whole = panel.bounding_box()
     assert plot and drawing and whole
-    assert plot["width"] * plot["height"] > 2 * drawing["width"] * drawing["height"], (plot, drawing)
+    area = plot["width"] * plot["height"]
+    assert area > 2 * drawing["width"] * drawing["height"], (plot, drawing)
     assert plot["width"] > 0.6 * whole["width"], (plot, whole)
     page.screenshot(path=shots / "controller-run.png", full_page=True)
 

@@ -138,3 +138,29 @@ def test_numbers_that_overflow_the_report_name_the_controller(law: object) -> No
         assert exc.field == "controller"
     else:  # or a report whose every number is finite or a margin's "none"
         assert all(np.isfinite(p) for p in report.poles)
+
+
+@pytest.mark.parametrize(("misses", "slow"), [(0, 0), (327, 0), (327, 2)])
+def test_late_steps_are_counted_against_a_controller_only_when_it_was_slow(
+    misses: int, slow: int
+) -> None:
+    """Issue 27: "327 late of 20,000 steps" under a law that takes microseconds. Late
+    answers the machine made (the round trip) are said to be the machine's."""
+    from dataclasses import replace
+
+    from elab.controllers.report import LATE_NOT_SLOW
+    from elab.laws import PID
+    from elab.plants import get_plant
+
+    base = check(get_plant("belt_conveyor"), PID(Kp=1.0, Ki=0.0, Kd=0.0))
+    times = {"median_us": 40.0, "p99_us": 90.0, "max_us": 300.0, "round_trip_median_us": 120.0}
+    report = replace(base, compute={**times, "steps": 20000, "misses": misses, "slow": slow})
+    line = next(r for r in report.text().splitlines() if "compute time per step" in r)
+    said = {
+        (0, 0): "0 late of 20000",
+        (327, 0): "327 late of 20000" + LATE_NOT_SLOW,
+        (327, 2): "327 late of 20000, 2 of them slower than the deadline in the controller itself",
+    }
+    assert line.endswith(said[misses, slow]), line
+    assert (LATE_NOT_SLOW in line) == (misses > 0 and slow == 0)
+    assert ("slower than the deadline" in line) == (slow > 0)
