@@ -503,21 +503,32 @@ export class RunPanel {
  */
 export function outputAxes(plant: PlantDetail): { axis: Map<string, number>; titles: string[] } {
   const offset = (i: number) => plant.C[i].reduce((sum, c, j) => sum + c * (plant.operating_point[j] ?? 0), 0);
-  const shared = plant.outputs.filter((_, i) => Math.abs(offset(i)) < 1e-12);
-  const own = plant.outputs.filter((_, i) => Math.abs(offset(i)) >= 1e-12);
+  // an output away from 0 (β₂ about 180°), or one the linear model holds only in a narrow
+  // range (a pendulum's half degree beside the disc's 45°), gets axes of its own
+  const narrow = new Set((plant.initial_state_ranges as [string, number, number][]).map(([name]) => name));
+  const alone = (i: number) => Math.abs(offset(i)) >= 1e-12 || narrow.has(plant.outputs[i].name);
+  const shared = plant.outputs.filter((_, i) => !alone(i));
+  const own = plant.outputs.filter((_, i) => alone(i));
+  const symbol = (o: (typeof plant.outputs)[number]) => channelSymbol(o.label, o.name);
   const axis = new Map<string, number>();
   const units = (outs: typeof plant.outputs) => [...new Set(outs.map((o) => display(o.unit).unit))].join(", ");
   const titles: string[] = [];
   if (shared.length || !own.length) {
-    titles.push(shared.length === plant.outputs.length ? `outputs (${units(shared)})` : `${shared.map((o) => o.name).join(", ")} (${units(shared)})`);
+    titles.push(shared.length === plant.outputs.length ? `outputs (${units(shared)})` : `${shared.map(symbol).join(", ")} (${units(shared)})`);
     for (const o of shared) axis.set(o.name, 1);
   }
   for (const o of own) {
-    titles.push(`${o.name} (${display(o.unit).unit})`);
+    titles.push(`${symbol(o)} (${display(o.unit).unit})`);
     axis.set(o.name, titles.length);
   }
   axis.set("r", axis.get(plant.reference_output) ?? 1);
   titles.push(`u (${plant.inputs[0]?.unit ?? "V"})`);
   axis.set("u", titles.length);
   return { axis, titles };
+}
+
+/** A channel's symbol as its legend writes it: the label's first word with a letter beyond
+ * ASCII ("pendulum 1 angle β₁ from upright" → "β₁"), else its name ("x"). */
+export function channelSymbol(label: string, name: string): string {
+  return label.split(/\s+/).find((w) => /[^\x20-\x7e]/.test(w)) ?? name;
 }

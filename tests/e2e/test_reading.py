@@ -75,7 +75,7 @@ def test_the_home_page_loads_no_plotly_and_pages_fit_a_phone(page: Page, server:
 
 def test_the_pendulums_outputs_get_axes_of_their_own_size(page: Page) -> None:
     """Issue 15: live, β₂ (about 180°) shared an axis with α and β₁ (about a degree) and
-    flattened them. β₂ now has its own axes; the control has the last."""
+    flattened them. β₂ now has its own axes, and β₁ (issue 27); the control has the last."""
     page.goto("/plants/double_pendulum/analysis")
     page.get_by_role("button", name="Start").first.click()
     plot = page.locator(".run-panel .js-plotly-plot").first
@@ -91,7 +91,18 @@ def test_the_pendulums_outputs_get_axes_of_their_own_size(page: Page) -> None:
     beta2 = [a for name, a in axes.items() if "β₂" in name or "beta2" in name.lower()]
     others = [a for name, a in axes.items() if "β₁" in name or "α" in name]
     assert beta2 and others and set(beta2).isdisjoint(others), axes
-    assert axes.get("control u") == "y3", axes
+    # issue 27: β₁'s half degree has its own axes too (it was flat beside α's 45°), and
+    # the titles use the legend's symbols
+    beta1 = [a for name, a in axes.items() if "β₁" in name]
+    alpha = [a for name, a in axes.items() if "α" in name]
+    assert beta1 and alpha and set(beta1).isdisjoint(alpha), axes
+    assert axes.get("control u") == "y4", axes
+    titles = plot.evaluate(
+        "(div) => Object.entries(div._fullLayout).filter(([k]) => k.startsWith('yaxis'))"
+        ".map(([, a]) => a.title?.text ?? '')"
+    )
+    assert {"α (°)", "β₁ (°)", "β₂ (°)", "u (V)"} <= set(titles), titles
+    assert not [t for t in titles if "beta" in t or "alpha" in t], titles
 
 
 def test_transfer_functions_say_what_they_map(page: Page) -> None:
