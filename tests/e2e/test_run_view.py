@@ -224,6 +224,15 @@ def test_start_and_the_whole_plot_fit_1280x800(page: Page, classroom: bool) -> N
         page.wait_for_timeout(100)
         assert inside(submit.bounding_box()), (y, submit.bounding_box())
         assert inside(plot.bounding_box()), (y, plot.bounding_box())
+    # Tab into the reference's Offset from the top: it scrolls clear of the sticky Start
+    # bar (issue 27: the bar covered it)
+    page.evaluate("window.scrollTo(0, 0)")
+    page.locator("#f-signal-period").focus()
+    page.keyboard.press("Tab")
+    expect(page.locator("#f-signal-offset")).to_be_focused()
+    field = page.locator("#f-signal-offset").bounding_box()
+    bar = page.locator("form.run-form > .actions").bounding_box()
+    assert field and bar and field["y"] + field["height"] <= bar["y"], (field, bar)
     page.get_by_role("button", name="Stop").click()
 
 
