@@ -156,3 +156,41 @@ def test_an_unstable_design_says_so_and_a_large_one_warns_of_saturation(page: Pa
     expect(page.get_by_test_id("verdict")).to_contain_text("UNSTABLE")
     expect(page.get_by_test_id("step-info")).to_have_text("unstable")
     expect(page.get_by_test_id("design-result")).not_to_contain_text("rise —")
+
+
+def test_a_tenth_order_models_transfer_function_fits_the_page(page: Page, server: Server) -> None:
+    """Issue 27: a 10th-order model's transfer function ran off its page. Its polynomials
+    now break into lines: no part of it scrolls sideways, at 1280 px nor at 390 px."""
+    import numpy as np
+
+    n = 10
+    A = np.diag(np.linspace(0.5, 0.95, n)) + np.diag(np.full(n - 1, 0.01), 1)
+    body = {
+        "plant": "flexible_link",
+        "name": "tenth order",
+        "Ts": 0.01,
+        "A": A.tolist(),
+        "B": np.linspace(0.1, 1.0, n).reshape(n, 1).tolist(),
+        "C": [np.linspace(1.0, -1.0, n).tolist()],
+        "D": [[0.0]],
+        "outputs": [{"name": "theta", "unit": "rad"}],
+    }
+    with server.client() as c:
+        r = c.post("/models", json=body)
+        assert r.status_code == 201, r.text
+        where = r.json()["page"]
+    for width in (1280, 390):
+        page.set_viewport_size({"width": width, "height": 800})
+        page.goto(where)
+        tf = page.get_by_test_id("model-tf").first
+        expect(tf).to_contain_text("A(z)")
+        wide = tf.evaluate(
+            """(el) => [el, ...el.querySelectorAll('*')]
+              .filter(e => !e.closest('.katex-mathml')  // for screen readers, 1 px
+                && getComputedStyle(e).overflowX !== 'visible'
+                && e.scrollWidth > e.clientWidth + 1)
+              .map(e => `${e.className} ${e.scrollWidth}/${e.clientWidth}`)"""
+        )
+        box = tf.bounding_box()
+        assert wide == [] and box is not None and box["x"] + box["width"] <= width, (wide, box)
+        assert page.evaluate("document.documentElement.scrollWidth") <= width

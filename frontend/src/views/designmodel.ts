@@ -62,8 +62,16 @@ export class ModelDesign {
     const fit = m.fit.length ? `; validation fit ${m.fit.map((f) => `${fmt(f)} %`).join(", ")}` : "";
     const warned = m.verdicts.filter((v) => v.level !== "good");
     const tfs = m.tf.map((t, i) => {
-      const el = h("div.math");
-      el.innerHTML = tex(`G_{\\mathrm{${m.outputs[i].name.replace(/_/g, "\\_")}}}(z) = \\frac{${poly(t.num)}}{${poly(t.den)}}`, true);
+      const el = h("div.math", { "data-testid": "model-tf" });
+      const G = `G_{\\mathrm{${m.outputs[i].name.replace(/_/g, "\\_")}}}(z)`;
+      if (Math.max(t.num.length, t.den.length) <= LONG_POLY) {
+        el.innerHTML = tex(`${G} = \\frac{${poly(t.num)}}{${poly(t.den)}}`, true);
+        return el;
+      }
+      // a long fraction would run off the page: its polynomials on lines of their own,
+      // inline, where KaTeX breaks lines after each + and − (issue 27: a 10th-order model
+      // was cut off)
+      el.innerHTML = [tex(`${G} = \\dfrac{B(z)}{A(z)}`, true), `<p>${tex(`B(z) = ${poly(t.num)}`)}</p>`, `<p>${tex(`A(z) = ${poly(t.den)}`)}</p>`].join("");
       return el;
     });
     const url = new URL(m.page, location.origin).href;
@@ -272,6 +280,9 @@ class ModelForm {
 }
 
 /** A polynomial in z as LaTeX, highest power first. */
+/** Coefficients beyond which a transfer function's polynomials get lines of their own. */
+const LONG_POLY = 5;
+
 function poly(c: number[]): string {
   const num = (x: number, power: number) => {
     const text = fmt(Math.abs(x), 4);
