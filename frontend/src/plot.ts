@@ -267,7 +267,7 @@ export class LivePlot {
     // interactive
     const config = window === null ? CONFIG : { ...CONFIG, displayModeBar: false };
     if (window !== null) Object.assign(layout, { hovermode: false, dragmode: false });
-    void Plotly.react(this.div, data as Plotly.Data[], layout, config).then(() => this.div.dispatchEvent(new Event("elab:draw")));
+    void react(this.div, data as Plotly.Data[], layout, config).then(() => this.div.dispatchEvent(new Event("elab:draw")));
   }
 
   /** A trace's colour: a trace of another run takes the colour of this run's trace of the
@@ -282,7 +282,7 @@ export class LivePlot {
   destroy(): void {
     this.destroyed = true;
     this.resize.disconnect();
-    Plotly.purge(this.div);
+    purge(this.div);
   }
 }
 
@@ -358,9 +358,24 @@ export function chart(div: HTMLElement, series: Series[], opts: ChartOptions): v
     layout.yaxis2 = { title: { text: opts.yTitles[1] }, domain: [0, 0.45], anchor: "x" };
     layout.xaxis = { ...layout.xaxis, anchor: "y2" };
   }
-  void Plotly.react(div, data, layout, CONFIG);
+  void react(div, data, layout, CONFIG);
 }
 
+/** Each plot's draw in flight: plotly finishes a draw in later tasks, and a purge before
+ * then fails in them ("reading '_plots'": a lesson's next step replaced its run's plot
+ * mid-draw). */
+const drawing = new WeakMap<HTMLElement, Promise<unknown>>();
+
+function react(div: HTMLElement, data: Plotly.Data[], layout: Partial<Plotly.Layout>, config: Partial<Plotly.Config>): Promise<unknown> {
+  const done = Plotly.react(div, data, layout, config).catch(() => undefined);
+  drawing.set(div, done);
+  return done;
+}
+
+/** Empty a plot, once a draw in flight has finished. */
 export function purge(div: HTMLElement): void {
-  Plotly.purge(div);
+  const pending = drawing.get(div);
+  drawing.delete(div);
+  if (pending) void pending.then(() => drawing.has(div) || Plotly.purge(div)); // unless drawn anew meanwhile
+  else Plotly.purge(div);
 }

@@ -54,7 +54,7 @@ def test_apply_of_a_new_amplitude_changes_the_reference_at_the_recorded_sample(
 
 def test_the_pendulums_default_run_moves_every_output(page: Page, server: Server) -> None:
     page.goto("/plants/double_pendulum/analysis")
-    expect(page.locator("#f-duration")).to_have_value("60")
+    expect(page.locator("#f-duration")).to_have_value("130")  # until the disc has settled
     expect(page.locator("#f-x0-1")).to_have_value("0.5")  # pendulum 1 released 0.5° off
     # the step plots: α on its own axes, β₁ and β₂ on others; the open loop cut with a note
     expect(page.get_by_test_id("step-closed-axes-1").locator(".main-svg").first).to_be_visible()
