@@ -1904,6 +1904,10 @@ export interface ModelDesignOut {
    */
   run_Ts: number | null;
   not_runnable: string | null;
+  /**
+   * the same controller on the lab's physics model, as a run of it goes (noise-free sensors, the plant's actuator limit), its outputs absolute: what the identified model's step is checked against (null: it cannot run on the plant)
+   */
+  on_plant: StepOut | null;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

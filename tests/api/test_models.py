@@ -296,6 +296,62 @@ def test_a_designed_controller_runs_on_the_plant_as_the_design_predicted(
         np.testing.assert_allclose(u, d["step"]["u"], atol=1e-7)
 
 
+def test_a_design_on_a_model_is_checked_on_the_physics_model_as_its_run_goes(
+    server: Server,
+) -> None:
+    """Issue 26: an LQR on an identified model predicted 0 % overshoot and the plant
+    overshot 30 %, and nothing compared the two. A design now comes with ``on_plant``: the
+    same controller on the physics model as a run of it goes. Checked against that run
+    (the plant's defaults: its actuator limit, noise-free sensors), sample for sample."""
+    with server.client() as c:
+        designs = []
+        for body in (physics_model(), identified(c)):
+            mid = c.post("/models", json=body).json()["id"]
+            d = c.post(f"/models/{mid}/design", json={"method": "lqr", "T": 3}).json()
+            designs.append(d)
+            on = d["on_plant"]
+            assert on is not None and on["loop"] == "closed" and on["verdict"], on
+            amplitude = d["amplitude"]
+            run = c.post(
+                "/runs",
+                json={
+                    "plant": "flexible_link",
+                    "experiment": "design",
+                    "controller": d["controller"],
+                    "Ts": d["run_Ts"],
+                    "signal": {"kind": "step", "amplitude": amplitude},
+                    "duration": on["t"][-1] + 0.05,
+                    "pace": "fast",
+                },
+            )
+            assert run.status_code == 201, run.text
+            rid = run.json()["id"]
+            until(lambda rid=rid: c.get(f"/runs/{rid}").json()["status"] == "finished", 60)
+            data = c.get(f"/runs/{rid}/data", params={"format": "json"}).json()["data"]
+            theta = np.array(data["theta"])
+            k = np.round(np.array(on["t"]) / d["run_Ts"]).astype(int)
+            np.testing.assert_allclose(theta[k], on["outputs"]["theta"], atol=1e-9)
+            np.testing.assert_allclose(np.array(data["u"])[k], on["u"], atol=1e-7)
+            # its characteristics: python-control's of the run, or "not settled" for a
+            # run whose last 5 % still moves by 2 % of the step
+            tail = theta[k[-1] - len(k) // 20 : k[-1] + 1]
+            if on["info"]["overshoot"] is None:
+                assert np.ptp(tail) >= 0.02 * abs(amplitude), on["info"]
+            else:
+                t = np.arange(len(theta)) * d["run_Ts"]
+                info = ct.step_info(theta, t, amplitude)
+                assert on["info"]["overshoot"] == pytest.approx(info["Overshoot"], abs=0.5)
+        # the model that is the plant predicts its own check
+        exact = designs[0]
+        assert exact["on_plant"]["info"]["overshoot"] == pytest.approx(
+            exact["step"]["info"]["overshoot"], abs=0.1
+        )
+        # a model of channels the plant does not have: nothing to check on the physics
+        other = {**physics_model("other"), "outputs": [{"name": "y", "unit": "V"}]}
+        oid = c.post("/models", json=other).json()["id"]
+        assert c.post(f"/models/{oid}/design", json={"method": "lqr"}).json()["on_plant"] is None
+
+
 def test_models_and_designs_export_as_files_that_read_back(server: Server, tmp_path: Path) -> None:
     body = physics_model()
     with server.client() as c:

@@ -92,6 +92,24 @@ def test_identify_share_design_run_and_export_an_lqr_on_the_model(
         expect(other.get_by_test_id("root-locus").locator(".main-svg").first).to_be_visible()
         expect(other.get_by_test_id("design-step").locator(".main-svg").first).to_be_visible()
         expect(other.get_by_test_id("margins")).to_contain_text("phase margin")
+        # issue 26: the same design on the physics model, beside the model's prediction,
+        # with the server's numbers, and a warning exactly when the two disagree
+        on = ref["on_plant"]["info"]
+        compared = other.get_by_test_id("step-info-compare")
+        expect(other.locator("th", has_text="on the physics model")).to_be_visible()
+        if on["overshoot"] is None:
+            expect(compared).to_contain_text("does not settle")
+        else:
+            expect(compared).to_contain_text(f"overshoot {on['overshoot']:.3g}"[:13])
+        legend = other.get_by_test_id("design-step").locator(".legend")
+        expect(legend).to_contain_text("on the physics model")
+        mine, theirs = ref["step"]["info"], on
+        far = (
+            theirs["overshoot"] is None
+            or abs(theirs["overshoot"] - mine["overshoot"]) >= 10
+            or not 1 / 1.5 <= theirs["settling_time"] / mine["settling_time"] <= 1.5
+        )
+        expect(other.get_by_test_id("model-vs-plant")).to_have_count(1 if far else 0)
         other.screenshot(path=shots / "design-model.png", full_page=True)
 
         # export: the controller file reads back as the design's law

@@ -111,6 +111,45 @@ def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
         controller=None if law is None or why_not else convert.law_model(law),
         run_Ts=kept.model["Ts"] if req.domain == "discrete" else None,
         not_runnable=why_not,
+        on_plant=None
+        if law is None or why_not
+        else _on_plant(
+            plant,
+            law,
+            amplitude,
+            float(a.step.t[-1]),
+            kept.model["Ts"] if req.domain == "discrete" else None,
+        ),
+    )
+
+
+def _on_plant(
+    plant: Plant, law: ControlLaw, amplitude: float, T: float, Ts: float | None
+) -> s.StepOut:
+    """A design's step on the lab's physics model, as a run of it goes (issue 26: an LQR on
+    an identified model predicted 0 % overshoot, the plant overshot 30 %, and nothing said
+    so): the one simulator, noise-free, with the plant's actuator limit."""
+    from elab.design.response import step_info
+    from elab.sim import RunSpec, Step, simulate
+
+    spec = RunSpec(plant, law, Step(amplitude), duration=max(T, 20 * (Ts or plant.Ts)), Ts=Ts)
+    run = simulate(spec)
+    t = np.arange(run.y.shape[0]) * run.Ts
+    k = np.unique(np.linspace(0, t.size - 1, min(t.size, 2001)).round().astype(int))
+    ref = plant.reference_output
+    y_ref = run.y[:, ref] - float((plant.C @ plant.operating_point)[ref])
+    info = step_info(t, y_ref, amplitude) if np.all(np.isfinite(y_ref)) else None
+    linear = _plant_loop(plant, law, amplitude)
+    return s.StepOut(
+        plant=plant.id,
+        loop="closed",
+        t=t[k].tolist(),
+        outputs={o.name: convert.finite_response(run.y[k, i]) for i, o in enumerate(plant.outputs)},
+        u=convert.finite_response(run.u[k]),
+        info=None if info is None else convert.step_info(info),
+        poles=linear.closed_loop_poles,
+        verdict=linear.verdict,
+        cut=None,
     )
 
 

@@ -153,7 +153,9 @@ export class ModelDesign {
       details,
       loop: d,
       step: d.step,
-      compare: null,
+      compare: d.on_plant,
+      compareLabel: "on the physics model",
+      warning: d.on_plant ? disagreement(d.step, d.on_plant, d.verdict) : null,
       outputs: [ref, ...m.outputs.filter((o) => o !== ref)],
       controller: d.controller,
       runTs: d.run_Ts,
@@ -280,6 +282,20 @@ class ModelForm {
 }
 
 /** A polynomial in z as LaTeX, highest power first. */
+/** What a design on an identified model does on the physics model that the model did not
+ * predict (null: they agree): another verdict, a response that does not settle, or
+ * overshoot 10 points or settling 1.5× apart (issue 26: 0 % predicted, 30 % on the plant). */
+export function disagreement(model: StepOut, plant: StepOut, verdict: string): string | null {
+  const after = "The identified model misses dynamics that matter to this loop: check its validation and residuals, or identify it again, before running it on the rig.";
+  if (plant.verdict !== verdict) return `On the physics model this design is ${plant.verdict}; the identified model says ${verdict}. ${after}`;
+  const m = model.info;
+  const p = plant.info;
+  if (!m || !p || m.overshoot === null || m.settling_time === null) return null;
+  if (p.overshoot === null || p.settling_time === null) return `On the physics model this design does not settle within ${fmt(plant.t[plant.t.length - 1])} s; the identified model predicts settling in ${fmt(m.settling_time)} s. ${after}`;
+  const far = Math.abs(p.overshoot - m.overshoot) >= 10 || p.settling_time > 1.5 * m.settling_time || m.settling_time > 1.5 * p.settling_time;
+  return far ? `On the physics model this design overshoots ${fmt(p.overshoot)} % and settles in ${fmt(p.settling_time)} s; the identified model predicts ${fmt(m.overshoot)} % and ${fmt(m.settling_time)} s. ${after}` : null;
+}
+
 /** Coefficients beyond which a transfer function's polynomials get lines of their own. */
 const LONG_POLY = 5;
 

@@ -26,8 +26,13 @@ export interface Shown {
   loop: LoopOut;
   /** the closed loop's response to a step of r by loop.amplitude */
   step: StepOut;
-  /** the predefined controller's, for comparison (the physics model) */
+  /** a step to compare with: the predefined controller's on the physics model, or this
+   * design's own on the physics model for a design on an identified model */
   compare: StepOut | null;
+  /** what `compare` is ("predefined" when absent) */
+  compareLabel?: string;
+  /** where the model's prediction and the physics disagree, said plainly */
+  warning?: string | null;
   /** outputs of the step with their SI units; the first is the reference output */
   outputs: { name: string; unit: string }[];
   /** what POST /runs takes, null: it cannot run (whyNot) */
@@ -87,6 +92,7 @@ export class DesignResult {
       h("p", `Closed-loop poles (${d.domain === "z" ? "z" : "s"}): `, h("span.mono", poles)),
       h("p", { "data-testid": "peak", class: peak.warn ? "warn" : "" }, peak.text),
       this.stepInfo(d),
+      d.warning ? h("p.warn", { "data-testid": "model-vs-plant", role: "status" }, d.warning) : null,
       this.stepDiv,
       this.stepDownload(d),
       h("h3", "Root locus"),
@@ -111,7 +117,7 @@ export class DesignResult {
       return i && i.rise_time !== null ? `rise ${fmt(i.rise_time)} s · settling ${fmt(i.settling_time)} s · overshoot ${fmt(i.overshoot)} %` : "does not settle within the horizon";
     };
     const rows = [h("tr", h("th", { scope: "row" }, "this design"), h("td", { "data-testid": "step-info" }, text(d.step, d.loop.verdict)))];
-    if (d.compare) rows.push(h("tr", h("th", { scope: "row" }, "predefined"), h("td", text(d.compare, d.compare.verdict))));
+    if (d.compare) rows.push(h("tr", h("th", { scope: "row" }, d.compareLabel ?? "predefined"), h("td", { "data-testid": "step-info-compare" }, text(d.compare, d.compare.verdict))));
     return h("table.params", h("tbody", ...rows));
   }
 
@@ -125,10 +131,10 @@ export class DesignResult {
     }
     if (d.compare) {
       const dd = display(unitOf(ref));
-      series.push({ x: d.compare.t, y: (d.compare.outputs[ref] ?? []).map((v) => v * dd.scale), name: `${ref} (${dd.unit}), predefined`, dash: "dash" });
+      series.push({ x: d.compare.t, y: (d.compare.outputs[ref] ?? []).map((v) => v * dd.scale), name: `${ref} (${dd.unit}), ${d.compareLabel ?? "predefined"}`, dash: "dash" });
     }
     series.push({ x: d.step.t, y: d.step.u, name: "u (V), this design", axis: 2 });
-    if (d.compare) series.push({ x: d.compare.t, y: d.compare.u, name: "u (V), predefined", axis: 2, dash: "dash" });
+    if (d.compare) series.push({ x: d.compare.t, y: d.compare.u, name: `u (V), ${d.compareLabel ?? "predefined"}`, axis: 2, dash: "dash" });
     const refUnit = display(unitOf(ref)).unit;
     chart(this.stepDiv, series, { xTitle: "time t (s)", yTitles: [`response to a step of r by ${quantity(d.loop.amplitude, unitOf(ref))} (${refUnit})`, "u (V)"] });
   }

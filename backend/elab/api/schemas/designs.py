@@ -131,6 +131,12 @@ class ModelDesignOut(LoopOut):
     controller: Controller | None
     run_Ts: float | None = Field(description="the sample time a run needs (null: the plant's)")
     not_runnable: str | None
+    on_plant: StepOut | None = Field(
+        None,
+        description="the same controller on the lab's physics model, as a run of it goes "
+        "(noise-free sensors, the plant's actuator limit), its outputs absolute: what the "
+        "identified model's step is checked against (null: it cannot run on the plant)",
+    )
 
 
 class LoopRequest(Model):
