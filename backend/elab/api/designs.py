@@ -41,6 +41,8 @@ if TYPE_CHECKING:
     from elab.design.response import Margins
 
 M = TypeVar("M", bound=s.Model)
+#: the most samples a design's check on the physics model simulates (200 s at 1 kHz)
+ON_PLANT_SAMPLES = 200_000
 BRYSON_SHARE = 0.8  # Bryson's rule: the largest acceptable u, a share of the actuator's limit
 
 
@@ -132,7 +134,9 @@ def _on_plant(
     from elab.design.response import step_info
     from elab.sim import RunSpec, Step, simulate
 
-    spec = RunSpec(plant, law, Step(amplitude), duration=max(T, 20 * (Ts or plant.Ts)), Ts=Ts)
+    dt = Ts or plant.Ts
+    duration = min(max(T, 20 * dt), ON_PLANT_SAMPLES * dt)  # a long horizon: its start
+    spec = RunSpec(plant, law, Step(amplitude), duration=duration, Ts=Ts)
     run = simulate(spec)
     t = np.arange(run.y.shape[0]) * run.Ts
     k = np.unique(np.linspace(0, t.size - 1, min(t.size, 2001)).round().astype(int))
