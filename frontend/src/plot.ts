@@ -210,10 +210,13 @@ export class LivePlot {
     const key = JSON.stringify([shown, this.marks, this.options, this.end === null, this.div.clientWidth, this.div.clientHeight, fontSize()]);
     if (key === this.layoutKey) {
       // the fast path: new points and ranges, no full replot (axes, legend, shapes stay)
-      void Plotly.animate(
+      void track(
         this.div,
-        { data: series, traces: series.map((_, i) => i), layout: { xaxis: { range: xRange }, ...Object.fromEntries(yRanges.map((r, i) => [axisKey(i + 1), { range: r }])) } },
-        { transition: { duration: 0 }, frame: { duration: 0, redraw: false }, mode: "immediate" },
+        Plotly.animate(
+          this.div,
+          { data: series, traces: series.map((_, i) => i), layout: { xaxis: { range: xRange }, ...Object.fromEntries(yRanges.map((r, i) => [axisKey(i + 1), { range: r }])) } },
+          { transition: { duration: 0 }, frame: { duration: 0, redraw: false }, mode: "immediate" },
+        ),
       ).then(() => this.div.dispatchEvent(new Event("elab:draw")));
       return;
     }
@@ -367,7 +370,13 @@ export function chart(div: HTMLElement, series: Series[], opts: ChartOptions): v
 const drawing = new WeakMap<HTMLElement, Promise<unknown>>();
 
 function react(div: HTMLElement, data: Plotly.Data[], layout: Partial<Plotly.Layout>, config: Partial<Plotly.Config>): Promise<unknown> {
-  const done = Plotly.react(div, data, layout, config).catch(() => undefined);
+  return track(div, Plotly.react(div, data, layout, config));
+}
+
+/** A draw of `div` in flight (a react, or the live plot's animated step: plotly steps a
+ * transition in animation frames, and one after a purge failed in drawOne). */
+function track(div: HTMLElement, draw: Promise<unknown>): Promise<unknown> {
+  const done = draw.catch(() => undefined);
   drawing.set(div, done);
   return done;
 }

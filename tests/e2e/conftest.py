@@ -50,7 +50,7 @@ def page(browser: Browser, server: Server) -> Iterator[Page]:
     context.set_default_timeout(WAIT_MS)
     pg = context.new_page()
     errors: list[str] = []
-    pg.on("pageerror", lambda e: errors.append(str(e)))
+    pg.on("pageerror", lambda e: errors.append(f"{e}\n{e.stack}"))
     yield pg
     context.close()
     assert not errors, f"errors in the page: {errors}"
