@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from elab.controllers.sandbox import available
 from elab.controllers.templates import python_source
-from elab.engines.coded import run_through
+from elab.engines.coded import LATE_SHARE, run_through
 from elab.engines.settings import CodeSettings
 from elab.laws import CodeController, StateFeedback
 from elab.plants import get_plant
@@ -72,7 +72,9 @@ def test_a_python_controller_uploads_with_its_trial_and_runs_as_offline(lab: Ser
         assert run["request"]["controller_id"] == up["id"]
         done = until(lambda: (x := c.get(f"/runs/{run['id']}").json())["finished_at"] and x, 60)
         assert done["status"] == "finished", done
-        assert done["compute"]["steps"] == 3000 and done["compute"]["slow"] == 0
+        # not slow (a step preempted on a busy machine may pass the deadline: a few allowed)
+        assert done["compute"]["steps"] == 3000
+        assert done["compute"]["slow"] <= LATE_SHARE * 3000 + 1, done["compute"]
         got = c.get(f"/runs/{run['id']}/data", params={"format": "json"}).json()["data"]
 
     signal = Square(float(np.radians(30)), float(FLEX.signal.period))

@@ -12,7 +12,7 @@ import pytest
 from elab.controllers import read_controller, template
 from elab.controllers.sandbox import StepTimes, available
 from elab.controllers.templates import python_source
-from elab.engines.coded import run_through, trial
+from elab.engines.coded import LATE_SHARE, run_through, trial
 from elab.engines.settings import CodeSettings
 from elab.engines.stepper import Stepper
 from elab.errors import InvalidInput
@@ -68,7 +68,11 @@ def test_the_seed_controllers_as_python_run_as_the_declarative_ones(plant_id: st
     u_tol = max(1e-12, 1e-15 * float(K.sum()) * 100.0)
     assert diff[1] <= u_tol, (diff[1], u_tol)
     assert np.abs(declarative[:, 1]).max() > 0.1  # the loop did something
-    assert out.times["steps"] == declarative.shape[0] and out.times["slow"] == 0
+    # not slow: a step preempted on a busy machine can pass the 1 ms deadline (seen once
+    # beside the suite), which the trial's report does not count against a controller
+    # either below LATE_SHARE of its steps
+    assert out.times["steps"] == declarative.shape[0]
+    assert out.times["slow"] <= LATE_SHARE * out.times["steps"], out.times
 
 
 def test_the_pid_anti_windup_is_the_declarative_one_when_the_input_saturates() -> None:
