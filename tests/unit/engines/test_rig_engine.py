@@ -316,12 +316,14 @@ def test_a_motor_switched_off_between_runs_is_enabled_before_the_next(
         _until(lambda: engine.identity is not None, "the engine connects to the rig")
         driver.stop_once = True
         _until(lambda: not driver.stop_once, "the rig told to stop its motor")
-        spec = RunSpec(PLANT, PLANT.predefined, Step(math.radians(20)), duration=1.5)
+        # a 10° step: what matters is that the motor drives; a 20° one peaked α near the
+        # rig's 15° safety trip, which late answers beside the suite passed once
+        spec = RunSpec(PLANT, PLANT.predefined, Step(math.radians(10)), duration=1.5)
         _drive(engine, _order("r-9", spec))
         assert heard.wait_ended("r-9").state is RunState.FINISHED
         theta = engine.store.read("r-9", 0, 1500)[:, 2]
-        # driven (not a motor left off): the step is tracked within 4°
-        assert abs(math.degrees(theta[-1]) - 20.0) < 4.0
+        # driven (not a motor left off, θ near 0): the step is tracked within 4°
+        assert abs(math.degrees(theta[-1]) - 10.0) < 4.0
     finally:
         engine.close()
 
