@@ -255,6 +255,31 @@ def test_designs_on_a_model_equal_python_control(server: Server) -> None:
         np.testing.assert_allclose(at_one, got, atol=1e-7)
 
 
+def run_design(
+    c: httpx.Client, d: dict[str, Any], amplitude: float, duration: float, **more: Any
+) -> dict[str, list[float]]:
+    """The recorded columns of a fast run of design ``d``'s controller on the flexible link
+    (a step of r by ``amplitude``), once it has finished."""
+    body = {
+        "plant": "flexible_link",
+        "experiment": "design",
+        "controller": d["controller"],
+        "Ts": d["run_Ts"],
+        "signal": {"kind": "step", "amplitude": amplitude},
+        "duration": duration,
+        "pace": "fast",
+        **more,
+    }
+    run = c.post("/runs", json=body)
+    assert run.status_code == 201, run.text
+    rid = run.json()["id"]
+    until(lambda: c.get(f"/runs/{rid}").json()["status"] == "finished", 60)
+    data: dict[str, list[float]] = c.get(f"/runs/{rid}/data", params={"format": "json"}).json()[
+        "data"
+    ]
+    return data
+
+
 def test_a_designed_controller_runs_on_the_plant_as_the_design_predicted(
     server: Server,
 ) -> None:
@@ -271,23 +296,7 @@ def test_a_designed_controller_runs_on_the_plant_as_the_design_predicted(
         assert abs(d["step"]["u"][0]) == pytest.approx(0.8 * FLEX.u_max, rel=0.05)
         assert d["step"]["outputs"]["theta"][-1] == pytest.approx(amplitude, rel=1e-3)
         assert d["peak_u"] >= max(abs(u) for u in d["step"]["u"])
-        run = c.post(
-            "/runs",
-            json={
-                "plant": "flexible_link",
-                "experiment": "design",
-                "controller": d["controller"],
-                "Ts": d["run_Ts"],
-                "signal": {"kind": "step", "amplitude": amplitude},
-                "duration": 4.1,
-                "pace": "fast",
-                "saturate": False,
-            },
-        )
-        assert run.status_code == 201, run.text
-        rid = run.json()["id"]
-        until(lambda: c.get(f"/runs/{rid}").json()["status"] == "finished", 60)
-        data = c.get(f"/runs/{rid}/data", params={"format": "json"}).json()["data"]
+        data = run_design(c, d, amplitude, 4.1, saturate=False)
         k = np.round(np.array(d["step"]["t"]) / Ts).astype(int)
         # the plant is its model here: the run is the predicted step, sample for sample
         # (the same discrete loop, stepped by the engine; round-off only)
@@ -312,22 +321,11 @@ def test_a_design_on_a_model_is_checked_on_the_physics_model_as_its_run_goes(
             on = d["on_plant"]
             assert on is not None and on["loop"] == "closed" and on["verdict"], on
             amplitude = d["amplitude"]
-            run = c.post(
-                "/runs",
-                json={
-                    "plant": "flexible_link",
-                    "experiment": "design",
-                    "controller": d["controller"],
-                    "Ts": d["run_Ts"],
-                    "signal": {"kind": "step", "amplitude": amplitude},
-                    "duration": on["t"][-1] + 0.05,
-                    "pace": "fast",
-                },
-            )
-            assert run.status_code == 201, run.text
-            rid = run.json()["id"]
-            until(lambda rid=rid: c.get(f"/runs/{rid}").json()["status"] == "finished", 60)
-            data = c.get(f"/runs/{rid}/data", params={"format": "json"}).json()["data"]
+            data = run_design(c, d, amplitude, on["t"][-1] + 0.05)
+            # the physics loop's poles and verdict are the plant loop's (POST …/loop)
+            linear = c.post("/plants/flexible_link/loop", json={"controller": d["controller"]})
+            assert on["verdict"] == linear.json()["verdict"], linear.text
+            assert on["poles"] == linear.json()["closed_loop_poles"]
             theta = np.array(data["theta"])
             k = np.round(np.array(on["t"]) / d["run_Ts"]).astype(int)
             np.testing.assert_allclose(theta[k], on["outputs"]["theta"], atol=1e-9)

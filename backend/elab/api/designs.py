@@ -125,6 +125,32 @@ def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
     )
 
 
+def _sampled(plant: Plant, dt: float) -> Model:
+    """The plant's reference output, sampled at ``dt`` (zero-order hold): what a discrete
+    LTI law closes its loop with."""
+    import control as ct
+
+    from elab.design.model import Model
+
+    ref = [plant.reference_output]
+    P = ct.c2d(ct.ss(plant.A, plant.B, plant.C[ref], plant.D[ref]), dt, "zoh")
+    return Model(P.A, P.B, P.C, P.D, dt)
+
+
+def _physics_verdict(plant: Plant, law: ControlLaw) -> tuple[list[s.Complex], str]:
+    """The poles and verdict of ``law``'s loop on the physics model, as
+    :func:`_plant_loop` closes it, without its step, root locus and margins."""
+    from elab.design import loop, observed
+    from elab.design.plant_loop import closed_loop
+
+    match law:
+        case LTIController(dt=dt) if dt is not None:
+            closed = loop.close(_sampled(plant, dt), observed.two_dof(law))
+            return convert.complex_list(closed.poles), closed.verdict
+    poles, said, _ = loop.verdict(closed_loop(plant, law).A, None)
+    return convert.complex_list(poles), said
+
+
 def _on_plant(
     plant: Plant, law: ControlLaw, amplitude: float, T: float, Ts: float | None
 ) -> s.StepOut:
@@ -143,7 +169,7 @@ def _on_plant(
     ref = plant.reference_output
     y_ref = run.y[:, ref] - float((plant.C @ plant.operating_point)[ref])
     info = step_info(t, y_ref, amplitude) if np.all(np.isfinite(y_ref)) else None
-    linear = _plant_loop(plant, law, amplitude)
+    poles, verdict = _physics_verdict(plant, law)
     return s.StepOut(
         plant=plant.id,
         loop="closed",
@@ -151,8 +177,8 @@ def _on_plant(
         outputs={o.name: convert.finite_response(run.y[k, i]) for i, o in enumerate(plant.outputs)},
         u=convert.finite_response(run.u[k]),
         info=None if info is None else convert.step_info(info),
-        poles=linear.closed_loop_poles,
-        verdict=linear.verdict,
+        poles=poles,
+        verdict=verdict,
         cut=None,
     )
 
@@ -237,7 +263,6 @@ def _plant_loop(plant: Plant, law: ControlLaw, amplitude: float) -> s.LoopOut:
 
     from elab.design import loop, observed
     from elab.design.locus import root_locus
-    from elab.design.model import Model
     from elab.design.plant_loop import closed_loop, loop_transfer
     from elab.design.response import default_horizon, step_response
 
@@ -245,9 +270,8 @@ def _plant_loop(plant: Plant, law: ControlLaw, amplitude: float) -> s.LoopOut:
         raise InvalidInput("controller", "open_loop", "a feedback law: an open loop has no loop")
     match law:
         case LTIController(dt=dt) if dt is not None:  # on the plant sampled at its dt
-            ref = [plant.reference_output]
-            P = ct.c2d(ct.ss(plant.A, plant.B, plant.C[ref], plant.D[ref]), dt, "zoh")
-            a = loop.analyse(Model(P.A, P.B, P.C, P.D, dt), observed.two_dof(law), amplitude)
+            m = _sampled(plant, dt)
+            a = loop.analyse(m, observed.two_dof(law), amplitude)
             return s.LoopOut(**_loop_out(plant, a.loop, a.locus, a.margins, a.peak_u, amplitude))
     closed = closed_loop(plant, law)
     L = ct.ss(loop_transfer(plant, law))
