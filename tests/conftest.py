@@ -69,8 +69,10 @@ LONGEST_FIRST = (
     "tests/e2e/test_controller_upload.py",
     "tests/e2e/test_design_on_models.py",
     "tests/api/test_rig_machine.py",
-    "tests/unit/engines/test_rig_engine.py",
+    # not beside the rig engine's tests: 20 pages of axe in Chromium there starved the
+    # emulated rig's 1 kHz clock (its safety trip in 2 of 5 runs of this stop, unproven)
     "tests/e2e/test_accessibility.py",
+    "tests/unit/engines/test_rig_engine.py",
 )
 
 
