@@ -77,7 +77,7 @@ EXPERIMENTS = ("analysis", "identification", "design")
 
 def test_a_live_run_and_its_watcher_have_no_serious_violation(page: Page, server: Server) -> None:
     settled(page, "/plants/flexible_link/analysis")
-    page.locator("#f-duration").fill("30")
+    page.locator("#f-duration").fill("300")  # live through every check, on a slow machine too
     page.get_by_role("button", name="Start").click()
     page.wait_for_function(f"() => ({SAMPLES})() > 500")
     found = {"analysis, live": violations(page)}
@@ -96,6 +96,8 @@ def test_a_live_run_and_its_watcher_have_no_serious_violation(page: Page, server
         found["run page, live, presented"] = violations(watcher)
     finally:
         watcher.close()
-    page.get_by_role("button", name="Stop").click()
+    stop = page.get_by_role("button", name="Stop")
+    if stop.is_enabled():  # (a 30 s run had ended before the checks beside the suite)
+        stop.click()
     found = {k: v for k, v in found.items() if v}
     assert not found, found
