@@ -16,29 +16,35 @@ const SIGNAL_FIELDS: Record<string, [string, string | null]> = {
 
 /** "reference amplitude 30 → 60 °; K1 20 → 30 V/rad" ("" when nothing changed). */
 export function describeChanges(changed: ParamDiff[], plant: PlantDetail): string {
-  return changed.map((d) => describeOne(d, plant)).join("; ");
+  return changed.map((d) => describeOne(d, plant, true)).join("; ");
 }
 
-function describeOne(d: ParamDiff, plant: PlantDetail): string {
+/** Each value a change set, without what it was: ["K1 → 30 V/rad", "reference amplitude → 60°"]
+ * (a mark's label on the plot; the table beside it has the whole sentence). */
+export function changedTo(changed: ParamDiff[], plant: PlantDetail): string[] {
+  return changed.map((d) => describeOne(d, plant, false));
+}
+
+function describeOne(d: ParamDiff, plant: PlantDetail, before: boolean): string {
   const [part, name, index] = d.field.split(".");
-  if (part === "signal" && name === "kind") return `reference ${signalName(d.before)} → ${signalName(d.after)}`;
+  if (part === "signal" && name === "kind") return `reference ${before ? `${signalName(d.before)} ` : ""}→ ${signalName(d.after)}`;
   if (part === "signal" && name in SIGNAL_FIELDS) {
     const [label, unit] = SIGNAL_FIELDS[name];
     const refUnit = plant.outputs.find((o) => o.name === plant.reference_output)?.unit ?? "";
-    return `reference ${label} ${change(d, display(unit ?? refUnit))}`;
+    return `reference ${label} ${change(d, display(unit ?? refUnit), before)}`;
   }
   if (part === "controller" && name === "K" && index !== undefined) {
     const state = plant.states[Number(index)];
     const unit = `${plant.inputs[0]?.unit ?? "V"}/${state?.unit ?? "1"}`;
-    return `K${Number(index) + 1} ${change(d, { unit, scale: 1 })}`;
+    return `K${Number(index) + 1} ${change(d, { unit, scale: 1 }, before)}`;
   }
-  if (part === "controller" && ["Kp", "Ki", "Kd"].includes(name)) return `${name} ${change(d, { unit: "", scale: 1 })}`;
-  return `${d.field} ${change(d, { unit: "", scale: 1 })}`;
+  if (part === "controller" && ["Kp", "Ki", "Kd"].includes(name)) return `${name} ${change(d, { unit: "", scale: 1 }, before)}`;
+  return `${d.field} ${change(d, { unit: "", scale: 1 }, before)}`;
 }
 
-function change(d: ParamDiff, unit: { unit: string; scale: number }): string {
+function change(d: ParamDiff, unit: { unit: string; scale: number }, before: boolean): string {
   const text = (v: ParamDiff["before"]) => (typeof v === "number" ? fmt(v * unit.scale, 6) : v === null ? "none" : String(v));
-  return `${text(d.before)} → ${text(d.after)}${unit.unit ? (unit.unit === "°" ? "°" : ` ${unit.unit}`) : ""}`;
+  return `${before ? `${text(d.before)} ` : ""}→ ${text(d.after)}${unit.unit ? (unit.unit === "°" ? "°" : ` ${unit.unit}`) : ""}`;
 }
 
 function signalName(v: ParamDiff["before"]): string {

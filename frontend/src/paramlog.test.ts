@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { diffParams, ParamLog, shortLabel } from "./paramlog";
+import { diffParams, markLabel, ParamLog } from "./paramlog";
 import type { PlantDetail } from "./protocol.gen";
 
 // the flexible link as GET /plants/flexible_link gives it (the fields the log reads)
@@ -60,8 +60,26 @@ describe("ParamLog", () => {
     expect(log.add({ k: 2, t: 0.002, params: { signal: plant.default_signal } })!.text).toBe("the same values again");
   });
 
-  it("cuts long labels for the plot", () => {
-    expect(shortLabel("short")).toBe("short");
-    expect(shortLabel("x".repeat(50), 10)).toBe("xxxxxxxxx…");
+  it("labels a mark with whole values only, and counts those that do not fit", () => {
+    expect(markLabel(["K1 → 30 V/rad"])).toBe("K1 → 30 V/rad");
+    expect(markLabel(["K1 → 30 V/rad", "reference amplitude → 60°"])).toBe("K1 → 30 V/rad, reference amplitude → 60°");
+    expect(markLabel(["K1 → 30 V/rad", "K2 → -93.5614 V/(rad/s)", "reference amplitude → 60°"])).toBe("K1 → 30 V/rad, +2 more");
+    expect(markLabel(["x".repeat(50)])).toBe("1 change");
+    expect(markLabel(["x".repeat(50), "K1 → 3"])).toBe("2 changes");
+    for (const n of [1, 2, 5, 12]) {
+      const parts = Array.from({ length: n }, (_, i) => `K${i + 1} → ${-93.5614 * (i + 1)} V/rad`);
+      const label = markLabel(parts);
+      expect(label.length).toBeLessThanOrEqual(40);
+      // every number shown is whole: each shown part is one of the parts
+      for (const shown of label.split(", ").filter((p) => !p.startsWith("+"))) expect(parts).toContain(shown);
+    }
+  });
+
+  it("gives each change a label of what it set", () => {
+    const log = new ParamLog({ signal: square(1) }, plant);
+    const e = log.add({ k: 10, t: 0.01, params: { signal: square(2), controller: gains([30, -93.5614, 3.3621, 0.9623]) } })!;
+    expect(e.text).toContain("→");
+    expect(e.label.length).toBeLessThanOrEqual(40);
+    expect(e.label).not.toContain("…");
   });
 });

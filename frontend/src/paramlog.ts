@@ -3,7 +3,7 @@
 // from the settings the run had just before: its request, then each earlier change. The
 // difference is taken as the server's own answer to the change takes it
 // (backend/elab/runs/changes.py) and said in words by changes.ts.
-import { describeChanges } from "./changes";
+import { changedTo, describeChanges } from "./changes";
 import type { ParamDiff, PlantDetail } from "./protocol.gen";
 
 const PARTS = ["controller", "signal"] as const;
@@ -22,6 +22,8 @@ export interface ChangeEntry {
   diffs: ParamDiff[];
   /** "K1 20 → 30 V/rad; reference amplitude 30 → 60°" */
   text: string;
+  /** The mark's label on the plot, whole values only: "K1 → 30 V/rad, +1 more" */
+  label: string;
   params: Record<string, unknown>;
 }
 
@@ -55,9 +57,24 @@ function resolved(controller: unknown, plant: PlantDetail): unknown {
   return kind === "predefined" ? plant.predefined : controller;
 }
 
-/** A change's text cut for a label on the plot (the table has all of it). */
-export function shortLabel(text: string, max = 40): string {
-  return text.length <= max ? text : `${text.slice(0, max - 1)}…`;
+/**
+ * A label for a change's mark on the plot, at most `max` characters of whole parts: as many
+ * of `parts` as fit, then how many more there are (the table and the mark's hover have the
+ * whole sentence). A number is never cut: a first part too long alone gives only its count.
+ */
+export function markLabel(parts: string[], max = 40): string {
+  let label = "";
+  let shown = 0;
+  for (const part of parts) {
+    const rest = parts.length - shown - 1;
+    const next = label ? `${label}, ${part}` : part;
+    if (next.length + (rest ? `, +${rest} more`.length : 0) > max) break;
+    label = next;
+    shown += 1;
+  }
+  if (shown === parts.length) return label;
+  const more = parts.length - shown;
+  return label ? `${label}, +${more} more` : `${more} change${more === 1 ? "" : "s"}`;
 }
 
 /** The run's changes in order of arrival, each with what it altered. */
@@ -87,7 +104,9 @@ export class ParamLog {
     const id = change.params.controller_id;
     const uploaded = typeof id === "string" ? `controller ${id}` : "";
     const text = [uploaded, describeChanges(diffs, this.plant)].filter(Boolean).join("; ") || "the same values again";
-    const entry = { k: change.k, t: change.t, diffs, text, params: change.params };
+    const parts = [uploaded, ...changedTo(diffs, this.plant)].filter(Boolean);
+    const label = parts.length ? markLabel(parts) : text;
+    const entry = { k: change.k, t: change.t, diffs, text, label, params: change.params };
     this.entries.push(entry);
     return entry;
   }

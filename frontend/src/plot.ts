@@ -69,6 +69,8 @@ export interface PlotMark {
   /** the sample from which it holds */
   k: number;
   label: string;
+  /** the whole sentence, shown when the label is hovered */
+  text?: string;
 }
 
 export interface LivePlotOptions {
@@ -250,8 +252,9 @@ export class LivePlot {
         line: { color: "#6b7280", dash: "dot" as const, width: 1 },
       })),
       // each change's label along its line, reading upwards from the top of the outputs' axes
-      annotations: this.marks.map(({ k, label }) => ({
+      annotations: this.marks.map(({ k, label, text }) => ({
         x: k * Ts,
+        hovertext: text ?? label,
         xref: "x" as const,
         y: 1,
         yref: "paper" as const,

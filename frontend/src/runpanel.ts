@@ -8,7 +8,7 @@ import { CompanionRun } from "./companion";
 import { computeText } from "./controllertext";
 import { copyText, csv, h, fill, saveText } from "./dom";
 import { identity } from "./identity";
-import { type ChangeEntry, type ChangeLike, ParamLog, shortLabel } from "./paramlog";
+import { type ChangeEntry, type ChangeLike, ParamLog } from "./paramlog";
 import { channelColor, LivePlot, type LiveTrace } from "./plot";
 import { PredictionView } from "./prediction";
 import { outcomeItems } from "./outcome";
@@ -84,6 +84,7 @@ export class RunPanel {
   private closed = false;
   private readonly demoSlot = h("span.group");
   private readonly buttons: Record<"pause" | "resume" | "stop", HTMLButtonElement>;
+  private readonly presentStop: HTMLButtonElement;
   private readonly windowSel: HTMLSelectElement;
   private readonly plotDiv = h("div.live-plot", { "data-testid": "live-plot", role: "figure", "aria-label": "live plot of the run" });
   private readonly schematic: PlantSchematic;
@@ -131,6 +132,8 @@ export class RunPanel {
       resume: btn("Resume", () => api.resume(run.id)),
       stop: btn("Stop", () => api.stop(run.id)),
     };
+    // presenting folds the toolbar away, never the way to stop the run on the screen
+    this.presentStop = h("button.present-stop", { type: "button", "data-testid": "present-stop", onclick: () => void this.command(() => api.stop(run.id)) }, "Stop");
     this.windowSel = h(
       "select",
       { "aria-label": "time window", onchange: () => this.setWindow(this.windowSel.value === "all" ? null : Number(this.windowSel.value)) },
@@ -154,6 +157,7 @@ export class RunPanel {
         h("span.owner", { "data-testid": "run-owner" }, controlLabel(run)),
         run.private ? h("span.badge.private", { title: "only its owner and instructors may see it" }, "private") : null,
         options.lesson ? h("span.lesson-caption", { "data-testid": "lesson-caption" }, options.lesson.caption, options.lesson.next ? h("small", " (→ next)") : h("small", " (the last step)")) : null,
+        options.controls !== false && run.can_control ? this.presentStop : null,
         this.presentButton,
       ),
       this.rig?.root,
@@ -270,7 +274,7 @@ export class RunPanel {
   private addChanges(changes: ChangeLike[]): void {
     const added = changes.map((c) => this.changes.add(c)).filter((e) => e !== null);
     if (!added.length) return;
-    this.plot.setMarks(this.changes.entries.map((e) => ({ k: e.k, label: shortLabel(e.text) })));
+    this.plot.setMarks(this.changes.entries.map((e) => ({ k: e.k, label: e.label, text: e.text })));
     for (const e of added) this.options.onChange?.(e);
   }
 
@@ -352,6 +356,7 @@ export class RunPanel {
     this.buttons.pause.disabled = state !== "running";
     this.buttons.resume.disabled = state !== "paused";
     this.buttons.stop.disabled = ended;
+    this.presentStop.disabled = ended;
     this.options.onState?.(state);
     this.rig?.follow(state);
     this.progress();

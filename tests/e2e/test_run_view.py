@@ -184,10 +184,23 @@ def test_spectators_see_each_change_arrive_with_what_it_changed(
     assert r.status_code == 200, r.text
     expect(rows).to_have_count(2)
     expect(rows.nth(1)).to_contain_text("reference amplitude 30 → 45°")
-    # each change is a labelled mark on the plot
-    page.wait_for_function(f"() => ({LABELS})()?.length === 2")
+    # a change of many values at once: the table has it all, its mark whole values only
+    r = owner.post(
+        f"/runs/{rid}/params",
+        json={
+            "controller": {"kind": "state_feedback", "K": [31, -90, 3, 1]},
+            "signal": {**square, "amplitude": math.radians(35)},
+        },
+    )
+    assert r.status_code == 200, r.text
+    expect(rows).to_have_count(3)
+    expect(rows.nth(2)).to_contain_text("reference amplitude 45 → 35°")
+    # each change is a labelled mark on the plot: what it set, never a number cut short
+    page.wait_for_function(f"() => ({LABELS})()?.length === 3")
     labels = page.evaluate(LABELS)
-    assert labels[0] == "K1 20 → 30 V/rad" and labels[1].startswith("reference amplitude 30 → 45")
+    assert labels[:2] == ["K1 → 30 V/rad", "reference amplitude → 45°"], labels
+    assert labels[2].startswith("K1 → 31 V/rad, ") and labels[2].endswith(" more"), labels
+    assert all(len(label) <= 40 and "…" not in label for label in labels), labels
     owner.post(f"/runs/{rid}/stop")
     # the settings read in the page's units, not raw JSON
     settings = page.get_by_test_id("run-settings")
@@ -409,17 +422,20 @@ def test_a_presenter_steps_through_the_chapters_runs_with_one_key(
         "the last step"
     )
     page.keyboard.press("PageDown")  # after the last step: nothing more starts
+    # the last step goes on until Stop: the toolbar is folded away, not the way to stop it
+    assert owner.get(f"/runs/{runs[-1]}").json()["status"] == "running"
+    expect(page.locator(".run-panel.presenting .toolbar")).to_be_hidden()
+    page.locator(".run-panel.presenting").get_by_test_id("present-stop").click()
+    expect(page.locator(".run-panel.presenting .run-bar .badge").first).to_have_text("stopped")
+    assert owner.get(f"/runs/{runs[-1]}").json()["status"] == "stopped"
     page.keyboard.press("Escape")
     expect(page.get_by_test_id("present")).to_have_text("Present")
     for rid, step in zip(runs, lesson, strict=True):
         run = owner.get(f"/runs/{rid}").json()
         assert run["request"]["controller"] == step["controller"], run["request"]
         assert run["request"]["duration"] == step["duration"]
-    # each key stopped the step before it; the last one goes on until Stop
+    # each key stopped the step before it
     assert [owner.get(f"/runs/{r}").json()["status"] for r in runs[:2]] == ["stopped"] * 2
-    assert owner.get(f"/runs/{runs[2]}").json()["status"] == "running"
-    page.locator(".run-panel").get_by_role("button", name="Stop").click()
-    expect(page.locator(".run-panel .badge").first).to_have_text("stopped")
 
 
 CUT_INPUTS = """() => [...document.querySelectorAll(
