@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from elab.controllers.report import Report, check, saturation
 from elab.controllers.sandbox import ControllerFailed, Sandboxed, StepTimes
+from elab.engines.outcome import RUNAWAY
 from elab.engines.settings import CodeSettings
 from elab.errors import InvalidInput
 from elab.laws import CodeController, ControlLaw
@@ -232,7 +233,7 @@ def trial(plant: Plant, law: CodeController, settings: CodeSettings | None = Non
             y_op = float((plant.C @ plant.operating_point)[ref])
             err = float(np.max(np.abs(tail - y_op - amplitude)))
             unit = plant.outputs[ref].unit
-            if err > 10 * abs(amplitude):
+            if err > RUNAWAY * abs(amplitude):
                 problems.append(
                     f"the step response runs away (off by {err:.3g} {unit} after {T:g} s, "
                     f"{err / abs(amplitude):.3g} times the step): the loop is unstable, or a "

@@ -8,12 +8,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from elab.design import design_place
-from elab.engines.outcome import SATURATED_S, OutcomeTracker
+from elab.engines.outcome import (
+    RUNAWAY,
+    RUNAWAY_FLOOR,
+    SATURATED_S,
+    SATURATED_SHARE,
+    OutcomeTracker,
+)
 from elab.engines.simulation import channels_of
 from elab.laws import OpenLoop, StateFeedback
 from elab.plants import get_plant
@@ -131,3 +138,18 @@ def test_a_loop_held_at_zero_runs_away_only_far_from_it() -> None:
     got = {m["kind"]: m for m in marks(wild)}
     assert "ran_away" in got, got
     assert "(held at 0)" in str(got["ran_away"]["text"])
+
+
+WORDS = {0.1: "a tenth", 10.0: "10 times"}
+
+
+def test_the_glossary_states_the_rules_the_code_applies() -> None:
+    """The rules are written once for users (docs/glossary.md, *Outcome marks*, which the
+    README and the other docs point to): its numbers are the module's constants."""
+    glossary = (Path(__file__).parents[3] / "docs" / "glossary.md").read_text()
+    entry = glossary.split("**Outcome marks.**", 1)[1].split("\n\n", 1)[0]
+    text = " ".join(entry.split())
+    assert f"{SATURATED_S:g} s in a row and {WORDS[SATURATED_SHARE]} of the run" in text
+    assert f"more than {WORDS[RUNAWAY]} the reference's largest magnitude" in text
+    floor = f"at least {math.degrees(RUNAWAY_FLOOR['rad']):g}° or {RUNAWAY_FLOOR['m'] * 1e3:g} mm"
+    assert floor in text
