@@ -68,3 +68,14 @@ def test_the_web_process_starts_without_python_control_scipy_signal_or_numba() -
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert {"elab.api.designs", "elab.api.plants", "elab.api.ident"} <= names  # read right
     assert not names & WEB_HEAVY, sorted(names & WEB_HEAVY)
+
+
+def test_the_web_app_loads_no_scipy_python_control_or_numba() -> None:
+    """``elab serve``'s web process serves while the fork server imports the numerical
+    stack for the engine and the workers (api/preload.py): the app's module imports none
+    of it (scipy alone was 0.25 s of its start-up, through the identification and design
+    modules' ``scipy.linalg``)."""
+    names, proc = imported("-c", "import elab.api.app")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "elab.api.app" in names and "elab.ident.workflow" in names  # the log is read right
+    assert not {n for n in names if n.split(".")[0] in {"scipy", "control", "numba"}}

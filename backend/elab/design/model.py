@@ -12,7 +12,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-import scipy.linalg
 
 from elab.design._checks import Matrix, columns, readonly, rows, shaped, square
 from elab.errors import DimensionError, InvalidInput
@@ -122,6 +121,8 @@ def continuous(m: Model) -> Model:
     M = np.zeros((n + 1, n + 1))
     M[:n, :n], M[:n, n:] = m.A, m.B
     M[n, n] = 1.0
+    import scipy.linalg  # here: 0.2 s of imports the web process does without at start-up
+
     log = scipy.linalg.logm(M) / m.Ts
     if np.max(np.abs(np.imag(log))) > 1e-8 * max(1.0, float(np.max(np.abs(log)))):
         raise InvalidInput(

@@ -9,7 +9,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 from elab.ident.data import IdData
@@ -41,6 +40,8 @@ def subspace_bd(sub: Subspace, A: Array, C: Array) -> tuple[Array, Array]:
     signal lies in the row space of the Hankel matrix, so the least squares runs on its
     coordinates in Q (the rows of L; only the U_f columns carry 𝒦), with the rank
     tolerance of SLICOT's DGELSY. B is returned in this module's basis (Γ = U₁ Σ₁^½)."""
+    import scipy.linalg  # here: the web process imports this module, not scipy
+
     data, s = sub.data, sub.horizon
     nu, ny, n = data.nu, data.ny, A.shape[0]
     L = sub.L
@@ -86,6 +87,8 @@ def _bd_regressors(G: Array, A: Array, C: Array, blocks: Array, Uf: Array, nu: i
 def simulation_bd(data: IdData, A: Array, C: Array) -> tuple[Array, Array, Array]:
     """B, D and x₀ minimising ‖y − ŷ‖² of the simulated output, a linear least squares in
     them: y(t) = C Aᵗ x₀ + Σ_{k<t} C A^{t−1−k} B u(k) + D u(t)."""
+    import scipy.linalg  # here: the web process imports this module, not scipy
+
     N, nu, ny, n = data.N, data.nu, data.ny, A.shape[0]
     free, forced = fft_regressors(A, C, data.u)
     cols: list[Array] = [free.reshape(N * ny, n)]  # x₀

@@ -15,7 +15,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal, assert_never
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
@@ -304,6 +303,8 @@ def d2c(m: LinearModel) -> ContinuousModel | None:
 
 def _log_zoh(m: LinearModel) -> tuple[Array, Array]:
     """Ac, Bc of the inverse of the zero-order hold (see :func:`d2c`)."""
+    import scipy.linalg  # here: the web process imports this module, not scipy
+
     n, nu = m.nx, m.nu
     M = np.zeros((n + nu, n + nu))
     M[:n, :n], M[:n, n:], M[n:, n:] = m.A, m.B, np.eye(nu)

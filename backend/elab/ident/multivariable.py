@@ -21,7 +21,6 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
@@ -193,6 +192,8 @@ def from_polynomial_rows(
     """A_i(q) y_i = Σ_j B_ij(q) u_j + e_i (a_i,0 = 1) as one innovations state space: each
     output's observer form (n_i = max(deg A_i, deg B_ij) states; x_i,1 = y_i − e_i − D_i u,
     K_i = −[a_i,1 … a_i,n_i]ᵀ), the outputs' blocks on the diagonal."""
+    import scipy.linalg  # here: the web process imports this module, not scipy
+
     blocks = [_observer(a, b) for a, b in zip(A, B, strict=True)]
     return LinearModel(
         scipy.linalg.block_diag(*(blk[0] for blk in blocks)),

@@ -31,7 +31,6 @@ from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
@@ -164,6 +163,8 @@ def _lq_factor(data: IdData, s: int) -> Array:
     """L of H = L Q, H = [U_f; U_p; Y_p; Y_f]: the Cholesky factor of H Hᵀ (SLICOT's
     default, the "Cholesky algorithm applied to the correlation matrix", H Hᵀ from the
     Hankel structure), or of a QR step when H Hᵀ is too ill-conditioned for it."""
+    import scipy.linalg  # here: the web process imports this module, not scipy
+
     lag, ch = _rows(s, data.nu, data.ny)
     R = _correlation(np.hstack([data.u, data.y]), s)
     try:
@@ -437,6 +438,8 @@ def _kalman_gain(
     """K of the steady-state Kalman filter for the covariances of the residuals of the
     state equations on X̂ = Γ_s⁺ (Γ_s X̂), the innovation covariance, and how K was had:
     "riccati", or "none" (no stabilising solution: K = 0, an output-error model)."""
+    import scipy.linalg  # here: the web process imports this module, not scipy
+
     data, s, n = sub.data, sub.horizon, A.shape[0]
     ny = data.ny
     # Γ_s = U₁ Σ₁^½ has orthogonal columns: X̂ = Γ_s⁺ (Γ_s X̂) = Σ₁^−½ U₁ᵀ (Γ_s X̂)
