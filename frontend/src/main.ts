@@ -6,6 +6,7 @@ import { identityLabel } from "./access";
 import { fill, h, link } from "./dom";
 import { identity } from "./identity";
 import { Router, type View } from "./router";
+import { plantDetail } from "./views/common";
 import { home } from "./views/home";
 
 const CLASSROOM = "elab.classroom";
@@ -50,9 +51,11 @@ const router = new Router(main, (root) => {
 const knobs: { plotSettings?: object } = {};
 (window as unknown as { elab: object }).elab = knobs;
 
-/** A view loaded on first use; ``plots``: it draws plots, so the plot's knobs appear. */
+/** A view loaded on first use; ``plots``: it draws plots, so the plot's knobs appear. A
+ * plant's pages ask for the plant while their module loads, not after. */
 function lazy(load: () => Promise<View>, plots = false): View {
   return async (root, params, query) => {
+    if (params.id && location.pathname.startsWith("/plants/")) void plantDetail(params.id);
     const view = await load();
     if (plots && !knobs.plotSettings) knobs.plotSettings = (await import("./plot")).plotSettings;
     return view(root, params, query);

@@ -106,11 +106,26 @@ def test_the_pendulums_outputs_get_axes_of_their_own_size(page: Page) -> None:
 
 
 def test_transfer_functions_say_what_they_map(page: Page) -> None:
-    """Issue 15: the analysis page's transfer functions were not labelled (θ/u? α/u?)."""
+    """Issue 15: the analysis page's transfer functions were not labelled (θ/u? α/u?).
+    They are typeset when they come near the screen (issue 28: KaTeX is not loaded for a
+    page whose formulas are not looked at)."""
+    scripts: list[str] = []
+    page.on("request", lambda r: scripts.append(r.url) if r.resource_type == "script" else None)
     page.goto("/plants/flexible_link/analysis")
+    first = page.get_by_test_id("tf-theta")
+    expect(first).to_be_visible(timeout=20_000)
+    page.wait_for_load_state("networkidle")
+    below = page.evaluate(
+        "(el) => el.getBoundingClientRect().top > 2 * window.innerHeight", first.element_handle()
+    )
+    typesetter = [u for u in scripts if "/assets/markdown-" in u]
+    if below:  # more than a screen below the fold: not typeset, KaTeX not loaded
+        assert not typesetter, typesetter
+        expect(first.locator(".katex")).to_have_count(0)
     for name, symbol in (("theta", "θ"), ("alpha", "α")):
         tf = page.get_by_test_id(f"tf-{name}")
-        expect(tf).to_be_visible(timeout=20_000)
+        tf.scroll_into_view_if_needed()
+        expect(tf.locator(".katex").first).to_be_visible()
         annotation = tf.locator("annotation").first.text_content() or ""
         assert annotation.startswith(f"\\frac{{\\{name}(s)}}{{u(s)}} = "), annotation
         assert symbol in tf.inner_text()

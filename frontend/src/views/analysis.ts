@@ -6,23 +6,32 @@ import { describeChanges } from "../changes";
 import { fill, h } from "../dom";
 import { ControllerForm, durationField, InitialStateForm, SignalForm, StartOptions } from "../experiment";
 import { FieldSet, type NumberField } from "../forms";
-import { tex } from "../markdown";
 import { chart, purge } from "../plot";
 import type { AnalysisInfo, BodeList, Controller, PlantDetail, RunCreate, RunInfo } from "../protocol.gen";
 import { RunPanel, type RunPanelOptions } from "../runpanel";
+import { typesetWhenNear } from "../texlater";
 import { fmt, quantity } from "../units";
 import { downloadButton, errorText, experimentPage, failure, loading, showApiError } from "./common";
 import { RigModeChoice, type RunMode } from "./rigmode";
 import { StepPlot } from "./stepplot";
 
 export function analysisPage(root: HTMLElement, params: Record<string, string>, query: URLSearchParams): Promise<() => void> {
+  // the panels' data asked for beside the plant's, not after it (the first plot sooner)
+  const data = { analysis: quiet(api.analysis(params.id)), bode: quiet(api.bode(params.id)) };
   return experimentPage(root, params.id, "analysis", (plant) => {
     const view = new AnalysisView(plant);
     const again = query.get("run");
     if (again) void view.show(again); // a reload keeps the run on screen
-    void view.loadPanels();
+    void view.loadPanels(data);
     return { content: view.root, cleanup: () => view.destroy() };
   });
+}
+
+/** A promise whose failure is handled where it is awaited, later: not reported as
+ * unhandled meanwhile. */
+function quiet<T>(p: Promise<T>): Promise<T> {
+  p.catch(() => undefined);
+  return p;
 }
 
 class AnalysisView {
@@ -216,8 +225,7 @@ class AnalysisView {
     }
   }
 
-  async loadPanels(): Promise<void> {
-    const p = this.plant;
+  async loadPanels(data: { analysis: Promise<AnalysisInfo>; bode: Promise<BodeList> }): Promise<void> {
     const eig = h("section.panel", h("h2", "Eigenvalues and stability"), loading());
     const ranks = h("section.panel", h("h2", "Controllability and observability"), loading());
     const tfs = h("section.panel", h("h2", "Transfer functions"), loading());
@@ -225,7 +233,7 @@ class AnalysisView {
     const steps = h("section.panel.wide", h("h2", "Step responses"), loading());
     this.panels.append(eig, ranks, tfs, bode, steps);
     try {
-      const a = await api.analysis(p.id);
+      const a = await data.analysis;
       this.eigenPanel(eig, a);
       this.rankPanel(ranks, a);
       this.tfPanel(tfs, a);
@@ -233,7 +241,7 @@ class AnalysisView {
       for (const el of [eig, ranks, tfs]) fill(el, failure(err));
     }
     try {
-      this.bodePanel(bode, await api.bode(p.id));
+      this.bodePanel(bode, await data.bode);
     } catch (err) {
       fill(bode, failure(err));
     }
@@ -272,7 +280,7 @@ class AnalysisView {
   private tfPanel(el: HTMLElement, a: AnalysisInfo): void {
     const items = a.transfer_functions.map((t) => {
       const m = h("div.math", { "data-testid": `tf-${t.output}` });
-      m.innerHTML = tex(`\\frac{${texName(t.output)}(s)}{${texName(t.input)}(s)} = ${t.latex}`, true);
+      typesetWhenNear(m, `${t.output}(s) / ${t.input}(s)`, (tex) => tex(`\\frac{${texName(t.output)}(s)}{${texName(t.input)}(s)} = ${t.latex}`, true));
       return m;
     });
     fill(el, h("h2", "Transfer functions"), ...items);
