@@ -131,3 +131,29 @@ def test_downloads_whose_clients_stop_reading_hold_a_few_parts_and_delay_nobody(
         # and the same download, read, is whole
         text = c.get(f"/runs/{run['id']}/data?format=csv").text
         assert len([line for line in text.splitlines() if not line.startswith("#")]) == 300_001
+
+
+def test_the_api_reference_made_on_first_request_is_one_document(tmp_path: Path) -> None:
+    """Start-up does not build the OpenAPI document (issue 28): the first requests for it
+    and its page, at once on a fresh server, wait for one build and get the document
+    openapi_document() gives."""
+    import asyncio
+
+    import elab.api.app  # noqa: F401 (the endpoints register with their modules)
+    from elab.api.reference import openapi_document
+
+    srv = Server(tmp_path / "data").start()
+    try:
+
+        async def at_once() -> list[httpx.Response]:
+            async with httpx.AsyncClient(base_url=srv.url + "/api/v1", timeout=60, verify=TLS) as c:
+                paths = ["/openapi.json", "/docs"] * 4
+                return await asyncio.gather(*(c.get(p) for p in paths))
+
+        answers = asyncio.run(at_once())
+    finally:
+        srv.stop()
+    assert [r.status_code for r in answers] == [200] * 8
+    docs = [r.json() for r in answers[::2]]
+    assert all(d == docs[0] for d in docs) and docs[0] == openapi_document()
+    assert all("E-Lab API" in r.text for r in answers[1::2])

@@ -10,6 +10,7 @@ from collections import Counter
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from pathlib import Path
+from typing import Any
 
 from pydantic import ValidationError
 from starlette.applications import Starlette
@@ -200,14 +201,25 @@ def create_app(settings: Settings | None = None) -> Starlette:
                 emulator.close()
             store.close()
 
-    doc = openapi_document()
-    page = reference_page(doc)
+    # the OpenAPI document and its page, made on a thread when first asked for: pydantic's
+    # JSON Schemas of every model are 0.2 s that start-up need not wait for
+    reference: asyncio.Task[tuple[dict[str, Any], str]] | None = None
+
+    def make_reference() -> tuple[dict[str, Any], str]:
+        doc = openapi_document()
+        return doc, reference_page(doc)
+
+    async def made_reference() -> tuple[dict[str, Any], str]:
+        nonlocal reference
+        if reference is None:
+            reference = asyncio.create_task(asyncio.to_thread(make_reference))
+        return await asyncio.shield(reference)
 
     async def openapi(request: Request) -> Response:
-        return JSONResponse(doc)
+        return JSONResponse((await made_reference())[0])
 
     async def docs(request: Request) -> Response:
-        return HTMLResponse(page)
+        return HTMLResponse((await made_reference())[1])
 
     routes: list[BaseRoute] = _endpoint_routes()
     routes += [

@@ -22,6 +22,7 @@ from __future__ import annotations
 import asyncio
 import base64
 import contextlib
+import functools
 import hashlib
 import hmac
 import math
@@ -217,7 +218,7 @@ class Authority:
             self._failures[address] = [*recent, now]
         stored = self.instructors.get(name)
         # a missing account costs the same scrypt as a wrong password
-        ok = check_password(password, stored or _DUMMY) and stored is not None
+        ok = check_password(password, stored or _dummy()) and stored is not None
         if not ok:
             raise Unauthorized("unknown instructor or wrong password")
         with self._signing_in:
@@ -278,7 +279,11 @@ class Authority:
         return "; ".join(parts)
 
 
-_DUMMY = hash_password("not an account", b"0123456789abcdef")
+@functools.cache
+def _dummy() -> str:
+    """A hash to check a password of a missing account against (the same scrypt as a
+    wrong password), made on the first sign-in: scrypt's 50-70 ms are not start-up's."""
+    return hash_password("not an account", b"0123456789abcdef")
 
 
 class Identify:
