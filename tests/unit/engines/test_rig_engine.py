@@ -310,7 +310,11 @@ def test_a_motor_switched_off_between_runs_is_enabled_before_the_next(
     heard = Heard()
     driver = StoppingDriver(rig.host, rig.port)
     store = SQLiteStore(tmp_path / "elab.sqlite3")
-    engine = RigEngine("rig-0", store, heard, RigSettings(still_for=0.2), lambda: driver)
+    # the loop real-time as in _engine (this test had an ordinary thread: starved beside
+    # the browser tests, its late answers let α pass the rig's 15° trip in 2 of 5 runs)
+    engine = RigEngine(
+        "rig-0", store, heard, RigSettings(still_for=0.2, realtime=10), lambda: driver
+    )
     engine.start()
     try:
         _until(lambda: engine.identity is not None, "the engine connects to the rig")
