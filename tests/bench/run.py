@@ -131,6 +131,12 @@ Each run: predefined LQR with velocity filters, quantised encoders, seeded senso
 """
 
 
+def loop_section() -> str:
+    from tests.bench.loop import loop_section as section
+
+    return section()
+
+
 def server_section() -> str:
     from tests.bench.server import server_section as section
 
@@ -194,6 +200,7 @@ def cli_section() -> str:
 #: name → function returning the section's markdown, in document order
 SECTIONS: dict[str, Callable[[], str]] = {
     "engine": engine_section,
+    "loop": loop_section,
     "server": server_section,
     "load": load_section,
     "liveplot": live_plot_section,
