@@ -177,6 +177,12 @@ def _add_identify(sub: Any) -> None:
         "all estimation, and its means detrend both",
     )
     p.add_argument("--detrend", default="mean", choices=["mean", "linear", "none"])
+    p.add_argument(
+        "--reference",
+        help="closed-loop data: the reference column(s); the input is replaced by its part "
+        "the reference explains (two-stage method, docs/identification.md) before the models",
+    )
+    p.add_argument("--taps", type=int, default=40, help="FIR taps of --reference's first stage")
     p.add_argument("--horizon", type=int, help="subspace block rows")
     p.add_argument(
         "--decimate",

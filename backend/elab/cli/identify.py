@@ -53,6 +53,18 @@ def cmd_identify(args: argparse.Namespace) -> str:
 
     data = dataset(args.data, "data")
     validation = None if args.validation is None else dataset(args.validation, "validation")
+    staged = ""
+    if args.reference:  # the two-stage method: u as the reference explains it
+        from elab.ident.closedloop import two_stage
+
+        path = Path(args.data)
+        table = read_table(path.read_bytes(), "json" if path.suffix.lower() == ".json" else "csv")
+        refs = table.dataset(_names(args.reference), _names(args.output), args.Ts).u
+        data = two_stage(data, refs, args.taps)
+        staged = (
+            f"two-stage: {', '.join(data.input_names)} replaced by its FIR prediction "
+            f"({args.taps} taps) from {args.reference}\n"
+        )
     arx_search, n4sid_orders = None, None
     for text in args.search:
         kind, _, spans = text.partition(":")
@@ -80,7 +92,7 @@ def cmd_identify(args: argparse.Namespace) -> str:
         from elab.api.identjson import ident_json
 
         return ident_json(result)
-    return _identify_text(data, result)
+    return staged + _identify_text(data, result)
 
 
 def _names(text: str) -> list[str]:
