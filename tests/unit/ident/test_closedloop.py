@@ -113,3 +113,21 @@ def test_the_cli_estimates_from_the_two_stage_data(
     f1 = fb(IdData(est.y[:1980], est.u[:1980], est.Ts))[0]
     assert f"F(q) = +1.0000 {f1:+.4f}" in staged, staged
     assert f"F(q) = +1.0000 {f1:+.4f}" not in direct, direct
+
+
+def test_blocks_of_rows_give_the_whole_regressions_answer(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Stage 1 reads the regressor a block of rows at a time (a long record's whole
+    regressor would not fit in memory): blocks of 7 rows, 2 references and 5 taps give
+    what one least-squares solve of the whole matrix gives."""
+    from elab.ident import closedloop
+
+    rng = np.random.default_rng(5)
+    refs = rng.standard_normal((300, 2))
+    u = rng.standard_normal((300, 1))
+    data = IdData(rng.standard_normal((300, 1)), u, 0.01)
+    whole = np.zeros((300, 10))
+    for lag in range(5):
+        whole[lag:, 2 * lag : 2 * lag + 2] = refs[: 300 - lag]
+    want = whole @ np.linalg.lstsq(whole, u, rcond=None)[0]
+    monkeypatch.setattr(closedloop, "BLOCK", 70)  # 7 rows of 10 regressors
+    np.testing.assert_allclose(two_stage(data, refs, 5).u, want, rtol=1e-9, atol=1e-12)
