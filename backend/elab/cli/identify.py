@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, assert_never
 
@@ -59,11 +60,16 @@ def cmd_identify(args: argparse.Namespace) -> str:
 
         path = Path(args.data)
         table = read_table(path.read_bytes(), "json" if path.suffix.lower() == ".json" else "csv")
-        refs = table.dataset(_names(args.reference), _names(args.output), args.Ts).u
+        try:
+            refs = table.dataset(_names(args.reference), _names(args.output), args.Ts).u
+        except InvalidInput as exc:  # the columns asked for as --reference
+            if exc.field != "input":
+                raise
+            raise InvalidInput("reference", exc.value, exc.allowed) from None
         data = two_stage(data, refs, args.taps)
         staged = (
             f"two-stage: {', '.join(data.input_names)} replaced by its FIR prediction "
-            f"({args.taps} taps) from {args.reference}\n"
+            f"({args.taps} taps) from {args.reference}"
         )
     arx_search, n4sid_orders = None, None
     for text in args.search:
@@ -91,8 +97,9 @@ def cmd_identify(args: argparse.Namespace) -> str:
     if args.json:  # the API's answer, validated against the same wire model
         from elab.api.identjson import ident_json
 
-        return ident_json(result)
-    return staged + _identify_text(data, result)
+        # the two-stage note first among the notes (the text says it on its first line)
+        return ident_json(replace(result, notes=(staged, *result.notes)) if staged else result)
+    return (staged + "\n" if staged else "") + _identify_text(data, result)
 
 
 def _names(text: str) -> list[str]:

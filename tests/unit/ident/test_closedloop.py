@@ -6,6 +6,7 @@ on the recorded u is biased (the feedback put the noise into u)."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -113,6 +114,9 @@ def test_the_cli_estimates_from_the_two_stage_data(
     f1 = fb(IdData(est.y[:1980], est.u[:1980], est.Ts))[0]
     assert f"F(q) = +1.0000 {f1:+.4f}" in staged, staged
     assert f"F(q) = +1.0000 {f1:+.4f}" not in direct, direct
+    assert main(["identify", *args, "--reference", "r", "--json"]) == 0
+    notes = json.loads(capsys.readouterr().out)["notes"]
+    assert notes[0].startswith("two-stage: u replaced"), notes
 
 
 def test_blocks_of_rows_give_the_whole_regressions_answer(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -131,3 +135,15 @@ def test_blocks_of_rows_give_the_whole_regressions_answer(monkeypatch: pytest.Mo
     want = whole @ np.linalg.lstsq(whole, u, rcond=None)[0]
     monkeypatch.setattr(closedloop, "BLOCK", 70)  # 7 rows of 10 regressors
     np.testing.assert_allclose(two_stage(data, refs, 5).u, want, rtol=1e-9, atol=1e-12)
+
+
+def test_the_cli_names_a_missing_reference_column(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data, r = closed_loop(4)
+    table = tmp_path / "closed.csv"
+    columns = np.column_stack([r, data.u[:, 0], data.y[:, 0]])
+    np.savetxt(table, columns, delimiter=",", header="r,u,y", comments="")
+    args = ["identify", str(table), "--Ts", "0.01", "--model", "oe:1,1,1", "--reference", "w"]
+    assert main(args) == 2
+    assert "reference: got 'w'; allowed: one of the columns: r, u, y" in capsys.readouterr().err
