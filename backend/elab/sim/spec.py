@@ -8,6 +8,8 @@ exactly (zero-order hold) and the controller (Tustin), and returns a
 from __future__ import annotations
 
 import math
+import threading
+import weakref
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Literal
 
@@ -108,12 +110,24 @@ def compile_run(spec: RunSpec) -> CompiledRun:
         "a controller whose numbers keep its arithmetic finite: no gain, coefficient or "
         "time constant so large or so small that it overflows or divides by zero"
     )
-    with computable("controller", spec.law, allowed):
-        _check_sample_time(spec.law, plant, Ts)
-        controller = discretise(spec.law, plant, Ts)
-        c = controller
-        finite_result("controller", spec.law, allowed, c.Ac, c.Bc, c.Cc, c.Dc, c.Lw)
-    d = ct.c2d(ct.ss(plant.A, plant.B, plant.C, plant.D), Ts, method="zoh")
+    done = _DISCRETE.get(plant, spec.law, Ts)
+    if done is None:
+        with computable("controller", spec.law, allowed):
+            _check_sample_time(spec.law, plant, Ts)
+            controller = discretise(spec.law, plant, Ts)
+            c = controller
+            finite_result("controller", spec.law, allowed, c.Ac, c.Bc, c.Cc, c.Dc, c.Lw)
+        d = ct.c2d(ct.ss(plant.A, plant.B, plant.C, plant.D), Ts, method="zoh")
+        done = _DISCRETE.put(
+            plant,
+            spec.law,
+            Ts,
+            _Discrete(
+                _readonly(controller),
+                _frozen(np.asarray(d.A, dtype=np.float64)),
+                _frozen(np.asarray(d.B, dtype=np.float64)[:, 0]),
+            ),
+        )
     saturate = plant.saturate if spec.saturate is None else spec.saturate
     u_max = (
         plant.u_max if spec.u_max is None else finite_float("u_max", spec.u_max, 0.0, lo_open=True)
@@ -122,14 +136,94 @@ def compile_run(spec: RunSpec) -> CompiledRun:
         spec=spec,
         Ts=Ts,
         n_samples=n_samples,
-        Ad=np.asarray(d.A, dtype=np.float64),
-        Bd=np.asarray(d.B, dtype=np.float64)[:, 0],
-        controller=controller,
+        Ad=done.Ad,
+        Bd=done.Bd,
+        controller=done.controller,
         u_lim=u_max if saturate else math.inf,
         quantum=np.array(plant.sensors.quantum if spec.quantize else (0.0,) * plant.ny),
         noise_std=np.array(plant.sensors.noise_std),
         x0=_initial_state(spec),
     )
+
+
+@dataclass(frozen=True)
+class _Discrete:
+    """What discretising a law for a plant at a sample time gave (read-only arrays)."""
+
+    controller: DiscreteController
+    Ad: Array
+    Bd: Array
+
+
+def _frozen(a: Array) -> Array:
+    a.setflags(write=False)
+    return a
+
+
+def _readonly(c: DiscreteController) -> DiscreteController:
+    for a in (c.Ac, c.Bc, c.Cc, c.Dc, c.Lw):
+        a.setflags(write=False)
+    return c
+
+
+_Entries = dict[tuple[ControlLaw, float], _Discrete]
+
+
+class _DiscreteCache:
+    """Each plant's discretised laws by (law, Ts), the last :data:`PER_PLANT` of each:
+    python-control's c2d and Tustin are 1–2 ms of every :func:`compile_run` (most of a
+    short simulation, and of each run a burst creates), for the same few laws again and
+    again. A plant is frozen; its entries are keyed by its identity and dropped with it
+    (a weak reference), a law by its value (laws are frozen, hashable dataclasses; one
+    that is not hashable is not kept). Only laws that passed the checks are kept."""
+
+    PER_PLANT = 64
+
+    def __init__(self) -> None:
+        # reentrant: a plant's weak-reference callback may run in a collection that an
+        # allocation under the lock set off
+        self._lock = threading.RLock()
+        self._by: dict[
+            int, tuple[weakref.ref[Plant], dict[tuple[ControlLaw, float], _Discrete]]
+        ] = {}
+
+    def get(self, plant: Plant, law: ControlLaw, Ts: float) -> _Discrete | None:
+        with self._lock:
+            held = self._by.get(id(plant))
+            if held is None or held[0]() is not plant:
+                return None
+            try:
+                return held[1].get((law, Ts))
+            except TypeError:  # an unhashable law
+                return None
+
+    def put(self, plant: Plant, law: ControlLaw, Ts: float, done: _Discrete) -> _Discrete:
+        with self._lock:
+            held = self._by.get(id(plant))
+            if held is None or held[0]() is not plant:
+                key = id(plant)
+
+                def forget(_: weakref.ref[Plant], key: int = key) -> None:
+                    self._forget(key)
+
+                held = self._by[key] = (weakref.ref(plant, forget), {})
+            entries = held[1]
+            try:
+                if len(entries) >= self.PER_PLANT:
+                    del entries[next(iter(entries))]
+                entries[(law, Ts)] = done
+            except TypeError:
+                pass
+        return done
+
+    def _forget(self, key: int) -> None:
+        with self._lock:
+            held = self._by.get(key)
+            if held is not None and held[0]() is None:
+                del self._by[key]
+
+
+_DISCRETE = _DiscreteCache()
 
 
 def _check_periods(name: str, signal: Signal | None, Ts: float) -> None:
