@@ -94,14 +94,20 @@ def test_more_taps_than_half_the_samples_are_refused() -> None:
     assert err.value.field == "taps" and "at most 500 taps" in str(err.value)
 
 
+def written(where: Path, data: IdData, r: np.ndarray) -> Path:
+    """The record as a CSV of columns r, u, y."""
+    table = where / "closed.csv"
+    columns = np.column_stack([r, data.u[:, 0], data.y[:, 0]])
+    np.savetxt(table, columns, delimiter=",", header="r,u,y", comments="")
+    return table
+
+
 def test_the_cli_estimates_from_the_two_stage_data(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """``elab identify --reference r``: the models read the two-stage data, and say so."""
     data, r = closed_loop(3)
-    table = tmp_path / "closed.csv"
-    columns = np.column_stack([r, data.u[:, 0], data.y[:, 0]])
-    np.savetxt(table, columns, delimiter=",", header="r,u,y", comments="")
+    table = written(tmp_path, data, r)
     args = [str(table), "--Ts", "0.01", "--model", "oe:1,1,1", "--detrend", "none"]
     args += ["--split", "0.99", "--analyses", "none"]
     assert main(["identify", *args, "--reference", "r"]) == 0
@@ -140,10 +146,7 @@ def test_blocks_of_rows_give_the_whole_regressions_answer(monkeypatch: pytest.Mo
 def test_the_cli_names_a_missing_reference_column(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    data, r = closed_loop(4)
-    table = tmp_path / "closed.csv"
-    columns = np.column_stack([r, data.u[:, 0], data.y[:, 0]])
-    np.savetxt(table, columns, delimiter=",", header="r,u,y", comments="")
+    table = written(tmp_path, *closed_loop(4))
     args = ["identify", str(table), "--Ts", "0.01", "--model", "oe:1,1,1", "--reference", "w"]
     assert main(args) == 2
     assert "reference: got 'w'; allowed: one of the columns: r, u, y" in capsys.readouterr().err
