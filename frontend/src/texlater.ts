@@ -6,7 +6,7 @@ type Tex = (source: string, displayMode?: boolean) => string;
 let markdown: Promise<{ tex: Tex }> | null = null;
 
 /** The typesetter, loaded once on first use. */
-export function loadTex(): Promise<{ tex: Tex }> {
+function loadTex(): Promise<{ tex: Tex }> {
   markdown ??= import("./markdown");
   return markdown;
 }

@@ -43,25 +43,26 @@ def cmd_identify(args: argparse.Namespace) -> str:
     asked = bool(args.model or args.search or args.sine is not None)
     analyses = parse_analyses(args.analyses, asked)
 
-    def dataset(name: str, field: str) -> Any:
+    def table(name: str, field: str) -> Any:
         path = Path(name)
         try:
             raw = path.read_bytes()
         except OSError as exc:
             raise InvalidInput(field, name, f"a readable file ({exc.strerror})") from None
-        table = read_table(raw, "json" if path.suffix.lower() == ".json" else "csv")
-        return table.dataset(_names(args.input), _names(args.output), args.Ts)
+        return read_table(raw, "json" if path.suffix.lower() == ".json" else "csv")
 
-    data = dataset(args.data, "data")
-    validation = None if args.validation is None else dataset(args.validation, "validation")
+    def dataset(columns: Any) -> Any:
+        return columns.dataset(_names(args.input), _names(args.output), args.Ts)
+
+    data_table = table(args.data, "data")
+    data = dataset(data_table)
+    validation = None if args.validation is None else dataset(table(args.validation, "validation"))
     staged = ""
     if args.reference:  # the two-stage method: u as the reference explains it
         from elab.ident.closedloop import two_stage
 
-        path = Path(args.data)
-        table = read_table(path.read_bytes(), "json" if path.suffix.lower() == ".json" else "csv")
-        try:
-            refs = table.dataset(_names(args.reference), _names(args.output), args.Ts).u
+        try:  # the reference columns of the same table, read once
+            refs = data_table.dataset(_names(args.reference), _names(args.output), args.Ts).u
         except InvalidInput as exc:  # the columns asked for as --reference
             if exc.field != "input":
                 raise

@@ -57,8 +57,12 @@ def two_stage(data: IdData, r: ArrayLike, taps: int = DEFAULT_TAPS) -> IdData:
             f"at most {data.N // (2 * refs.shape[1])} taps for {data.N} samples "
             f"({refs.shape[1]} reference(s)): twice as many samples as parameters",
         )
-    if np.allclose(refs, refs[0]):
+    if np.all(refs == refs[0]):
         raise InvalidInput("r", "a constant", "a reference that varies (it excites the loop)")
+    # each reference and input scaled to at most 1 in magnitude: the prediction does not
+    # change, and 1e308 or subnormal records neither overflow nor underflow the sums
+    r_scale, u_scale = _scale(refs), _scale(data.u)
+    refs, inputs = refs / r_scale, data.u / u_scale
     # the normal equations of u on every reference at lags 0 … taps − 1 (zeros before the
     # record), a block of rows at a time: the whole regressor of a 2,000,000-sample record
     # at 40 taps would be 640 MB
@@ -69,13 +73,21 @@ def two_stage(data: IdData, r: ArrayLike, taps: int = DEFAULT_TAPS) -> IdData:
     for k0 in range(0, N, rows):
         phi = _regressors(refs, taps, k0, min(N, k0 + rows))
         gram += phi.T @ phi
-        cross += phi.T @ data.u[k0 : k0 + phi.shape[0]]
+        cross += phi.T @ inputs[k0 : k0 + phi.shape[0]]
     theta = np.linalg.lstsq(gram, cross, rcond=None)[0]
-    u = np.empty_like(data.u)
-    for k0 in range(0, N, rows):
-        phi = _regressors(refs, taps, k0, min(N, k0 + rows))
-        u[k0 : k0 + phi.shape[0]] = phi @ theta
-    return replace(data, u=u)
+    # the prediction is the FIR filter itself: each reference convolved with its taps
+    # (theta is lag-major: row lag·nr + i belongs to reference i)
+    u = np.zeros_like(data.u)
+    for j in range(data.nu):
+        for i in range(nr):
+            u[:, j] += np.convolve(refs[:, i], theta[i::nr, j])[:N]
+    return replace(data, u=u * u_scale)
+
+
+def _scale(columns: Array) -> Array:
+    """Each column's largest magnitude (1 for a column of zeros)."""
+    top = np.max(np.abs(columns), axis=0)
+    return np.where(top > 0, top, 1.0)
 
 
 def _regressors(refs: Array, taps: int, k0: int, k1: int) -> Array:

@@ -150,3 +150,15 @@ def test_the_cli_names_a_missing_reference_column(
     args = ["identify", str(table), "--Ts", "0.01", "--model", "oe:1,1,1", "--reference", "w"]
     assert main(args) == 2
     assert "reference: got 'w'; allowed: one of the columns: r, u, y" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("size", [1e308, 1e200, 1e-300, 5e-324])
+def test_extreme_sizes_give_the_same_prediction_scaled(size: float) -> None:
+    """A reference of 1e308 or of subnormals, and an input of 1e307, neither overflow nor
+    vanish: the prediction is the unit-sized one, scaled (it had failed with "SVD did not
+    converge" at 1e200)."""
+    data, r = closed_loop(6)
+    base = two_stage(data, r).u
+    np.testing.assert_array_equal(two_stage(data, r * size).u, base)
+    big = IdData(data.y, data.u * 1e307, data.Ts)
+    np.testing.assert_allclose(two_stage(big, r * size).u / 1e307, base, rtol=1e-12, atol=1e-12)
