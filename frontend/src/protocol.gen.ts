@@ -1057,6 +1057,10 @@ export interface FileData {
    * s; default: from the file
    */
   Ts?: number | null;
+  /**
+   * for two_stage: the columns of the signals that drove the loop
+   */
+  reference?: [string, ...string[]] | null;
 }
 /**
  * Fit % per output: on the validation set simulated from a zero initial state (the
@@ -1379,7 +1383,7 @@ export interface ResidualsOut {
  */
 export interface VerdictOut {
   /**
-   * on the data: feedback, excitation, noise, quantisation, delay, length, order_search; on a model: stability, integrator, fit, residuals, order
+   * on the data: feedback, excitation, noise, quantisation, delay, length, order_search, two_stage; on a model: stability, integrator, fit, residuals, order, physics
    */
   topic: string;
   level: "good" | "caution" | "poor";
@@ -1429,6 +1433,10 @@ export interface IdentRequest {
    * @maxItems 10
    */
   models?: (ArxSpec | ArmaxSpec | OeSpec | N4SidSpec | LinkSpec)[];
+  /**
+   * closed loop: the two-stage method with a first stage of this many taps (the estimation part's input replaced by its FIR prediction from data.reference; validation reads the measured input); null: the direct method
+   */
+  two_stage?: number | null;
 }
 /**
  * The recording of a run (columns by channel name, e.g. ``u`` and ``theta``).
@@ -1456,6 +1464,10 @@ export interface RunData {
    * s
    */
   t_to?: number | null;
+  /**
+   * for two_stage: the signals that drove the loop, recorded channels or 'excitation' (the run's input excitation as it was requested); default: r and, if the run had one at the input, the excitation
+   */
+  reference?: [string, ...string[]] | null;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

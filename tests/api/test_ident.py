@@ -155,6 +155,100 @@ def test_a_recorded_identification_run(server: Server) -> None:
     assert "rad/s" in physics[0]["finding"] and "nominal" not in physics[0]["finding"]
 
 
+def _finished_run(server: Server, body: dict[str, Any]) -> str:
+    with server.client() as c:
+        run = c.post("/runs", json=body).json()
+        for _ in range(600):
+            if c.get(f"/runs/{run['id']}").json()["status"] == "finished":
+                return str(run["id"])
+            time.sleep(0.1)
+    raise AssertionError(f"run {run['id']} did not finish in 60 s")
+
+
+def test_the_two_stage_method_reads_a_runs_reference_and_excitation(server: Server) -> None:
+    """``two_stage`` on a closed-loop run: stage 1 predicts u from the recorded r and the
+    run's input excitation (reproduced from its request, not recorded), fitted on the
+    estimation part; the answer equals the library's on the downloaded recording with
+    the same references, and the validation part keeps the measured u."""
+    prbs = {"kind": "prbs", "amplitude": 1.0, "order": 10, "band": 0.05}
+    square = {"kind": "square", "amplitude": 0.2, "period": 10}
+    rid = _finished_run(
+        server,
+        {
+            "plant": "flexible_link",
+            "experiment": "identification",
+            "pace": "fast",
+            "duration": 30,
+            "signal": square,
+            "excitation": prbs,
+            "excitation_at": "input",
+            "seed": 4,
+        },
+    )
+    body = {
+        "data": {"source": "run", "run": rid},
+        "detrend": "none",
+        "decimate": 10,
+        "correlation": False,
+        "spectral": False,
+        "two_stage": 1000,
+        "models": [{"kind": "oe", "nb": 4, "nf": 4, "nk": 1}],
+    }
+    r = _ident(server, body)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["notes"][0].startswith(
+        "two-stage method: the estimation part's u replaced by its prediction from r, "
+        "excitation (a FIR of 1000 taps"
+    ), out["notes"]
+    said = {v["topic"]: v for v in out["verdicts"]}
+    assert said["feedback"]["level"] == "good" and "two-stage" in said["feedback"]["finding"]
+    assert said["two_stage"]["level"] == "good"
+    model = out["models"][0]
+    assert model["level"] != "poor", model["verdicts"]
+    physics = {v["topic"]: v for v in model["verdicts"]}["physics"]
+    assert physics["level"] != "poor", physics
+
+    # the library on the downloaded recording, with the excitation made from its request
+    from elab.ident import iddata
+    from elab.ident import workflow as wf
+    from elab.ident.closedloop import References
+    from elab.sim.signals import PRBS
+
+    with server.client() as c:
+        rec = c.get(f"/runs/{rid}/data?format=json&channels=r,u,theta").json()["data"]
+    u, theta, ref = (np.array(rec[k]) for k in ("u", "theta", "r"))
+    e = PRBS(1.0, order=10, band=0.05).sample(0, u.size, 0.001)
+    z = iddata(theta, u, 0.001, output_names=("theta",), input_names=("u",))
+    plan = wf.Plan(
+        models=(wf.parse_model("oe:4,4,1"),),
+        detrend="none",
+        decimate=10,
+        correlation=False,
+        spectral=False,
+        closed_loop=True,
+        two_stage=1000,
+    )
+    mine = wf.run(z, plan, references=References(np.column_stack([ref, e]), ("r", "excitation")))
+    fit = mine.models[0].fits.headline_fit.fit[0]
+    assert model["fit"]["headline"][0] == pytest.approx(fit, abs=1e-6)
+    # the data as analysed: the validation part is the measured u (decimated), the
+    # estimation part its prediction
+    shown = np.array(out["data"]["u"][0])
+    step, n_est = out["data"]["step"], out["data"]["estimation"]
+    measured = z.decimate(10).u[::step, 0]
+    k = -(-n_est // step)  # the first shown validation sample
+    np.testing.assert_allclose(shown[k:], measured[k:], atol=1e-9)
+    assert np.max(np.abs(shown[:k] - measured[:k])) > 1e-3
+
+    # names that are not the run's, and a run without an input excitation
+    bad = body | {"data": {"source": "run", "run": rid, "reference": ["w"]}}
+    err = _error(_ident(server, bad))
+    assert err["field"] == "data.reference" and "or excitation" in err["message"]
+    del body["two_stage"]
+    assert "two-stage" not in _ident(server, body).json()["notes"][0]
+
+
 def _error(r: Any, status: int = 422) -> dict[str, Any]:
     assert r.status_code == status, r.text
     err: dict[str, Any] = r.json()["error"]

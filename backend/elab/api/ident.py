@@ -37,6 +37,7 @@ from elab.api.state import lab
 from elab.errors import ElabError, InvalidInput, TooMany
 from elab.ident import IdData
 from elab.ident import workflow as wf
+from elab.ident.closedloop import References
 from elab.ident.files import Table, read_table
 from elab.ident.modeladvice import Physics, physics_of
 from elab.jobs import JobPool
@@ -68,15 +69,16 @@ async def identify(request: Request) -> Response:
     slot = _slots(request).take(identity(request).id)
     mine: Callable[[], None] | None = slot
     try:
-        data, validation, ran = await records(request, req, partial(_parse, request))
-        plan = _plan(req, ran, _physics(data, ran))
+        got = await records(request, req, partial(_parse, request))
+        plan = _plan(req, got.ran, _physics(got.data, got.ran))
+        work = (got.data, plan, got.validation, got.references)
         if "application/x-ndjson" in request.headers.get("accept", ""):
             mine = None  # given back when the stream ends, however it ends
-            lines = _progress_lines(jobs(request), (data, plan, validation), slot)
+            lines = _progress_lines(jobs(request), work, slot)
             return StreamingResponse(
                 lines, media_type="application/x-ndjson", background=BackgroundTask(slot)
             )
-        job = jobs(request).run(identjson.identify, data, plan, validation)
+        job = jobs(request).run(identjson.identify, *work)
         result = await _unless_gone(request, job)
         if result is None:
             raise ClientGone
@@ -154,11 +156,11 @@ async def _disconnected(request: Request) -> None:
 
 async def _progress_lines(
     pool: JobPool,
-    work: tuple[IdData, wf.Plan, IdData | None],
+    work: tuple[IdData, wf.Plan, IdData | None, References | None],
     release: Callable[[], None],
 ) -> AsyncIterator[bytes]:
     """Progress, then the result of :func:`identjson.identify` on ``work`` (data, plan,
-    validation): the job's reports as they come. When the client goes away, the response
+    validation, references): the job's reports as they come. When the client goes away, the response
     is cancelled here, which stops the job."""
     queue: asyncio.Queue[tuple[str, float]] = asyncio.Queue()
     job = asyncio.ensure_future(
@@ -252,4 +254,5 @@ def _plan(req: s.IdentRequest, ran: Requested | None, physics: Physics | None = 
         closed_loop=None if ran is None else ran.closed_loop,
         decimate=req.decimate,
         physics=physics,
+        two_stage=req.two_stage,
     )

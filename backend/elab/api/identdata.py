@@ -11,8 +11,12 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
 from typing import TypeVar
 
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import ValidationError
 from starlette.requests import Request
 
 from elab.api import convert
@@ -21,9 +25,14 @@ from elab.api.auth import identity
 from elab.api.state import lab
 from elab.errors import InvalidInput
 from elab.ident import IdData
+from elab.ident.closedloop import References
 from elab.ident.data import MAX_SAMPLES, fill_gaps
 from elab.ident.files import Table
 from elab.plants import get_plant
+from elab.sim.signals import Signal
+from elab.store.base import RunRecord
+
+Array = NDArray[np.float64]
 
 T = TypeVar("T")
 #: a file's text and format → its table (the caller decides where it is parsed)
@@ -31,20 +40,30 @@ T = TypeVar("T")
 Parse = Callable[[bytes, str, int, str], Awaitable[Table]]
 
 
-async def records(
-    request: Request, req: s.IdentRequest, parse: Parse
-) -> tuple[IdData, IdData | None, convert.Requested | None]:
-    """The data, the validation record (``None``: the data are split) and, for a run,
-    what its request says of how it ran (a sine's frequency, closed loop)."""
-    data, ran = await _dataset(request, req.data, "data", parse)
+@dataclass(frozen=True)
+class Records:
+    """What an identification request's records are: the ``data``, the ``validation``
+    record (``None``: the data are split), for a run what its request says of how it ran
+    (a sine's frequency, closed loop), and the signals that drove the loop (asked for by
+    ``two_stage`` only)."""
+
+    data: IdData
+    validation: IdData | None
+    ran: convert.Requested | None
+    references: References | None
+
+
+async def records(request: Request, req: s.IdentRequest, parse: Parse) -> Records:
+    staged = req.two_stage is not None
+    data, ran, refs = await _dataset(request, req.data, "data", parse, staged=staged)
     if req.validation is None:
-        return data, None, ran
+        return Records(data, None, ran, refs)
     room = (
         MAX_SAMPLES - data.N,
         f" (with the data's {data.N:,}, at most {MAX_SAMPLES:,} in all)",
     )
-    validation, _ = await _dataset(request, req.validation, "validation", parse, room)
-    return data, _like(data, validation), ran
+    validation, _, _ = await _dataset(request, req.validation, "validation", parse, room)
+    return Records(data, _like(data, validation), ran, refs)
 
 
 def _like(data: IdData, validation: IdData) -> IdData:
@@ -76,16 +95,36 @@ async def _dataset(
     prefix: str,
     parse: Parse,
     room: tuple[int, str] = (MAX_SAMPLES, ""),
-) -> tuple[IdData, convert.Requested | None]:
-    """The data set of the request's field ``prefix`` and, for a run, what its request
-    says of how it ran; a file of more samples than ``room`` allows (with why) is refused
-    before it is parsed."""
+    *,
+    staged: bool = False,
+) -> tuple[IdData, convert.Requested | None, References | None]:
+    """The data set of the request's field ``prefix``, for a run what its request says
+    of how it ran, and, when ``staged`` (the two-stage method), the signals that drove
+    the loop; a file of more samples than ``room`` allows (with why) is refused before
+    it is parsed."""
     if isinstance(src, s.FileData):
         try:
             table = await parse(src.text.encode(), src.format, *room)
         except InvalidInput as exc:
             raise _renamed(prefix, exc) from None
-        return _prefixed(prefix, lambda: table.dataset(src.input, src.output, src.Ts)), None
+        data = _prefixed(prefix, lambda: table.dataset(src.input, src.output, src.Ts))
+        if not staged:
+            return data, None, None
+        if src.reference is None:
+            raise InvalidInput(
+                f"{prefix}.reference", None, "the columns of the signals that drove the loop"
+            )
+        names = src.reference
+
+        def columns() -> References:
+            try:  # read as inputs are: short gaps filled
+                values = table.dataset(names, src.output, src.Ts).u
+            except InvalidInput as exc:
+                field = "reference" if exc.field == "input" else exc.field
+                raise InvalidInput(field, exc.value, exc.allowed) from None
+            return References(values, tuple(names))
+
+        return data, None, _prefixed(prefix, columns)
     m = lab(request).manager
     record = await m.get(src.run, identity(request))
     names = [c[0] for c in record.channels]
@@ -118,6 +157,7 @@ async def _dataset(
             record.id,
             f"a run with recorded samples in the range (it has {record.n_stored})",
         )
+    refs = _run_references(record, src, prefix, names, rows, k0) if staged else None
     col = {n: i for i, n in enumerate(names)}
     picked = rows[:, [col[n] for n in [*outputs, *src.input]]]
     picked, filled = _prefixed(prefix, lambda: fill_gaps(picked, record.Ts, f"run {record.id}"))
@@ -136,7 +176,57 @@ async def _dataset(
             filled=filled,
         ),
     )
-    return data, convert.requested(record)
+    return data, convert.requested(record), refs
+
+
+def _run_references(
+    record: RunRecord, src: s.RunData, prefix: str, names: list[str], rows: Array, k0: int
+) -> References:
+    """The signals that drove a run's loop on the samples read (``rows`` from ``k0``):
+    recorded channels by name, and ``excitation``, the run's input excitation as its
+    request asked for it (it is not recorded; a reference excitation is in ``r``)."""
+    excitation = _input_excitation(record)
+    chosen = src.reference or ["r", *(["excitation"] if excitation is not None else [])]
+    columns: list[Array] = []
+    signals: list[tuple[int, Signal]] = []
+    for name in chosen:
+        if name == "excitation":
+            if excitation is None:
+                raise InvalidInput(
+                    f"{prefix}.reference",
+                    name,
+                    f"channels of run {record.id}: {', '.join(names)} (it had no excitation "
+                    "at the input)",
+                )
+            # sampled by the identification worker (a PRBS's generator is scipy's)
+            signals.append((len(columns), excitation))
+            columns.append(np.zeros(rows.shape[0]))
+        elif name in names:
+            columns.append(rows[:, names.index(name)])
+        else:
+            raise InvalidInput(
+                f"{prefix}.reference",
+                name,
+                f"channels of run {record.id}: {', '.join(names)}, or excitation",
+            )
+    values = np.column_stack(columns)
+    if not np.all(np.isfinite(values)):  # a gap in the recording: filled as the data are
+        values, _ = fill_gaps(values, record.Ts, f"run {record.id}")
+    return References(values, tuple(chosen), tuple(signals), k0, record.Ts)
+
+
+def _input_excitation(record: RunRecord) -> Signal | None:
+    """The excitation a run added at the plant input, as its stored request asked."""
+    spec = record.spec
+    if spec.get("excitation_at", "input") != "input" or not spec.get("excitation"):
+        return None
+    try:
+        asked = s.RunCreate.model_validate(
+            {k: v for k, v in spec.items() if k in s.RunCreate.model_fields}
+        )
+    except ValidationError:
+        return None  # a request an earlier version stored that this one cannot read
+    return None if asked.excitation is None else convert.signal(asked.excitation)
 
 
 def _prefixed(prefix: str, make: Callable[[], T]) -> T:

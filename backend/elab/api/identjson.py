@@ -20,6 +20,7 @@ from elab.api import schemas as s
 from elab.ident import IdData
 from elab.ident import workflow as wf
 from elab.ident.advice import Verdict
+from elab.ident.closedloop import References
 from elab.ident.nonparametric import Correlation, SineResponse, Spectrum
 from elab.ident.parameters import (
     ArmaxParameters,
@@ -46,11 +47,12 @@ def identify(
     data: IdData,
     plan: wf.Plan,
     validation: IdData | None = None,
+    references: References | None = None,
     progress: wf.Progress | None = None,
 ) -> str:
     """:func:`elab.ident.workflow.run` and :func:`ident_json` (one job of the server's
     identification workers: the JSON is written there, not in the web process)."""
-    return ident_json(wf.run(data, plan, progress, validation=validation))
+    return ident_json(wf.run(data, plan, progress, validation, references))
 
 
 def ident_json(result: Result) -> str:

@@ -179,8 +179,9 @@ def _add_identify(sub: Any) -> None:
     p.add_argument("--detrend", default="mean", choices=["mean", "linear", "none"])
     p.add_argument(
         "--reference",
-        help="closed-loop data: the reference column(s); the input is replaced by its part "
-        "the reference explains (two-stage method, docs/identification.md) before the models",
+        help="closed-loop data: the reference column(s); the estimation part's input is "
+        "replaced by its part the reference explains (two-stage method, "
+        "docs/identification.md); validation reads the measured input",
     )
     p.add_argument("--taps", type=int, default=40, help="FIR taps of --reference's first stage")
     p.add_argument("--horizon", type=int, help="subspace block rows")

@@ -57,21 +57,18 @@ def cmd_identify(args: argparse.Namespace) -> str:
     data_table = table(args.data, "data")
     data = dataset(data_table)
     validation = None if args.validation is None else dataset(table(args.validation, "validation"))
-    staged = ""
+    references = None
     if args.reference:  # the two-stage method: u as the reference explains it
-        from elab.ident.closedloop import two_stage
+        from elab.ident.closedloop import References
 
+        names = _names(args.reference)
         try:  # the reference columns of the same table, read once
-            refs = data_table.dataset(_names(args.reference), _names(args.output), args.Ts).u
+            refs = data_table.dataset(names, _names(args.output), args.Ts).u
         except InvalidInput as exc:  # the columns asked for as --reference
             if exc.field != "input":
                 raise
             raise InvalidInput("reference", exc.value, exc.allowed) from None
-        data = two_stage(data, refs, args.taps)
-        staged = (
-            f"two-stage: {', '.join(data.input_names)} replaced by its FIR prediction "
-            f"({args.taps} taps) from {args.reference}"
-        )
+        references = References(refs, tuple(names))
     arx_search, n4sid_orders = None, None
     for text in args.search:
         kind, _, spans = text.partition(":")
@@ -93,14 +90,16 @@ def cmd_identify(args: argparse.Namespace) -> str:
         n4sid_orders=n4sid_orders,
         horizon=args.horizon,
         decimate=args.decimate,
+        two_stage=args.taps if references is not None else None,
     )
-    result = wf.run(data, plan, validation=validation)
+    result = wf.run(data, plan, validation=validation, references=references)
     if args.json:  # the API's answer, validated against the same wire model
         from elab.api.identjson import ident_json
 
-        # the two-stage note first among the notes (the text says it on its first line)
-        return ident_json(replace(result, notes=(staged, *result.notes)) if staged else result)
-    return (staged + "\n" if staged else "") + _identify_text(data, result)
+        return ident_json(result)
+    staged = [n for n in result.notes if n.startswith("two-stage")]  # said first
+    rest = replace(result, notes=tuple(n for n in result.notes if n not in staged))
+    return "".join(n + "\n" for n in staged) + _identify_text(data, rest)
 
 
 def _names(text: str) -> list[str]:

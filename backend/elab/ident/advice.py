@@ -3,7 +3,8 @@ change (as MATLAB's ``advice``, ``feedback`` and ``pexcit``; Ljung 1999, ch. 13â
 
 On the data, before any fit is believed: feedback from the output to the input, how many
 parameters the input can excite (persistence of excitation), the signal-to-noise ratio,
-quantisation, the delay and whether the record is long enough for the models asked. The
+quantisation, the delay and whether the record is long enough for the models asked (and,
+for the two-stage method, how much of the input the references explain). The
 verdicts on a model are :mod:`elab.ident.modeladvice`'s.
 
 A verdict's ``level`` is ``good``, ``caution`` (usable, with the caveat said) or ``poor``
@@ -35,14 +36,15 @@ SNR_ORDER = 10  # the ARX model whose residual stands for the noise
 SNR_GOOD_DB, SNR_POOR_DB = 20.0, 10.0
 LEVELS_FEW = 100  # output levels over its range: quantised
 PARAMETERS_GOOD, PARAMETERS_POOR = 10, 3  # samples per parameter
+EXPLAINED_GOOD, EXPLAINED_POOR = 0.5, 0.1  # of an input's variance, by the references
 
 
 @dataclass(frozen=True)
 class Verdict:
     """One finding: ``topic`` (``feedback``, ``excitation``, ``noise``, ``quantisation``,
-    ``delay``, ``length``, ``order_search``; for a model ``stability``, ``integrator``,
-    ``fit``, ``residuals``, ``order``), its ``level``, what was found and what to change
-    (``advice``, ``None`` when nothing needs to)."""
+    ``delay``, ``length``, ``order_search``, ``two_stage``; for a model ``stability``,
+    ``integrator``, ``fit``, ``residuals``, ``order``, ``physics``), its ``level``, what
+    was found and what to change (``advice``, ``None`` when nothing needs to)."""
 
     topic: str
     level: Level
@@ -70,21 +72,29 @@ def on_data(
     correlation: Correlation | None,
     closed_loop: bool | None = None,
     recorded: IdData | None = None,
+    staged: Staged | None = None,
 ) -> tuple[Verdict, ...]:
     """The estimation data ``ze`` (as detrended) for models of up to ``parameters``
     parameters per output and a dynamic ``order`` (0: none asked); ``correlation``: its
     correlation analysis, if made; ``closed_loop``: how the data were recorded, where
     the source knows (a run), else found from the data; ``recorded``: the data as
-    recorded, before resampling smoothed its steps (quantisation is judged on them)."""
-    if closed_loop is False:  # the source knows: an input deterministic enough (a PRBS)
+    recorded, before resampling smoothed its steps (quantisation is judged on them);
+    ``staged``: the two-stage method's first stage, when ``ze``'s inputs are its
+    prediction from the references (no noise is fed back into them)."""
+    extra: list[Verdict] = []
+    if staged is not None:
+        fb, said = 0.0, _staged_feedback(staged)
+        extra.append(_explained(staged))
+    elif closed_loop is False:  # the source knows: an input deterministic enough (a PRBS)
         fb = 0.0  # is "predicted" by an integrating output's memory of its whole past
         said = Verdict("feedback", "good", "recorded in open loop (the run had no controller)")
     else:
         fb = feedback(ze)
         said = _feedback(fb, closed_loop)
-    closed = fb > FEEDBACK_SHARE if closed_loop is None else closed_loop
+    closed = fb > FEEDBACK_SHARE if closed_loop is None or staged else closed_loop
     out = [
         said,
+        *extra,
         _excitation(ze, order),
         _noise(ze),
         *_quantisation(recorded or ze),
@@ -172,6 +182,50 @@ def snr_db(z: IdData, order: int = SNR_ORDER) -> float | None:
     return None if math.isinf(worst_db) else worst_db
 
 
+@dataclass(frozen=True)
+class Staged:
+    """The two-stage method's first stage as the verdicts read it: the references it
+    predicted the inputs from, its taps, and the share of each input's variance on the
+    estimation part the prediction explains."""
+
+    references: tuple[str, ...]
+    taps: int
+    explained: tuple[float, ...]
+    inputs: tuple[str, ...]
+
+
+def _staged_feedback(staged: Staged) -> Verdict:
+    return Verdict(
+        "feedback",
+        "good",
+        f"two-stage method: the models read the part of {', '.join(staged.inputs)} that "
+        f"{', '.join(staged.references)} "
+        f"{'explains' if len(staged.references) == 1 else 'explain'} ({staged.taps} taps), "
+        "which carries no "
+        "noise fed back by a controller: open-loop methods, correlation and spectral "
+        "analysis on it describe the plant",
+    )
+
+
+def _explained(staged: Staged) -> Verdict:
+    """How much of each input the references explain: the two-stage estimate rests on
+    that part alone."""
+    least = min(staged.explained)
+    name = staged.inputs[staged.explained.index(least)]
+    said = f"the references explain {100 * least:.0f} % of {name}'s variance on the estimation part"
+    if least >= EXPLAINED_GOOD:
+        return Verdict("two_stage", "good", said)
+    level: Level = "poor" if least < EXPLAINED_POOR else "caution"
+    return Verdict(
+        "two_stage",
+        level,
+        f"{said}: the rest is noise fed back by the controller (or an excitation not "
+        "named), and the estimate rests on the part they explain",
+        "raise the excitation at the reference or the plant input so it dominates the "
+        "input; or give more taps if the loop settles slowly",
+    )
+
+
 def _feedback(share: float, closed_loop: bool | None) -> Verdict:
     known = "the run had a controller: " if closed_loop else ""
     if share > FEEDBACK_SHARE:
@@ -184,8 +238,10 @@ def _feedback(share: float, closed_loop: bool | None) -> Verdict:
             "then show the controller as much as the plant, and fits from u to y can be "
             "biased by that noise (check the model against the validation data and, for a "
             "lab plant, its physics)",
-            "excite at the reference or add a larger excitation at the plant input, and fit "
-            "with a noise model (armax, n4sid); or record open loop where the plant allows",
+            "use the two-stage method (it estimates from the part of u the reference and "
+            "excitation explain), or fit with a noise model (armax, n4sid); excite at the "
+            "reference or more strongly at the plant input; or record open loop where the "
+            "plant allows",
         )
     if closed_loop:
         return Verdict(

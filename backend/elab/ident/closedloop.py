@@ -9,12 +9,15 @@ reference explains. Stage 2 is any open-loop method on û → y (an output-error
 the plant alone): û is free of the noise, and y = G û + (what G makes of u − û) + noise
 is an open-loop record whose disturbance is uncorrelated with its input.
 
-Only the first stage is here: :func:`two_stage` returns the data stage 2 reads.
+Only the first stage is here: :func:`two_stage` returns the data stage 2 reads, and
+:func:`stage_one` the prediction itself, fitted on part of a record (the workflow's
+estimation part: validation then reads the measured input).
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,57 +34,105 @@ MAX_TAPS = 1000
 BLOCK = 1 << 21  # numbers of the regressor at a time (16 MiB)
 
 
+class Sampled(Protocol):
+    """A signal that gives its samples ``k0 … k0 + n − 1`` at sample time ``Ts``
+    (:mod:`elab.sim.signals`)."""
+
+    def sample(self, k0: int, n: int, Ts: float) -> Array: ...
+
+
+@dataclass(frozen=True)
+class References:
+    """The signals that drive a closed loop from outside, one column each, on the samples
+    of the data they go with (a run's reference and its input excitation). A column that
+    is a known signal not recorded (a run's input excitation) may be given as the signal
+    (``signals``: column → signal, with the data's first sample ``k0`` and ``Ts``) and
+    sampled where the work is done (:meth:`sampled`): a PRBS's generator is scipy's."""
+
+    values: Array  # (N, nr)
+    names: tuple[str, ...]
+    signals: tuple[tuple[int, Sampled], ...] = ()
+    k0: int = 0
+    Ts: float = 1.0
+
+    def sampled(self) -> References:
+        """These references with every signal's column sampled."""
+        if not self.signals:
+            return self
+        values = self.values.copy()
+        for column, signal in self.signals:
+            values[:, column] = signal.sample(self.k0, values.shape[0], self.Ts)
+        return replace(self, values=values, signals=())
+
+
 def two_stage(data: IdData, r: ArrayLike, taps: int = DEFAULT_TAPS) -> IdData:
     """``data`` (recorded in closed loop) with each input replaced by its least-squares
     FIR prediction from the reference(s) ``r`` ((N,) or (N, nr), the samples of
     ``data``), lags 0 … ``taps`` − 1 of every reference: the data an open-loop method
     estimates the plant from (stage 2). Nothing before the first sample is known: the
     first ``taps`` − 1 samples are predicted from the references there are (zeros before)."""
+    u, _ = stage_one(data.u, r, taps)
+    return replace(data, u=u)
+
+
+def stage_one(
+    inputs: Array, r: ArrayLike, taps: int = DEFAULT_TAPS, fit_rows: int | None = None
+) -> tuple[Array, Array]:
+    """Stage 1: each column of ``inputs`` (N, nu) predicted by a least-squares FIR of
+    the references ``r`` ((N,) or (N, nr)) at lags 0 … ``taps`` − 1 and a constant (an
+    input's offset is not the references'), fitted on the first ``fit_rows`` samples
+    (all by default) and predicted on all; and the share of each input's variance about
+    its mean the prediction explains on those rows (1: all of it)."""
+    N = inputs.shape[0]
+    n_fit = N if fit_rows is None else fit_rows
     refs = np.asarray(r, dtype=np.float64)
     if refs.ndim == 1:
         refs = refs[:, None]
-    if refs.ndim != 2 or refs.shape[0] != data.N:
+    if refs.ndim != 2 or refs.shape[0] != N:
         raise InvalidInput(
             "r",
             f"shape {refs.shape}",
-            f"one row per sample of the data ({data.N}), a column per reference",
+            f"one row per sample of the data ({N}), a column per reference",
         )
     if not np.all(np.isfinite(refs)):
         raise InvalidInput("r", "a non-finite value", "finite numbers")
     if not 1 <= taps <= MAX_TAPS:
         raise InvalidInput("taps", taps, f"an integer from 1 to {MAX_TAPS}")
-    if 2 * taps * refs.shape[1] > data.N:
+    if 2 * (taps * refs.shape[1] + 1) > n_fit:
         raise InvalidInput(
             "taps",
             taps,
-            f"at most {data.N // (2 * refs.shape[1])} taps for {data.N} samples "
+            f"at most {max(n_fit // 2 - 1, 0) // refs.shape[1]} taps for {n_fit} samples "
             f"({refs.shape[1]} reference(s)): twice as many samples as parameters",
         )
-    if np.all(refs == refs[0]):
+    if np.all(refs[:n_fit] == refs[0]):
         raise InvalidInput("r", "a constant", "a reference that varies (it excites the loop)")
     # each reference and input scaled to at most 1 in magnitude: the prediction does not
     # change, and 1e308 or subnormal records neither overflow nor underflow the sums
-    r_scale, u_scale = _scale(refs), _scale(data.u)
-    refs, inputs = refs / r_scale, data.u / u_scale
+    r_scale, u_scale = _scale(refs), _scale(inputs)
+    refs, inputs = refs / r_scale, inputs / u_scale
     # the normal equations of u on every reference at lags 0 … taps − 1 (zeros before the
     # record), a block of rows at a time: the whole regressor of a 2,000,000-sample record
-    # at 40 taps would be 640 MB
-    N, nr = refs.shape
-    p = nr * taps
-    gram, cross = np.zeros((p, p)), np.zeros((p, data.nu))
+    # at 40 taps would be 640 MB. The last column is the constant.
+    nr, nu = refs.shape[1], inputs.shape[1]
+    p = nr * taps + 1
+    gram, cross = np.zeros((p, p)), np.zeros((p, nu))
     rows = max(1, BLOCK // p)
-    for k0 in range(0, N, rows):
-        phi = _regressors(refs, taps, k0, min(N, k0 + rows))
+    for k0 in range(0, n_fit, rows):
+        phi = _regressors(refs, taps, k0, min(n_fit, k0 + rows))
         gram += phi.T @ phi
         cross += phi.T @ inputs[k0 : k0 + phi.shape[0]]
     theta = np.linalg.lstsq(gram, cross, rcond=None)[0]
     # the prediction is the FIR filter itself: each reference convolved with its taps
-    # (theta is lag-major: row lag·nr + i belongs to reference i)
-    u = np.zeros_like(data.u)
-    for j in range(data.nu):
+    # (theta is lag-major: row lag·nr + i belongs to reference i), and the constant
+    u = np.tile(theta[-1], (N, 1))
+    for j in range(nu):
         for i in range(nr):
-            u[:, j] += np.convolve(refs[:, i], theta[i::nr, j])[:N]
-    return replace(data, u=u * u_scale)
+            u[:, j] += np.convolve(refs[:, i], theta[i:-1:nr, j])[:N]
+    fitted, measured = u[:n_fit], inputs[:n_fit]
+    spread = np.var(measured, axis=0)
+    explained = 1 - np.var(measured - fitted, axis=0) / np.where(spread > 0, spread, 1.0)
+    return u * u_scale, np.clip(explained, 0.0, 1.0)
 
 
 def _scale(columns: Array) -> Array:
@@ -92,9 +143,10 @@ def _scale(columns: Array) -> Array:
 
 def _regressors(refs: Array, taps: int, k0: int, k1: int) -> Array:
     """Rows ``k0 … k1 − 1`` of the regressor matrix: each reference at lags 0 … taps − 1
-    (lag-major), zeros before the first sample."""
+    (lag-major), zeros before the first sample, then a column of ones."""
     nr = refs.shape[1]
-    phi = np.zeros((k1 - k0, nr * taps))
+    phi = np.zeros((k1 - k0, nr * taps + 1))
+    phi[:, -1] = 1.0
     for lag in range(taps):
         lo = max(k0, lag)  # the first row whose lagged sample exists
         if lo < k1:

@@ -139,14 +139,9 @@ class IdData:
                 f"at most {max(self.N // MIN_DECIMATED, 1)}: {self.N} samples leave fewer "
                 f"than {MIN_DECIMATED} after it",
             )
-        from scipy.signal import decimate  # scipy.signal: only when asked (0.9 s of imports)
-
-        def down(a: Array) -> Array:
-            return np.asarray(
-                decimate(a, q, n=20 * q, ftype="fir", axis=0, zero_phase=True), dtype=np.float64
-            )
-
-        return replace(self, y=down(self.y), u=down(self.u), Ts=self.Ts * q, k0=self.k0 // q)
+        return replace(
+            self, y=decimated(self.y, q), u=decimated(self.u, q), Ts=self.Ts * q, k0=self.k0 // q
+        )
 
     def split(self, at: int | float = 0.5) -> tuple[IdData, IdData]:
         """Estimation and validation parts: the first ``at`` samples (an int) or the first
@@ -159,6 +154,16 @@ class IdData:
         if not 2 <= n <= self.N - 2:
             raise InvalidInput("split", at, f"leaving at least 2 samples on each side of {self.N}")
         return self[:n], self[n:]
+
+
+def decimated(a: Array, q: int) -> Array:
+    """Every ``q``-th row of ``a`` after :meth:`IdData.decimate`'s anti-aliasing filter
+    (for columns that go with a record: its references)."""
+    from scipy.signal import decimate  # scipy.signal: only when asked (0.9 s of imports)
+
+    return np.asarray(
+        decimate(a, q, n=20 * q, ftype="fir", axis=0, zero_phase=True), dtype=np.float64
+    )
 
 
 def iddata(y: ArrayLike, u: ArrayLike, Ts: float, **names: tuple[str, ...]) -> IdData:

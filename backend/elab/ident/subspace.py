@@ -388,7 +388,8 @@ def _model(
     sub: Subspace, A: Array, C: Array, moved: tuple[tuple[float, float], ...], bd: BD
 ) -> _Fitted:
     B, D, x0, err = _bdx0(sub, A, C, bd)
-    loss = float(np.mean(err**2)) if np.all(np.isfinite(err)) else math.inf
+    with np.errstate(over="ignore"):  # an unstable candidate's error may square past 1e308
+        loss = float(np.mean(err**2)) if np.all(np.isfinite(err)) else math.inf
     return _Fitted(A, B, C, D, x0, loss, moved, None)
 
 

@@ -18,11 +18,13 @@ from dataclasses import dataclass, replace
 from typing import Literal, TypeVar, assert_never
 
 import numpy as np
+from numpy.typing import NDArray
 
 from elab.errors import InvalidInput
 from elab.ident import advice, modeladvice
 from elab.ident.assess import assess, model_notes
-from elab.ident.data import IdData, require_varying, suspicious
+from elab.ident.closedloop import References, stage_one
+from elab.ident.data import IdData, decimated, require_varying, suspicious
 from elab.ident.models import LinearModel
 from elab.ident.nonparametric import cra, sine_response, spa
 from elab.ident.pem import armax, oe
@@ -31,6 +33,7 @@ from elab.ident.polynomial import arx, arxstruc, selstruc, struc
 from elab.ident.results import AnalysedData, Analyses, ArxOrderSearch, ModelResult, Result
 from elab.ident.subspace import OrderChoice, Subspace, choose_order, decompose, n4sid
 
+Array = NDArray[np.float64]
 Progress = Callable[[str, float], None]
 T = TypeVar("T")
 MAX_SEARCH = 2000  # ARX structures in one order search
@@ -77,6 +80,9 @@ class Plan:
     decimate: int = 1
     #: the plant's own model from the input to the outputs, where the source knows it
     physics: modeladvice.Physics | None = None
+    #: the two-stage method's first-stage taps (``None``: the direct method): the
+    #: estimation part's inputs are replaced by their prediction from the references
+    two_stage: int | None = None
 
 
 def parse_model(text: str) -> ModelRequest:
@@ -103,20 +109,39 @@ def run(
     plan: Plan,
     progress: Progress | None = None,
     validation: IdData | None = None,
+    references: References | None = None,
 ) -> Result:
     """Everything ``plan`` asks for on ``data`` (see the module docstring). ``validation``:
     a separate record to validate on (``data`` is then all estimation, and ``split`` is
-    not used)."""
+    not used). ``references``: the signals that drove the loop, on ``data``'s samples
+    (the two-stage method's, ``plan.two_stage``)."""
     report = progress or _unreported
     resampled = []
     as_recorded = data  # before resampling smooths its steps, clipping and freezes
+    if plan.two_stage is not None and references is None:
+        raise InvalidInput(
+            "two_stage",
+            plan.two_stage,
+            "the direct method (null) for data without references: name the signals that "
+            "drove the loop (a file's reference columns; a run has its own)",
+        )
+    staged, predicted = None, None
+    if plan.two_stage is not None and references is not None:
+        # stage 1 at the recorded rate: the loop's map from its references to u is linear
+        # there, not after resampling (an anti-aliasing filter's residue is not)
+        predicted, staged = _stage_one(data, references.sampled(), plan.two_stage, plan, validation)
+        resampled.append(_staged_note(staged))
     if plan.decimate != 1:
         data = data.decimate(plan.decimate)
         validation = None if validation is None else validation.decimate(plan.decimate)
+        predicted = None if predicted is None else decimated(predicted, plan.decimate)
         resampled.append(
             f"one sample in {plan.decimate} kept after an anti-aliasing filter (no phase "
             f"shift): Ts = {data.Ts:g} s, {data.N} samples"
         )
+    if predicted is not None:  # the estimation part reads the prediction
+        n_est = data.N if validation is not None else _split_at(data, plan.split)
+        data = replace(data, u=np.vstack([predicted[:n_est], data.u[n_est:]]))
     ze, zv = _estimation_and_validation(data, plan, validation)
     z = _joined(data, ze, zv)
     notes = suspicious(as_recorded)  # as given: detrending moves the edges
@@ -129,7 +154,7 @@ def run(
     models, said = _models(ze, zv, plan, sub, orders, report)
     parameters, order = _largest(plan, ze, orders)
     verdicts = advice.on_data(
-        ze, parameters, order, nonparametric.correlation, plan.closed_loop, as_recorded
+        ze, parameters, order, nonparametric.correlation, plan.closed_loop, as_recorded, staged
     )
     if plan.arx_search is not None:
         verdicts += tuple(_search_verdict(x, plan.arx_search) for x in searches)
@@ -140,6 +165,64 @@ def run(
         models=models,
         notes=(*resampled, *notes, *skipped, *said),
         verdicts=verdicts,
+    )
+
+
+def _stage_one(
+    data: IdData, references: References, taps: int, plan: Plan, validation: IdData | None
+) -> tuple[Array, advice.Staged]:
+    """The two-stage method's first stage on ``data``: its inputs predicted from the
+    ``references`` by a FIR of ``taps`` taps fitted on the estimation part (all of
+    ``data`` when a separate ``validation`` record validates). The validation part keeps
+    the measured inputs, on which a plant model is judged. References that do not vary
+    over the estimation part are left out."""
+    values = references.values
+    if values.ndim != 2 or values.shape[0] != data.N:
+        raise InvalidInput(
+            "references",
+            f"shape {values.shape}",
+            f"one row per sample of the data ({data.N}), a column per reference",
+        )
+    n_est = data.N if validation is not None else _split_at(data, plan.split)
+    varying = [i for i in range(values.shape[1]) if np.ptp(values[:n_est, i]) > 0]
+    if not varying:
+        raise InvalidInput(
+            "references",
+            ", ".join(references.names),
+            "a reference or excitation that varies over the estimation part (the two-stage "
+            "method predicts the input from it)",
+        )
+    try:
+        u, explained = stage_one(data.u, values[:, varying], taps, n_est)
+    except InvalidInput as exc:
+        field = "two_stage" if exc.field == "taps" else "references"
+        raise InvalidInput(field, exc.value, exc.allowed) from None
+    staged = advice.Staged(
+        references=tuple(references.names[i] for i in varying),
+        taps=taps,
+        explained=tuple(float(x) for x in explained),
+        inputs=data.input_names,
+    )
+    return u, staged
+
+
+def _split_at(data: IdData, split: float) -> int:
+    """The estimation part's length for ``split`` (as :meth:`IdData.split` cuts)."""
+    if not 0 < split < 1:
+        raise InvalidInput("split", split, "a fraction in (0, 1): the estimation share")
+    return round(float(split) * data.N)
+
+
+def _staged_note(staged: advice.Staged) -> str:
+    shares = ", ".join(
+        f"{name} {100 * x:.0f} %" for name, x in zip(staged.inputs, staged.explained, strict=True)
+    )
+    return (
+        f"two-stage method: the estimation part's {', '.join(staged.inputs)} replaced by its "
+        f"prediction from {', '.join(staged.references)} (a FIR of {staged.taps} taps at the "
+        f"recorded sample time and a constant, fitted there; variance explained: {shares}); "
+        "the analyses and models estimate from it, the validation part keeps the measured "
+        "input"
     )
 
 

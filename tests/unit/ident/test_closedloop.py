@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,8 @@ import pytest
 from elab.cli import main
 from elab.errors import InvalidInput
 from elab.ident import IdData
-from elab.ident.closedloop import two_stage
+from elab.ident import workflow as wf
+from elab.ident.closedloop import References, stage_one, two_stage
 from elab.ident.parameters import OeParameters
 from elab.ident.pem import oe
 
@@ -88,10 +90,10 @@ def test_bad_references_and_tap_counts_are_refused_by_name(
 def test_more_taps_than_half_the_samples_are_refused() -> None:
     data, r = closed_loop(1)
     short = IdData(data.y[:1000], data.u[:1000], data.Ts)
-    two_stage(short, r[:1000], 500)  # twice as many samples as parameters: taken
+    two_stage(short, r[:1000], 499)  # 499 taps and the constant: half the samples, taken
     with pytest.raises(InvalidInput) as err:
-        two_stage(short, r[:1000], 501)
-    assert err.value.field == "taps" and "at most 500 taps" in str(err.value)
+        two_stage(short, r[:1000], 500)
+    assert err.value.field == "taps" and "at most 499 taps" in str(err.value)
 
 
 def written(where: Path, data: IdData, r: np.ndarray) -> Path:
@@ -112,34 +114,38 @@ def test_the_cli_estimates_from_the_two_stage_data(
     args += ["--split", "0.99", "--analyses", "none"]
     assert main(["identify", *args, "--reference", "r"]) == 0
     staged = capsys.readouterr().out
-    assert staged.startswith("two-stage: u replaced by its FIR prediction (40 taps) from r")
+    assert staged.startswith(
+        "two-stage method: the estimation part's u replaced by its "
+        "prediction from r (a FIR of 40 taps at the recorded sample time and a constant"
+    ), staged
     assert main(["identify", *args]) == 0
     direct = capsys.readouterr().out
     # the library on the same estimation samples (the first 99 %) gives the printed F
-    est = two_stage(data, r)
-    f1 = fb(IdData(est.y[:1980], est.u[:1980], est.Ts))[0]
+    u, _ = stage_one(data.u, r, 40, fit_rows=1980)
+    f1 = fb(IdData(data.y[:1980], u[:1980], data.Ts))[0]
     assert f"F(q) = +1.0000 {f1:+.4f}" in staged, staged
     assert f"F(q) = +1.0000 {f1:+.4f}" not in direct, direct
     assert main(["identify", *args, "--reference", "r", "--json"]) == 0
     notes = json.loads(capsys.readouterr().out)["notes"]
-    assert notes[0].startswith("two-stage: u replaced"), notes
+    assert notes[0].startswith("two-stage method: the estimation part's u"), notes
 
 
 def test_blocks_of_rows_give_the_whole_regressions_answer(monkeypatch: pytest.MonkeyPatch) -> None:
     """Stage 1 reads the regressor a block of rows at a time (a long record's whole
     regressor would not fit in memory): blocks of 7 rows, 2 references and 5 taps give
-    what one least-squares solve of the whole matrix gives."""
+    what one least-squares solve of the whole matrix (and the constant) gives."""
     from elab.ident import closedloop
 
     rng = np.random.default_rng(5)
     refs = rng.standard_normal((300, 2))
     u = rng.standard_normal((300, 1))
     data = IdData(rng.standard_normal((300, 1)), u, 0.01)
-    whole = np.zeros((300, 10))
+    whole = np.zeros((300, 11))
+    whole[:, 10] = 1.0
     for lag in range(5):
         whole[lag:, 2 * lag : 2 * lag + 2] = refs[: 300 - lag]
     want = whole @ np.linalg.lstsq(whole, u, rcond=None)[0]
-    monkeypatch.setattr(closedloop, "BLOCK", 70)  # 7 rows of 10 regressors
+    monkeypatch.setattr(closedloop, "BLOCK", 77)  # 7 rows of 11 regressors
     np.testing.assert_allclose(two_stage(data, refs, 5).u, want, rtol=1e-9, atol=1e-12)
 
 
@@ -162,3 +168,95 @@ def test_extreme_sizes_give_the_same_prediction_scaled(size: float) -> None:
     np.testing.assert_array_equal(two_stage(data, r * size).u, base)
     big = IdData(data.y, data.u * 1e307, data.Ts)
     np.testing.assert_allclose(two_stage(big, r * size).u / 1e307, base, rtol=1e-12, atol=1e-12)
+
+
+def _plan(**over: object) -> wf.Plan:
+    base = wf.Plan(
+        models=(wf.parse_model("oe:1,1,1"),),
+        detrend="none",
+        correlation=False,
+        spectral=False,
+        closed_loop=True,
+        two_stage=40,
+    )
+    return replace(base, **over)  # type: ignore[arg-type]
+
+
+def test_the_workflow_estimates_from_stage_one_and_validates_on_the_measured_input() -> None:
+    """In the workflow, stage 1 is fitted on the estimation part alone and replaces the
+    input there; the validation part keeps the measured u (a plant model is judged on the
+    input the plant got). The data verdicts say what was done and how much of u the
+    reference explains; the feedback test is not run on a prediction."""
+    data, r = closed_loop(6)
+    refs = References(r[:, None], ("r",))
+    result = wf.run(data, _plan(), references=refs)
+    shown = result.data.z
+    n_est = result.data.estimation
+    u, explained = stage_one(data.u, r, 40, fit_rows=n_est)
+    np.testing.assert_array_equal(shown.u[n_est:], data.u[n_est:])
+    np.testing.assert_allclose(shown.u[:n_est], u[:n_est], rtol=1e-12)
+    assert result.notes[0].startswith("two-stage method: the estimation part's u replaced")
+    said = {v.topic: v for v in result.verdicts}
+    assert said["feedback"].level == "good" and "two-stage" in said["feedback"].finding
+    assert said["two_stage"].finding.startswith(
+        f"the references explain {100 * explained[0]:.0f} %"
+    )
+    # the same model as OE on the staged estimation part alone
+    want = fb(IdData(data.y[:n_est], u[:n_est], data.Ts))
+    p = result.models[0].model.parameters
+    assert isinstance(p, OeParameters)
+    np.testing.assert_allclose([p.F[1], p.B[1]], want, rtol=1e-9)
+
+
+def test_with_a_separate_validation_record_stage_one_reads_all_the_data() -> None:
+    data, r = closed_loop(7)
+    other, _ = closed_loop(8)
+    result = wf.run(data, _plan(), validation=other, references=References(r[:, None], ("r",)))
+    u, _ = stage_one(data.u, r, 40)
+    np.testing.assert_allclose(result.data.z.u[: data.N], u, rtol=1e-12)
+    np.testing.assert_array_equal(result.data.z.u[data.N :], other.u)
+
+
+def test_a_reference_the_input_hardly_follows_is_a_poor_two_stage() -> None:
+    """Feedback noise dominating u: the reference explains a few per cent of it, and the
+    verdict says so with what to change."""
+    data, r = closed_loop(9, noise=20.0)
+    result = wf.run(data, _plan(), references=References(r[:, None], ("r",)))
+    said = {v.topic: v for v in result.verdicts}["two_stage"]
+    assert said.level == "poor" and "raise the excitation" in str(said.advice), said
+
+
+@pytest.mark.parametrize(
+    ("plan", "refs", "field"),
+    [
+        (_plan(), None, "two_stage"),  # no references to predict from
+        (_plan(two_stage=600), "r", "two_stage"),  # more taps than the estimation part bears
+        (_plan(), "constant", "references"),
+        (_plan(), "short", "references"),
+    ],
+)
+def test_the_workflow_refuses_two_stage_requests_it_cannot_do_by_name(
+    plan: wf.Plan, refs: str | None, field: str
+) -> None:
+    data, r = closed_loop(10)
+    given = {
+        None: None,
+        "r": References(r[:, None], ("r",)),
+        "constant": References(np.ones((N, 1)), ("r",)),
+        "short": References(r[:10, None], ("r",)),
+    }[refs]
+    with pytest.raises(InvalidInput) as err:
+        wf.run(data, plan, references=given)
+    assert err.value.field == field, err.value
+
+
+def test_an_unrecorded_signal_is_sampled_where_the_work_is_done() -> None:
+    """A run's input excitation is not recorded: it travels as the signal and is sampled
+    by the worker, at the data's first sample and sample time."""
+    from elab.sim.signals import PRBS
+
+    prbs = PRBS(1.0, order=7, band=0.2)
+    refs = References(np.zeros((50, 2)), ("r", "excitation"), ((1, prbs),), k0=30, Ts=0.01)
+    got = refs.sampled()
+    np.testing.assert_array_equal(got.values[:, 1], prbs.sample(30, 50, 0.01))
+    assert got.signals == () and np.all(got.values[:, 0] == 0)

@@ -248,3 +248,18 @@ def test_the_headline_fit_is_the_one_that_means_something(dryer: tuple[IdData, I
     assert fit.headline.x0 == "estimated" and fit.headline_fit is fit.validation_simulation_x0
     assert "more than a fifth of the 500-sample record" in fit.headline.why
     assert fit.headline_fit.fit[0] > 90 > 0 > fit.validation_simulation.fit[0]  # 93.8 %, −151 %
+
+
+def test_an_unstable_candidate_whose_error_squares_past_the_largest_float_has_infinite_loss() -> (
+    None
+):
+    """A candidate A with a pole at 1.3 simulates 1,400 samples to about 1e160: finite, but
+    its square overflows. Its loss is infinite without a warning (the suite turns warnings
+    into errors; seen on a two-stage record's order choice)."""
+    from elab.ident import subspace
+
+    rng = np.random.default_rng(0)
+    z = iddata(rng.standard_normal(1400), rng.standard_normal(1400), 1.0)
+    sub = subspace.decompose(z, 8)
+    fitted = subspace._model(sub, np.array([[1.3]]), np.array([[1.0]]), (), "subspace")
+    assert fitted.loss == np.inf

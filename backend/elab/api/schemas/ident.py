@@ -27,6 +27,12 @@ class RunData(Model):
     output: Channels | None = Field(None, description="default: the plant's reference output")
     t_from: Finite | None = Field(None, ge=0, description="s")
     t_to: Finite | None = Field(None, gt=0, description="s")
+    reference: Channels | None = Field(
+        None,
+        description="for two_stage: the signals that drove the loop, recorded channels or "
+        "'excitation' (the run's input excitation as it was requested); default: r and, "
+        "if the run had one at the input, the excitation",
+    )
 
 
 class FileData(Model):
@@ -40,6 +46,9 @@ class FileData(Model):
     input: Channels
     output: Channels
     Ts: Finite | None = Field(None, gt=0, description="s; default: from the file")
+    reference: Channels | None = Field(
+        None, description="for two_stage: the columns of the signals that drove the loop"
+    )
 
 
 Order = Annotated[int, Field(ge=1, le=50)]  # a polynomial's number of coefficients
@@ -126,6 +135,14 @@ class IdentRequest(Model):
         "analysis runs at n·Ts",
     )
     models: list[ModelSpec] = Field([], max_length=10)
+    two_stage: int | None = Field(
+        None,
+        ge=1,
+        le=1000,
+        description="closed loop: the two-stage method with a first stage of this many "
+        "taps (the estimation part's input replaced by its FIR prediction from "
+        "data.reference; validation reads the measured input); null: the direct method",
+    )
 
 
 class IdentDataOut(Model):
@@ -278,7 +295,8 @@ class VerdictOut(Model):
 
     topic: str = Field(
         description="on the data: feedback, excitation, noise, quantisation, delay, length, "
-        "order_search; on a model: stability, integrator, fit, residuals, order",
+        "order_search, two_stage; on a model: stability, integrator, fit, residuals, order, "
+        "physics",
     )
     level: Literal["good", "caution", "poor"]
     finding: str
