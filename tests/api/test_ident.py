@@ -249,6 +249,45 @@ def test_the_two_stage_method_reads_a_runs_reference_and_excitation(server: Serv
     assert "two-stage" not in _ident(server, body).json()["notes"][0]
 
 
+def test_the_two_stage_method_on_a_file_reads_its_reference_columns(server: Server) -> None:
+    from elab.ident import iddata
+    from elab.ident import workflow as wf
+    from elab.ident.closedloop import References
+    from tests.unit.ident.test_closedloop import closed_loop
+
+    data, r = closed_loop(11)
+    text = "r,u,y\n" + "".join(
+        f"{float(a)!r},{float(b)!r},{float(c)!r}\n"
+        for a, b, c in zip(r, data.u[:, 0], data.y[:, 0], strict=True)
+    )
+    body = {
+        "data": _file(text, input=["u"], output=["y"], Ts=0.01, reference=["r"]),
+        "detrend": "none",
+        "correlation": False,
+        "spectral": False,
+        "two_stage": 40,
+        "models": [{"kind": "oe", "nb": 1, "nf": 1, "nk": 1}],
+    }
+    r_ = _ident(server, body)
+    assert r_.status_code == 200, r_.text
+    plan = wf.Plan(
+        models=(wf.parse_model("oe:1,1,1"),),
+        detrend="none",
+        correlation=False,
+        spectral=False,
+        two_stage=40,
+    )
+    z = iddata(data.y[:, 0], data.u[:, 0], 0.01)
+    mine = wf.run(z, plan, references=References(r[:, None], ("r",)))
+    got = r_.json()["models"][0]["fit"]["headline"][0]
+    assert got == pytest.approx(mine.models[0].fits.headline_fit.fit[0], abs=1e-9)
+    # a file names its references; a column it lacks is named as the reference
+    err = _error(_ident(server, body | {"data": body["data"] | {"reference": None}}))
+    assert err["field"] == "data.reference" and "drove the loop" in err["message"]
+    err = _error(_ident(server, body | {"data": body["data"] | {"reference": ["w"]}}))
+    assert err["field"] == "data.reference" and "r, u, y" in err["message"]
+
+
 def _error(r: Any, status: int = 422) -> dict[str, Any]:
     assert r.status_code == status, r.text
     err: dict[str, Any] = r.json()["error"]

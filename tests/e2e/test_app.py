@@ -228,6 +228,53 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     page.screenshot(path=shots / "design-identified.png", full_page=True)
 
 
+def test_the_two_stage_method_from_the_page_equals_the_apis(page: Page, server: Server) -> None:
+    """Closed loop, *Method: two-stage*: the page sends the run's two-stage request with
+    its taps (a second at the link's 1 kHz), says what was done in the notes and the
+    data verdicts, and shows the API's fits; too many taps for a short run are refused
+    beside the taps field."""
+    page.goto("/plants/flexible_link/identification")
+    page.locator("#f-duration").fill("6")
+    page.get_by_role("button", name="Start").click()
+    expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=30_000)
+    rid = run_id(page)
+    panel = page.get_by_test_id("ident-run")
+    expect(panel.locator("#id-two_stage")).to_have_value("1000")
+    panel.get_by_test_id("ident-method").select_option("two_stage")
+    panel.locator("#id-models").fill("oe:4,4,1")
+    panel.locator("#id-two_stage").fill("2000")  # the form's own limit: 1000
+    panel.get_by_role("button", name="Identify").click()
+    expect(panel.locator("#id-two_stage-error")).to_contain_text("≤ 1000")
+    panel.locator("#id-split").fill("0.25")  # 1,500 estimation samples bear 749 taps
+    panel.locator("#id-two_stage").fill("1000")
+    panel.get_by_role("button", name="Identify").click()
+    expect(panel.locator("#id-two_stage-error")).to_contain_text("at most 749 taps")
+    panel.locator("#id-split").fill("0.5")
+    panel.get_by_role("button", name="Identify").click()
+    table = panel.get_by_test_id("ident-models")
+    expect(table).to_contain_text("oe 4 4 1", timeout=60_000)
+    expect(panel).to_contain_text("two-stage method: the estimation part's u replaced")
+    verdicts = panel.get_by_test_id("data-verdicts")
+    expect(verdicts.locator("[data-topic=two_stage]")).to_contain_text("the references explain")
+    expect(verdicts.locator("[data-topic=feedback]")).to_contain_text("two-stage method")
+    api = httpx.post(
+        f"{server.url}/api/v1/ident",
+        timeout=60,
+        json={
+            "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
+            "detrend": "none",
+            "decimate": 10,
+            "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]},
+            "n4sid_orders": [1, 10],
+            "two_stage": 1000,
+            "models": [{"kind": "oe", "nb": 4, "nf": 4, "nk": 1}],
+        },
+    ).json()
+    shown = float(table.locator("tbody tr").first.locator("td").first.inner_text().split()[0])
+    want = api["models"][0]["fit"]["validation_simulation"][0]
+    assert shown == pytest.approx(want, abs=1e-3 * max(1, abs(shown)))
+
+
 def test_identification_from_a_file_reproduces_the_dryer_results(page: Page) -> None:
     page.goto("/plants/flexible_link/identification")
     page.get_by_text("Or identify from a data file").click()

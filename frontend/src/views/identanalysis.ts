@@ -22,6 +22,8 @@ export class IdentAnalysis {
   private readonly fileInput: HTMLInputElement | null = null;
   private readonly columns: { input: HTMLInputElement; output: HTMLInputElement } | null = null;
   private readonly detrend: HTMLSelectElement;
+  private readonly method: HTMLSelectElement;
+  private readonly references: HTMLInputElement | null = null;
   private readonly checks: Record<"correlation" | "spectral" | "arx" | "n4sid", HTMLInputElement>;
   private readonly validation: ValidationFile;
   private readonly models: HTMLInputElement;
@@ -60,6 +62,17 @@ export class IdentAnalysis {
     this.models = h("input.mono", { id: `${pre}-models`, value: proposed.models, spellcheck: false, autocomplete: "off", oninput: () => this.checkModels() });
     const split = f.add(new NumberField({ idPrefix: pre, field: "split", label: "Estimation share (the rest validates)", value: 0.5, min: 0, max: 1, minExclusive: true, maxExclusive: true, step: 0.05 }));
     this.validation = new ValidationFile(pre, split, source.kind === "run" ? "columns u and the output(s) above at this run's sample time, e.g. another run's CSV download" : "the same columns and sample time as the data file");
+    // closed loop: the direct method, or the two-stage method from the loop's own references
+    this.method = h("select", { id: `${pre}-method`, "data-testid": "ident-method" }, h("option", { value: "direct" }, "direct: fit from u as recorded"), h("option", { value: "two_stage" }, "two-stage: fit from the part of u the references explain"));
+    // a loop that settles within about a second: that long at the recorded rate (≤ 1000 taps)
+    const taps = source.kind === "run" ? Math.min(1000, Math.max(1, Math.round(1 / plant.Ts))) : 40;
+    if (source.kind === "file") this.references = h("input", { id: `${pre}-reference-cols`, value: "r" });
+    const closedLoop = h(
+      "fieldset",
+      h("legend", "Closed loop"),
+      h("div.grid", h("div.field.span2", h("label", { for: `${pre}-method` }, "Method"), this.method), num("two_stage", "First-stage taps (at the recorded rate)", taps, 1, 1000), this.references ? h("div.field", h("label", { for: `${pre}-reference-cols` }, "Reference column(s)"), this.references) : ""),
+      h("small.hint", source.kind === "run" ? "In closed loop the controller feeds the sensors' noise back into u. Two-stage first predicts u from the run's reference r and its input excitation by a FIR of this many taps (the loop's settling time), then fits the models from that prediction; validation still reads the measured u. The data verdicts say how much of u the references explain." : "Two-stage: u is first predicted from the reference column(s) by a FIR of this many taps, and the models fit from that prediction; validation still reads the measured u."),
+    );
     const sourceBox: HTMLElement[] = [];
     if (source.kind === "run") {
       const outputs = plant.outputs.map((o) => h("option", { value: o.name }, `${o.label} (${o.unit})`));
@@ -84,6 +97,7 @@ export class IdentAnalysis {
       h("div.grid", split.root, h("div.field.span2", h("label", { for: `${pre}-detrend` }, "Detrend (each part)"), this.detrend, detrendWhy)),
       h("div.grid", num("decimate", "Keep every n-th sample (anti-aliased; 1: all)", proposed.decimate, 1, 100)),
       proposed.why ? h("small.hint", { "data-testid": "ident-proposed-why" }, `Proposed for this plant: ${proposed.models}, one sample in ${proposed.decimate}. ${proposed.why}`) : "",
+      closedLoop,
       h("fieldset", h("legend", "Analyses"), corrLabel, specLabel, arxLabel, h("div.grid", num("arx_search.na.0", "na from", 1, 0, 50), num("arx_search.na.1", "na to", 10, 0, 50), num("arx_search.nb.0", "nb from", 1, 1, 50), num("arx_search.nb.1", "nb to", 10, 1, 50), num("arx_search.nk.0", "nk from", 1, 0, 50), num("arx_search.nk.1", "nk to", 10, 0, 50)), n4sidLabel, h("div.grid", num("n4sid_orders.0", "order from", 1, 1, 99), num("n4sid_orders.1", "order to", 10, 1, 99), num("horizon", "horizon s (0: default)", 0, 0, 100))),
       h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values) · link (the flexible link's physics: outputs θ, α; detrend none, every sample); separate with ;"), this.modelsMsg),
       h("div.actions", h("button.primary", { type: "submit" }, "Identify"), this.progress, this.stage),
@@ -117,6 +131,7 @@ export class IdentAnalysis {
       horizon: v.get("horizon")! > 0 ? v.get("horizon")! : null,
       decimate: v.get("decimate")!,
       models: models.models,
+      two_stage: this.method.value === "two_stage" ? v.get("two_stage")! : null,
     };
   }
 
@@ -141,6 +156,7 @@ export class IdentAnalysis {
     } else {
       const Ts = v.get("data.Ts")!;
       data = fileRecord(file!.name, await file!.text(), columnNames(this.columns!.input.value), columnNames(this.columns!.output.value), Ts > 0 ? Ts : null);
+      if (this.method.value === "two_stage") data.reference = columnNames(this.references!.value);
     }
     const Ts = data.source === "file" ? (data.Ts ?? null) : null;
     return { data, validation: vfile ? fileRecord(vfile.name, await vfile.text(), data.input!, data.output!, Ts) : null };
