@@ -110,6 +110,7 @@ export interface ElabProtocol {
   IdentRequest?: IdentRequest;
   IdentifiedModel?: IdentifiedModel;
   IdentifiedModelList?: IdentifiedModelList;
+  IndirectSpec?: IndirectSpec;
   LQRRequest?: LQRRequest;
   "LTIControllerModel-Input"?: LTIControllerModel;
   "LTIControllerModel-Output"?: LTIControllerModelOut;
@@ -1437,6 +1438,10 @@ export interface IdentRequest {
    * closed loop: the two-stage method with a first stage of this many taps (the estimation part's input replaced by its FIR prediction from data.reference; validation reads the measured input); null: the direct method
    */
   two_stage?: number | null;
+  /**
+   * closed loop: the indirect method with this known controller (one input, one output, every sample): the models are fitted to the loop from w = u + C y to y and turned into the plant with C; null: the direct method
+   */
+  indirect?: IndirectSpec | null;
 }
 /**
  * The recording of a run (columns by channel name, e.g. ``u`` and ``theta``).
@@ -1503,6 +1508,26 @@ export interface N4SidSpec {
  */
 export interface LinkSpec {
   kind: "link";
+}
+/**
+ * The loop's known controller for the indirect method, at the data's sample time:
+ * u = w − C(q) y with C(q) = num(q⁻¹) / den(q⁻¹); ``u = r − 0.6 y`` is ``num [0.6]``,
+ * ``den [1]``.
+ *
+ * This interface was referenced by `ElabProtocol`'s JSON-Schema
+ * via the `definition` "IndirectSpec".
+ */
+export interface IndirectSpec {
+  /**
+   * @minItems 1
+   * @maxItems 50
+   */
+  num: [number, ...number[]];
+  /**
+   * @minItems 1
+   * @maxItems 50
+   */
+  den: [number, ...number[]];
 }
 /**
  * A kept model: anyone with its id may read it and design on it; its owner or an

@@ -288,6 +288,48 @@ def test_the_two_stage_method_on_a_file_reads_its_reference_columns(server: Serv
     assert err["field"] == "data.reference" and "r, u, y" in err["message"]
 
 
+def test_the_indirect_method_on_a_file_equals_the_librarys(server: Server) -> None:
+    from elab.ident import workflow as wf
+    from elab.ident.closedloop import Controller
+    from tests.unit.ident.test_closedloop import closed_loop
+
+    data, _ = closed_loop(14)
+    text = "u,y\n" + "".join(
+        f"{float(b)!r},{float(c)!r}\n" for b, c in zip(data.u[:, 0], data.y[:, 0], strict=True)
+    )
+    body = {
+        "data": _file(text, input=["u"], output=["y"], Ts=0.01),
+        "detrend": "none",
+        "correlation": False,
+        "spectral": False,
+        "indirect": {"num": [0.6], "den": [1]},
+        "models": [{"kind": "oe", "nb": 1, "nf": 1, "nk": 1}],
+    }
+    r = _ident(server, body)
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["models"][0]["name"] == "oe 1 1 1 (indirect)"
+    assert out["notes"][0].startswith("indirect method: the models were fitted to the loop")
+    plan = wf.Plan(
+        models=(wf.parse_model("oe:1,1,1"),),
+        detrend="none",
+        correlation=False,
+        spectral=False,
+        indirect=Controller((0.6,), (1.0,)),
+    )
+    mine = wf.run(data, plan).models[0]
+    got = out["models"][0]["fit"]["headline"][0]
+    assert got == pytest.approx(mine.fits.headline_fit.fit[0], abs=1e-9)
+    # the controller and the method are checked by name
+    for indirect, field in (
+        ({"num": [0.6], "den": [0, 1]}, "indirect.den"),
+        ({"num": [], "den": [1]}, "indirect.num"),
+    ):
+        assert _error(_ident(server, body | {"indirect": indirect}))["field"] == field
+    err = _error(_ident(server, body | {"two_stage": 40}))
+    assert err["field"] == "indirect" and "one closed-loop method at a time" in err["message"]
+
+
 def _error(r: Any, status: int = 422) -> dict[str, Any]:
     assert r.status_code == status, r.text
     err: dict[str, Any] = r.json()["error"]

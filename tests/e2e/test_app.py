@@ -300,6 +300,57 @@ def test_identification_from_a_file_reproduces_the_dryer_results(page: Page) -> 
     expect(panel.get_by_test_id("ident-results")).to_contain_text("a delay of 3 samples")
 
 
+def test_the_indirect_method_from_a_file_on_the_page(
+    page: Page, server: Server, tmp_path: Path
+) -> None:
+    """A closed-loop record (u = r − 0.6 y) as a file, *Method: indirect* with C = 0.6:
+    the page's model is the API's plant; a controller that is not numbers is refused
+    before anything is sent."""
+    from tests.unit.ident.test_closedloop import closed_loop
+
+    data, _ = closed_loop(15)
+    table = tmp_path / "loop.csv"
+    np.savetxt(table, np.column_stack([data.u, data.y]), delimiter=",", header="u,y", comments="")
+    page.goto("/plants/flexible_link/identification")
+    page.get_by_text("Or identify from a data file").click()
+    panel = page.get_by_test_id("ident-file")
+    panel.locator("#idf-file").set_input_files(str(table))
+    panel.locator("#idf-data-Ts").fill("0.01")
+    panel.locator("#idf-detrend").select_option("none")
+    panel.locator("#idf-models").fill("oe:1,1,1")
+    panel.get_by_test_id("ident-method").select_option("indirect")
+    panel.locator("#idf-indirect-num").fill("0.6 x")
+    panel.get_by_role("button", name="Identify").click()
+    expect(panel.get_by_test_id("ident-error")).to_contain_text("The controller's numerator")
+    panel.locator("#idf-indirect-num").fill("0.6")
+    panel.get_by_role("button", name="Identify").click()
+    rows = panel.get_by_test_id("ident-models").locator("tbody tr")
+    expect(rows.nth(0)).to_contain_text("oe 1 1 1 (indirect)", timeout=60_000)
+    expect(panel).to_contain_text("indirect method: the models were fitted to the loop")
+    api = httpx.post(
+        f"{server.url}/api/v1/ident",
+        timeout=60,
+        json={
+            "data": {
+                "source": "file",
+                "name": "loop.csv",
+                "text": table.read_text(),
+                "input": ["u"],
+                "output": ["y"],
+                "Ts": 0.01,
+            },
+            "detrend": "none",
+            "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]},
+            "n4sid_orders": [1, 10],
+            "indirect": {"num": [0.6], "den": [1]},
+            "models": [{"kind": "oe", "nb": 1, "nf": 1, "nk": 1}],
+        },
+    ).json()
+    shown = float(rows.nth(0).locator("td").first.inner_text().split()[0])
+    want = api["models"][0]["fit"]["validation_simulation"][0]
+    assert shown == pytest.approx(want, abs=1e-3 * max(1, abs(shown)))
+
+
 def test_design_lqr_compare_and_run(page: Page, server: Server, shots: Path) -> None:
     page.goto("/plants/flexible_link/design")
     page.get_by_role("button", name="Design").click()

@@ -37,7 +37,7 @@ from elab.api.state import lab
 from elab.errors import ElabError, InvalidInput, TooMany
 from elab.ident import IdData
 from elab.ident import workflow as wf
-from elab.ident.closedloop import References
+from elab.ident.closedloop import Controller, References
 from elab.ident.files import Table, read_table
 from elab.ident.modeladvice import Physics, physics_of
 from elab.jobs import JobPool
@@ -66,6 +66,10 @@ async def identify(request: Request) -> Response:
     a separate ``validation`` record. The body, both records in it, may be as large as
     ``ELAB_MAX_UPLOAD`` (16 MiB)."""
     req = await read_model(request, s.IdentRequest, upload=True)
+    if req.indirect is not None and req.two_stage is not None:  # before any data are read
+        raise InvalidInput(
+            "indirect", "with two_stage", "one closed-loop method at a time: two_stage or indirect"
+        )
     slot = _slots(request).take(identity(request).id)
     mine: Callable[[], None] | None = slot
     try:
@@ -255,4 +259,7 @@ def _plan(req: s.IdentRequest, ran: Requested | None, physics: Physics | None = 
         decimate=req.decimate,
         physics=physics,
         two_stage=req.two_stage,
+        indirect=None
+        if req.indirect is None
+        else Controller(tuple(req.indirect.num), tuple(req.indirect.den)),
     )

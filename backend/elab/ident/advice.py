@@ -73,6 +73,8 @@ def on_data(
     closed_loop: bool | None = None,
     recorded: IdData | None = None,
     staged: Staged | None = None,
+    *,
+    indirect: bool = False,
 ) -> tuple[Verdict, ...]:
     """The estimation data ``ze`` (as detrended) for models of up to ``parameters``
     parameters per output and a dynamic ``order`` (0: none asked); ``correlation``: its
@@ -80,9 +82,21 @@ def on_data(
     the source knows (a run), else found from the data; ``recorded``: the data as
     recorded, before resampling smoothed its steps (quantisation is judged on them);
     ``staged``: the two-stage method's first stage, when ``ze``'s inputs are its
-    prediction from the references (no noise is fed back into them)."""
+    prediction from the references (no noise is fed back into them); ``indirect``: the
+    models were fitted to the loop from its external input (the indirect method)."""
     extra: list[Verdict] = []
-    if staged is not None:
+    if indirect:
+        fb = feedback(ze)
+        said = Verdict(
+            "feedback",
+            "good",
+            f"the input depends on past outputs ({100 * fb:.0f} % of its unpredicted "
+            "variance), as in closed loop; the indirect method fitted the loop from its "
+            "external input w = u + C y, which carries no fed-back noise, and solved for "
+            "the plant with the known controller. Correlation and spectral analysis from u "
+            "still show the controller as much as the plant",
+        )
+    elif staged is not None:
         fb, said = 0.0, _staged_feedback(staged)
         extra.append(_explained(staged))
     elif closed_loop is False:  # the source knows: an input deterministic enough (a PRBS)
@@ -91,7 +105,7 @@ def on_data(
     else:
         fb = feedback(ze)
         said = _feedback(fb, closed_loop)
-    closed = fb > FEEDBACK_SHARE if closed_loop is None or staged else closed_loop
+    closed = fb > FEEDBACK_SHARE if closed_loop is None or staged or indirect else closed_loop
     out = [
         said,
         *extra,

@@ -1,5 +1,7 @@
 """Closed-loop data made fit for open-loop methods: the two-stage method (Van den Hof and
-Schrama 1993; Ljung 1999, sec. 13.5).
+Schrama 1993; Ljung 1999, sec. 13.5), and the indirect method's pieces (Ljung 1999,
+sec. 13.4): the loop's external input w = u + C y from a known controller C, and the
+plant solved from a model of the loop w → y.
 
 In closed loop the input carries the noise the controller fed back (u = S r − S C v),
 so a method whose noise model is wrong (ARX, an output-error model on u) is biased. The
@@ -24,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from elab.errors import InvalidInput
 from elab.ident.data import IdData
+from elab.ident.models import LinearModel
 
 Array = NDArray[np.float64]
 
@@ -152,3 +155,91 @@ def _regressors(refs: Array, taps: int, k0: int, k1: int) -> Array:
         if lo < k1:
             phi[lo - k0 :, lag * nr : (lag + 1) * nr] = refs[lo - lag : k1 - lag]
     return phi
+
+
+@dataclass(frozen=True)
+class Controller:
+    """A known linear controller of a loop recorded at the data's sample time, as the
+    indirect method reads it: u = w − C(q) y, with C(q) = num(q⁻¹) / den(q⁻¹) (one input,
+    one output) and w the loop's external input (the reference through the controller,
+    and any excitation). ``u = r − 0.6 y`` is ``num = (0.6,)``, ``den = (1,)``."""
+
+    num: tuple[float, ...]
+    den: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        for name, coefs in (("num", self.num), ("den", self.den)):
+            if not 1 <= len(coefs) <= MAX_CONTROLLER or not all(map(np.isfinite, coefs)):
+                raise InvalidInput(
+                    f"indirect.{name}",
+                    list(coefs),
+                    f"1 to {MAX_CONTROLLER} finite coefficients of q⁻¹",
+                )
+        if self.den[0] == 0:
+            raise InvalidInput("indirect.den", list(self.den), "a first coefficient other than 0")
+
+    def external(self, u: Array, y: Array) -> Array:
+        """w = u + C(q) y for one input and one output ((N, 1) each), the controller at
+        rest before the first sample."""
+        from scipy.signal import lfilter
+
+        return np.asarray(u + lfilter(self.num, self.den, y, axis=0), dtype=np.float64)
+
+    def state_space(self) -> tuple[Array, Array, Array, Array]:
+        """C(q) as a discrete state space (A, B, C, D)."""
+        from scipy.signal import tf2ss
+
+        n = max(len(self.num), len(self.den))
+        if n == 1:  # a gain: no states
+            gain = np.array([[self.num[0] / self.den[0]]])
+            return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), gain
+        num = np.zeros(n)
+        den = np.zeros(n)
+        num[: len(self.num)], den[: len(self.den)] = self.num, self.den
+        A, B, C, D = (  # coefficients of q⁻¹ padded alike: z's, scaled
+            np.atleast_2d(np.asarray(m, dtype=np.float64)) for m in tf2ss(num, den)
+        )
+        return A, B, C, D
+
+
+MAX_CONTROLLER = 50  # coefficients of the indirect method's controller polynomials
+
+
+def plant_from_loop(loop: LinearModel, controller: Controller) -> LinearModel:
+    """The plant u → y from a model of the closed loop w → y and the loop's known
+    controller (u = w − C y): y = G_cl (u + C y), solved for y. Its states are the loop
+    model's and the controller's (their poles cancel only in the limit of an exact
+    loop model: nothing is cut). An output-error model of the plant (K = 0): the loop
+    model's noise description is the closed loop's, not the plant's."""
+    Ak, Bk, Ck, Dk = controller.state_space()
+    A, B, C, D = loop.A, loop.B, loop.C, loop.D
+    n, nk = A.shape[0], Ak.shape[0]
+    feedthrough = np.eye(1) - D @ Dk
+    if abs(float(feedthrough[0, 0])) < 1e-12:
+        raise InvalidInput(
+            "indirect",
+            "an algebraic loop",
+            "a controller or loop model with a delay (D·C(0) ≠ 1: u = w − C y is unsolvable)",
+        )
+    M = np.linalg.inv(feedthrough)
+    # y = M (C x + D Ck xk + D u); w = u + Ck xk + Dk y
+    Cy = np.hstack([M @ C, M @ D @ Ck]) if nk else M @ C
+    Dy = M @ D
+    Cw = np.hstack([Dk @ M @ C, Ck + Dk @ M @ D @ Ck]) if nk else Dk @ M @ C
+    Dw = np.eye(1) + Dk @ M @ D
+    top = np.hstack([A, np.zeros((n, nk))]) if nk else A
+    Aa = top + B @ Cw
+    Ba = B @ Dw
+    if nk:
+        Aa = np.vstack([Aa, np.hstack([np.zeros((nk, n)), Ak]) + Bk @ Cy])
+        Ba = np.vstack([Ba, Bk @ Dy])
+    return LinearModel(
+        Aa,
+        Ba,
+        Cy,
+        Dy,
+        np.zeros((n + nk, 1)),
+        loop.Ts,
+        loop.noise_variance,
+        loop.parameters,
+    )

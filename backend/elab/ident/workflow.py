@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from elab.errors import InvalidInput
 from elab.ident import advice, modeladvice
 from elab.ident.assess import assess, model_notes
-from elab.ident.closedloop import References, stage_one
+from elab.ident.closedloop import Controller, References, plant_from_loop, stage_one
 from elab.ident.data import IdData, decimated, require_varying, suspicious
 from elab.ident.models import LinearModel
 from elab.ident.nonparametric import cra, sine_response, spa
@@ -83,6 +83,9 @@ class Plan:
     #: the two-stage method's first-stage taps (``None``: the direct method): the
     #: estimation part's inputs are replaced by their prediction from the references
     two_stage: int | None = None
+    #: the indirect method's known controller (u = w − C y): the models are fitted to
+    #: the loop w → y and turned into the plant with it
+    indirect: Controller | None = None
 
 
 def parse_model(text: str) -> ModelRequest:
@@ -118,6 +121,19 @@ def run(
     report = progress or _unreported
     resampled = []
     as_recorded = data  # before resampling smooths its steps, clipping and freezes
+    if plan.indirect is not None and (plan.two_stage is not None or plan.decimate != 1):
+        raise InvalidInput(
+            "indirect",
+            "with two_stage" if plan.two_stage is not None else f"with decimate {plan.decimate}",
+            "one closed-loop method at a time, on every sample (the controller is given at "
+            "the recorded sample time)",
+        )
+    if plan.indirect is not None and (data.nu != 1 or data.ny != 1):
+        raise InvalidInput(
+            "indirect",
+            f"{data.nu} inputs and {data.ny} outputs",
+            "one input and one output (the controller is C(q) from y to u)",
+        )
     if plan.two_stage is not None and references is None:
         raise InvalidInput(
             "two_stage",
@@ -143,6 +159,10 @@ def run(
         n_est = data.N if validation is not None else _split_at(data, plan.split)
         data = replace(data, u=np.vstack([predicted[:n_est], data.u[n_est:]]))
     ze, zv = _estimation_and_validation(data, plan, validation)
+    fit_on = ze  # what the models are estimated from
+    if plan.indirect is not None:
+        fit_on = _loop_data(data, plan, validation)
+        resampled.insert(0, _indirect_note(plan.indirect, data))
     z = _joined(data, ze, zv)
     notes = suspicious(as_recorded)  # as given: detrending moves the edges
     if validation is not None:
@@ -150,11 +170,18 @@ def run(
     report("data", 0.02)
     nonparametric, skipped = _nonparametric(ze, z, plan, report)
     searches = () if plan.arx_search is None else _arx_search(ze, zv, plan.arx_search, report)
-    sub, orders = _order_table(ze, plan, report)
-    models, said = _models(ze, zv, plan, sub, orders, report)
+    sub, orders = _order_table(fit_on, plan, report)
+    models, said = _models(ze, zv, plan, sub, orders, report, fit_on)
     parameters, order = _largest(plan, ze, orders)
     verdicts = advice.on_data(
-        ze, parameters, order, nonparametric.correlation, plan.closed_loop, as_recorded, staged
+        ze,
+        parameters,
+        order,
+        nonparametric.correlation,
+        plan.closed_loop,
+        as_recorded,
+        staged,
+        indirect=plan.indirect is not None,
     )
     if plan.arx_search is not None:
         verdicts += tuple(_search_verdict(x, plan.arx_search) for x in searches)
@@ -165,6 +192,27 @@ def run(
         models=models,
         notes=(*resampled, *notes, *skipped, *said),
         verdicts=verdicts,
+    )
+
+
+def _loop_data(data: IdData, plan: Plan, validation: IdData | None) -> IdData:
+    """The estimation part with the loop's external input w = u + C y in place of u (the
+    indirect method fits the loop w → y), detrended as the measured part is."""
+    assert plan.indirect is not None
+    w = plan.indirect.external(data.u, data.y)
+    with_w = replace(data, u=w)
+    ze_w, _ = _estimation_and_validation(with_w, plan, validation)
+    return ze_w
+
+
+def _indirect_note(controller: Controller, data: IdData) -> str:
+    num = " ".join(f"{c:+.4g}" for c in controller.num)
+    den = " ".join(f"{c:+.4g}" for c in controller.den)
+    return (
+        f"indirect method: the models were fitted to the loop from w = u + C(q) y to "
+        f"{', '.join(data.output_names)} (C = [{num}] / [{den}] in q⁻¹, at rest before the "
+        "first sample) and turned into the plant with C; fits and residuals are the "
+        "plant's, on the measured u"
     )
 
 
@@ -386,8 +434,11 @@ def _models(
     sub: Subspace | None,
     orders: OrderChoice | None,
     report: Progress,
+    fit_on: IdData | None = None,
 ) -> tuple[tuple[ModelResult, ...], list[str]]:
-    """Each requested model, estimated and assessed, and what a reader must know of it."""
+    """Each requested model, estimated (from ``fit_on``, by default ``ze``; with the
+    indirect method the loop's data, the model then turned into the plant) and assessed
+    on ``ze`` and ``zv``, and what a reader must know of it."""
     flat = [zv.output_names[j] for j in range(zv.ny) if np.ptp(zv.y[:, j]) == 0]
     notes = []
     if flat and plan.models:
@@ -401,8 +452,16 @@ def _models(
     for i, request in enumerate(plan.models):
         # said before each model, which may take seconds (ARMAX and OE: several starts)
         report(f"estimating {request.name}, model {i + 1} of {n}", 0.6 + 0.4 * i / n)
-        model = _estimate(ze, request, sub, best, plan.horizon, i, plan.decimate > 1)
-        result = assess(_name(request, model), model, ze, zv)
+        if plan.indirect is not None and request.kind == "link":
+            raise InvalidInput(
+                f"models[{i}].kind", "link", "arx, armax, oe or n4sid for the indirect method"
+            )
+        source = ze if fit_on is None else fit_on
+        model = _estimate(source, request, sub, best, plan.horizon, i, plan.decimate > 1)
+        name = _name(request, model)
+        if plan.indirect is not None:
+            model, name = plant_from_loop(model, plan.indirect), f"{name} (indirect)"
+        result = assess(name, model, ze, zv)
         chosen = request.kind == "n4sid" and not request.orders.get("order")
         top = chosen and model.nx == _top(orders)
         fit = result.fits.headline_fit.fit

@@ -7,7 +7,7 @@ import { fill, h } from "../dom";
 import { FieldSet, NumberField } from "../forms";
 import { columnNames, dataSummary, fileRecord, linkRows, modelBody, parseModels, tooLarge } from "../ident";
 import { chart, purge, type Series } from "../plot";
-import type { FileData, IdentModelOut, IdentOut, IdentRequest, ModelCreate, PlantDetail, RunData } from "../protocol.gen";
+import type { FileData, IdentModelOut, IdentOut, IdentRequest, IndirectSpec, ModelCreate, PlantDetail, RunData } from "../protocol.gen";
 import { fmt } from "../units";
 import { downloadButton, errorText, showApiError, verdictList } from "./common";
 import { ValidationFile } from "./identvalidation";
@@ -24,6 +24,7 @@ export class IdentAnalysis {
   private readonly detrend: HTMLSelectElement;
   private readonly method: HTMLSelectElement;
   private readonly references: HTMLInputElement | null = null;
+  private readonly controller: { num: HTMLInputElement; den: HTMLInputElement };
   private readonly checks: Record<"correlation" | "spectral" | "arx" | "n4sid", HTMLInputElement>;
   private readonly validation: ValidationFile;
   private readonly models: HTMLInputElement;
@@ -63,7 +64,8 @@ export class IdentAnalysis {
     const split = f.add(new NumberField({ idPrefix: pre, field: "split", label: "Estimation share (the rest validates)", value: 0.5, min: 0, max: 1, minExclusive: true, maxExclusive: true, step: 0.05 }));
     this.validation = new ValidationFile(pre, split, source.kind === "run" ? "columns u and the output(s) above at this run's sample time, e.g. another run's CSV download" : "the same columns and sample time as the data file");
     // closed loop: the direct method, or the two-stage method from the loop's own references
-    this.method = h("select", { id: `${pre}-method`, "data-testid": "ident-method" }, h("option", { value: "direct" }, "direct: fit from u as recorded"), h("option", { value: "two_stage" }, "two-stage: fit from the part of u the references explain"));
+    this.method = h("select", { id: `${pre}-method`, "data-testid": "ident-method" }, h("option", { value: "direct" }, "direct (u as recorded)"), h("option", { value: "two_stage" }, "two-stage (u predicted)"), h("option", { value: "indirect" }, "indirect (known C(q))"));
+    this.controller = { num: h("input.mono", { id: `${pre}-indirect-num`, value: "0.6", spellcheck: false }), den: h("input.mono", { id: `${pre}-indirect-den`, value: "1", spellcheck: false }) };
     // a loop that settles within about a second: that long at the recorded rate (≤ 1000 taps)
     const taps = source.kind === "run" ? Math.min(1000, Math.max(1, Math.round(1 / plant.Ts))) : 40;
     if (source.kind === "file") this.references = h("input", { id: `${pre}-reference-cols`, value: "r" });
@@ -71,6 +73,8 @@ export class IdentAnalysis {
       "fieldset",
       h("legend", "Closed loop"),
       h("div.grid", h("div.field.span2", h("label", { for: `${pre}-method` }, "Method"), this.method), num("two_stage", "First-stage taps (at the recorded rate)", taps, 1, 1000), this.references ? h("div.field", h("label", { for: `${pre}-reference-cols` }, "Reference column(s)"), this.references) : ""),
+      h("div.grid", h("div.field", h("label", { for: `${pre}-indirect-num` }, "Indirect: C(q) numerator (q⁻¹ coefficients)"), this.controller.num), h("div.field", h("label", { for: `${pre}-indirect-den` }, "denominator"), this.controller.den)),
+      h("small.hint", "Indirect: for a controller that acts on the measured output alone, u = w − C(q) y at the recorded rate (one input, one output, every sample). The models are fitted to the loop from w = u + C y and turned into the plant with C. The lab's own state-feedback controllers act on the plant's state, not of this kind."),
       h("small.hint", source.kind === "run" ? "In closed loop the controller feeds the sensors' noise back into u. Two-stage first predicts u from the run's reference r and its input excitation by a FIR of this many taps (the loop's settling time), then fits the models from that prediction; validation still reads the measured u. The data verdicts say how much of u the references explain." : "Two-stage: u is first predicted from the reference column(s) by a FIR of this many taps, and the models fit from that prediction; validation still reads the measured u."),
     );
     const sourceBox: HTMLElement[] = [];
@@ -117,6 +121,8 @@ export class IdentAnalysis {
     const v = this.fields.values();
     const models = this.checkModels();
     if (!v || !models.ok) return null;
+    const controller = this.method.value === "indirect" ? this.indirect() : null;
+    if (this.method.value === "indirect" && !controller) return null;
     const records = await this.records(v);
     if (!records) return null;
     const span = (a: string): [number, number] => [v.get(`${a}.0`)!, v.get(`${a}.1`)!];
@@ -132,7 +138,26 @@ export class IdentAnalysis {
       decimate: v.get("decimate")!,
       models: models.models,
       two_stage: this.method.value === "two_stage" ? v.get("two_stage")! : null,
+      indirect: this.method.value === "indirect" ? controller : null,
     };
+  }
+
+  /** The indirect method's controller from its two fields (null with the reason shown). */
+  private indirect(): IndirectSpec | null {
+    const parse = (input: HTMLInputElement, what: string): IndirectSpec["num"] | null => {
+      const parts = input.value.split(/[\s,]+/).filter(Boolean);
+      const values = parts.map(Number);
+      if (parts.length === 0 || parts.length > 50 || values.some((x) => !Number.isFinite(x))) {
+        fill(this.msg, `The controller's ${what}: 1 to 50 numbers separated by commas or spaces (got "${input.value}").`);
+        input.setAttribute("aria-invalid", "true");
+        return null;
+      }
+      input.setAttribute("aria-invalid", "false");
+      return values as IndirectSpec["num"];
+    };
+    const num = parse(this.controller.num, "numerator");
+    const den = num && parse(this.controller.den, "denominator");
+    return num && den ? { num, den } : null;
   }
 
   /** The data (the run, or the chosen file) and the validation file if one is chosen, with

@@ -104,6 +104,18 @@ class ArxSearch(Model):
 IdentSource = Annotated[RunData | FileData, Field(discriminator="source")]
 
 
+Coefficients = Annotated[list[Finite], Field(min_length=1, max_length=50)]
+
+
+class IndirectSpec(Model):
+    """The loop's known controller for the indirect method, at the data's sample time:
+    u = w − C(q) y with C(q) = num(q⁻¹) / den(q⁻¹); ``u = r − 0.6 y`` is ``num [0.6]``,
+    ``den [1]``."""
+
+    num: Coefficients
+    den: Coefficients
+
+
 class IdentRequest(Model):
     """Identification on a run's data or an uploaded table. ``split``: the estimation
     share (the first part); the rest validates. Or ``validation``: a separate record to
@@ -142,6 +154,12 @@ class IdentRequest(Model):
         description="closed loop: the two-stage method with a first stage of this many "
         "taps (the estimation part's input replaced by its FIR prediction from "
         "data.reference; validation reads the measured input); null: the direct method",
+    )
+    indirect: IndirectSpec | None = Field(
+        None,
+        description="closed loop: the indirect method with this known controller (one "
+        "input, one output, every sample): the models are fitted to the loop from "
+        "w = u + C y to y and turned into the plant with C; null: the direct method",
     )
 
 
