@@ -23,7 +23,15 @@ from __future__ import annotations
 import math
 
 from elab.laws import PID, OpenLoop
-from elab.plants.base import Channel, LessonStep, Plant, Sensors, SignalDefaults, frozen_matrix
+from elab.plants.base import (
+    Channel,
+    IdentDefaults,
+    LessonStep,
+    Plant,
+    Sensors,
+    SignalDefaults,
+    frozen_matrix,
+)
 
 K_M = 5.0  # (rad/s)/V, gear-motor output speed per volt
 TAU_M = 0.2  # s, motor mechanical time constant
@@ -66,6 +74,17 @@ PLANT = Plant(
     # run lasts until it has settled (tests/unit/test_plant_defaults.py)
     signal=SignalDefaults(kind="step", amplitude=0.5, duration=60.0),
     operating_point=frozen_matrix([[0, 0, 0, 0]])[0],
+    identification=IdentDefaults(
+        models="oe:4,4,1; n4sid:4",
+        decimate=10,
+        why="The belt is sampled at 1 kHz and its fastest pole is at 10 rad/s: every 10th "
+        "sample (anti-aliased) keeps the dynamics and drops the encoder's noise that ARX "
+        "and subspace fits would weight. Its four states call for order 4; an output-error "
+        "model needs no noise model. On the page's default run (a 1 V PRBS at the input "
+        "under the PI) both fit their validation part to 97–99.8 % and lie within 0.2 dB "
+        "and 1° of the physics model; the general proposal (arx 4 4 1, armax 2 2 2 1, "
+        "n4sid) fits below 5 % there, 15–76 dB off (docs/identification.md).",
+    ),
     # the belt in three runs: alone, a proportional gain, the predefined (slow) PI
     lesson=(
         LessonStep(
