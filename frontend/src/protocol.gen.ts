@@ -1942,6 +1942,14 @@ export interface ModelDesignOut {
   run_Ts: number | null;
   not_runnable: string | null;
   /**
+   * LQR by an output weight: the q used (after robust lowering)
+   */
+  output_weight: number | null;
+  /**
+   * how q was chosen, when the robust rule lowered it or could not
+   */
+  weight_note: string | null;
+  /**
    * the same controller on the lab's physics model, as a run of it goes (noise-free sensors, the plant's actuator limit), its outputs absolute: what the identified model's step is checked against (null: it cannot run on the plant)
    */
   on_plant: StepOut | null;
@@ -2029,6 +2037,10 @@ export interface ModelLQR {
   Q?: [number, ...number[]] | [[number, ...number[]], ...[number, ...number[]][]] | null;
   output_weight?: number | null;
   R?: number;
+  /**
+   * with an output weight (given or Bryson's): lower it by factors of √2 until the loop on the model has at least 6 dB of gain and 30° of phase margin, so that a model's small errors (an identified resonance) do not undo the design
+   */
+  robust?: boolean;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

@@ -87,6 +87,10 @@ def test_identify_share_design_run_and_export_an_lqr_on_the_model(
             json={"method": "lqr", "output_weight": q, "R": 1},
         ).json()
         assert shown == pytest.approx(ref["K"], rel=1e-5)
+        # the robust rule (on by default) says how it chose q, as the server did
+        expect(other.locator("#model-robust")).to_be_checked()
+        if ref["weight_note"]:
+            expect(other.get_by_test_id("design-result")).to_contain_text(ref["weight_note"])
         expect(other.get_by_test_id("verdict")).to_contain_text("Closed loop: stable")
         expect(other.get_by_test_id("peak")).to_contain_text("Predicted peak input")
         expect(other.get_by_test_id("root-locus").locator(".main-svg").first).to_be_visible()

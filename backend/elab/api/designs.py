@@ -16,6 +16,7 @@ first design: the web process starts without them (docs/architecture.md, start-u
 from __future__ import annotations
 
 import asyncio
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
@@ -74,16 +75,15 @@ def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
     amplitude = _amplitude(req.amplitude, plant if ref_name == plant_ref else None)
     why_not = not_runnable(kept, plant)
     K = Nr = L = obs = None
+    weight: Weight | None = None
     law: ControlLaw | None
     if req.method == "pid":
         law = PID(req.Kp, req.Ki, req.Kd, req.N)
         controller = observed.pid_controller(m, law)
     else:
-        fb = observed.observed_feedback(
-            m,
-            _gain(m, req, plant.u_max, amplitude),
-            None if req.observer_poles is None else [_z(p) for p in req.observer_poles],
-        )
+        poles = None if req.observer_poles is None else [_z(p) for p in req.observer_poles]
+        gain, weight = _gain(m, req, plant.u_max, amplitude, poles)
+        fb = observed.observed_feedback(m, gain, poles)
         K, Nr, L, obs, controller = fb.K, fb.Nr, fb.L, fb.observer_poles, fb.controller
         law = observed.feedback_law(m, controller) if why_not is None else None
     a = loop.analyse(m, controller, amplitude, req.T)
@@ -113,6 +113,8 @@ def model_design(kept: StoredModel, req: Any) -> s.ModelDesignOut:
         controller=None if law is None or why_not else convert.law_model(law),
         run_Ts=kept.model["Ts"] if req.domain == "discrete" else None,
         not_runnable=why_not,
+        output_weight=None if weight is None else weight.q,
+        weight_note=None if weight is None else weight.note,
         on_plant=None
         if law is None or why_not
         else _on_plant(
@@ -192,22 +194,78 @@ def _amplitude(given: float | None, plant: Plant | None) -> float:
     return a
 
 
-def _gain(m: Model, req: Any, u_max: float, amplitude: float) -> Any:
+@dataclass(frozen=True)
+class Weight:
+    """The LQR output weight a design used, and how it was chosen (``None``: as given)."""
+
+    q: float
+    note: str | None
+
+
+#: the robust rule's targets: the loop broken at the plant input, on the model
+GAIN_MARGIN_DB, PHASE_MARGIN_DEG = 6.0, 30.0
+ROBUST_STEPS = 24  # halvings of q by √2 tried: down to 1/4096 of the first
+
+
+def _gain(
+    m: Model, req: Any, u_max: float, amplitude: float, observer_poles: Any
+) -> tuple[Any, Weight | None]:
     from elab.design import observed
 
     if req.method == "gain":
-        return req.K
+        return req.K, None
     if req.method == "place":
-        return observed.place_gain(m, [_z(p) for p in req.poles]).K
+        return observed.place_gain(m, [_z(p) for p in req.poles]).K, None
     if req.Q is not None and req.output_weight is not None:
         raise InvalidInput("Q", "Q and output_weight", "either Q or output_weight, not both")
     if req.Q is not None:
-        Q = req.Q
-    else:  # Bryson's rule unless a weight is given: the step's size against the limit
-        q = req.output_weight
-        q = q if q is not None else (BRYSON_SHARE * u_max / amplitude) ** 2
-        Q = observed.output_weight(m, q)
-    return observed.lqr_gain(m, Q, req.R).K
+        return observed.lqr_gain(m, req.Q, req.R).K, None
+    # Bryson's rule unless a weight is given: the step's size against the limit
+    given = req.output_weight is not None
+    q0 = req.output_weight if given else (BRYSON_SHARE * u_max / amplitude) ** 2
+    if not req.robust:
+        return observed.lqr_gain(m, observed.output_weight(m, q0), req.R).K, Weight(q0, None)
+    return _robust(m, q0, req.R, observer_poles, "the given q" if given else "Bryson's rule")
+
+
+def _robust(m: Model, q0: float, R: float, observer_poles: Any, source: str) -> tuple[Any, Weight]:
+    """The LQR gain for the largest q = q0 / √2ᵏ whose loop on ``m`` (with its observer)
+    has at least :data:`GAIN_MARGIN_DB` and :data:`PHASE_MARGIN_DEG`; q0's if none has.
+    A loop whose margins are that thin lives on the model's details near its crossover,
+    and an identified model's resonance is never exact: the plant then rings or goes
+    unstable where the model predicted a clean step (issue 26)."""
+    from elab.design import loop, observed
+
+    first: tuple[Any, float, float] | None = None
+    for k in range(ROBUST_STEPS + 1):
+        q = q0 / 2 ** (k / 2)
+        K = observed.lqr_gain(m, observed.output_weight(m, q), R).K
+        try:
+            lp = loop.close(m, observed.observed_feedback(m, K, observer_poles).controller)
+            margins = loop.loop_margins(lp, m.Ts)
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+            continue
+        gm, pm = margins.gain_margin_db, margins.phase_margin_deg
+        if first is None:
+            first = (K, gm, pm)
+        if gm >= GAIN_MARGIN_DB and pm >= PHASE_MARGIN_DEG:
+            if k == 0:
+                return K, Weight(q, None)
+            note = (
+                f"q lowered from {q0:.4g} ({source}) to {q:.4g}: with {q0:.4g} the loop on the "
+                f"model has {first[1]:.1f} dB of gain and {first[2]:.0f}° of phase margin, "
+                f"too thin to trust a model's details; now {gm:.1f} dB and {pm:.0f}° (at "
+                f"least {GAIN_MARGIN_DB:g} dB and {PHASE_MARGIN_DEG:g}°). Give q and robust "
+                "false to keep yours"
+            )
+            return K, Weight(q, note)
+    K = observed.lqr_gain(m, observed.output_weight(m, q0), R).K
+    return K, Weight(
+        q0,
+        f"q = {q0:.4g} ({source}) kept: no q down to {q0 / 2 ** (ROBUST_STEPS / 2):.3g} gives the "
+        f"loop {GAIN_MARGIN_DB:g} dB and {PHASE_MARGIN_DEG:g}° of margin on the model; check the "
+        "step on the physics model before a run",
+    )
 
 
 def _z(p: s.Complex) -> complex:

@@ -46,6 +46,12 @@ class ModelLQR(_ObservedDesign):
     ) = None
     output_weight: Finite | None = Field(None, gt=0)
     R: Finite = Field(1.0, gt=0)
+    robust: bool = Field(
+        True,
+        description="with an output weight (given or Bryson's): lower it by factors of √2 "
+        "until the loop on the model has at least 6 dB of gain and 30° of phase margin, "
+        "so that a model's small errors (an identified resonance) do not undo the design",
+    )
 
 
 class ModelPlace(_ObservedDesign):
@@ -131,6 +137,12 @@ class ModelDesignOut(LoopOut):
     controller: Controller | None
     run_Ts: float | None = Field(description="the sample time a run needs (null: the plant's)")
     not_runnable: str | None
+    output_weight: float | None = Field(
+        None, description="LQR by an output weight: the q used (after robust lowering)"
+    )
+    weight_note: str | None = Field(
+        None, description="how q was chosen, when the robust rule lowered it or could not"
+    )
     on_plant: StepOut | None = Field(
         None,
         description="the same controller on the lab's physics model, as a run of it goes "
