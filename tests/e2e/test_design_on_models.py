@@ -216,3 +216,66 @@ def test_a_tenth_order_models_transfer_function_fits_the_page(page: Page, server
         box = tf.bounding_box()
         assert wide == [] and box is not None and box["x"] + box["width"] <= width, (wide, box)
         assert page.evaluate("document.documentElement.scrollWidth") <= width
+
+
+def test_the_default_flow_from_run_to_design_to_its_run(page: Page, server: Server) -> None:
+    """Issue 26's acceptance in the browser, on the link: the identification page's
+    default experiment (a 30 s PRBS run in closed loop, recorded fast here), its
+    defaults (the plant's proposals, kept as recorded, every 10th sample), *Use this
+    model* on the subspace model, an LQR with the design page's defaults, and a run of
+    it: the model is not poor and agrees with the physics, the design's check on the
+    physics model raises no warning, and the run's step matches the prediction within 5
+    points of overshoot."""
+    import numpy as np
+
+    run = httpx.post(
+        f"{server.url}/api/v1/runs",
+        json={
+            "plant": "flexible_link",
+            "experiment": "identification",
+            "pace": "fast",
+            "duration": 30,
+            "controller": {"kind": "predefined"},
+            "signal": {"kind": "step", "amplitude": 0},
+            "excitation": {"kind": "prbs", "amplitude": 1.0, "order": 10, "band": 0.05},
+            "excitation_at": "input",
+            "seed": 6,
+        },
+    ).json()
+    page.goto(f"/plants/flexible_link/identification?run={run['id']}")
+    panel = page.get_by_test_id("ident-run")
+    expect(panel.get_by_role("button", name="Identify")).to_be_enabled(timeout=60_000)
+    expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=60_000)
+    panel.get_by_role("button", name="Identify").click()  # the page's defaults
+    table = panel.get_by_test_id("ident-models")
+    expect(table).to_contain_text("n4sid 4", timeout=60_000)
+    index = 1  # the proposals: oe 4 4 1, then n4sid 4
+    expect(panel.get_by_test_id(f"model-level-{index}")).not_to_have_text("poor")
+    # the verdicts not good are listed under the table: physics is not among them
+    listed = panel.get_by_test_id(f"model-verdicts-{index}")
+    expect(listed.locator("[data-topic=physics]")).to_have_count(0)
+    panel.get_by_test_id(f"use-model-{index}").click()
+    expect(page).to_have_url(re.compile(r"/plants/flexible_link/design\?model=m-[0-9a-f]{12}$"))
+    page.locator("#model-method").select_option("lqr")
+    page.get_by_role("button", name="Design", exact=True).click()
+    result = page.get_by_test_id("design-result")
+    expect(result).to_contain_text("q lowered from")
+    expect(page.get_by_test_id("verdict")).to_contain_text("Closed loop: stable")
+    expect(page.get_by_test_id("model-vs-plant")).to_have_count(0)
+    page.locator("#f-duration").fill("3")
+    page.get_by_role("button", name="Run with this K").click()
+    box = page.get_by_test_id("design-run")
+    expect(box.locator(".run-panel .badge")).to_have_text("finished", timeout=30_000)
+    rid = box.locator(".run-panel").get_attribute("data-run")
+    model_id = page.url.rsplit("=", 1)[1]
+    predicted = httpx.post(
+        f"{server.url}/api/v1/models/{model_id}/design", json={"method": "lqr", "T": 3}
+    ).json()
+    data = httpx.get(f"{server.url}/api/v1/runs/{rid}/data", params={"format": "json"}).json()
+    theta = np.array(data["data"]["theta"])
+    step = predicted["amplitude"]
+    overshoot = 100 * (theta.max() - step) / step
+    assert abs(overshoot - predicted["step"]["info"]["overshoot"]) <= 5, (
+        overshoot,
+        predicted["step"]["info"],
+    )
