@@ -249,6 +249,23 @@ def test_the_two_stage_method_reads_a_runs_reference_and_excitation(server: Serv
     assert "two-stage" not in _ident(server, body).json()["notes"][0]
 
 
+def test_a_run_whose_references_never_vary_is_refused_by_name(server: Server) -> None:
+    """A closed-loop run held at one reference, no excitation: nothing drove its loop from
+    outside, and the two-stage request says so about ``data.reference``."""
+    rid = _finished_run(
+        server,
+        {
+            "plant": "flexible_link",
+            "pace": "fast",
+            "duration": 2,
+            "signal": {"kind": "step", "amplitude": 0.1},
+        },
+    )
+    body = {"data": {"source": "run", "run": rid}, "detrend": "none", "two_stage": 40}
+    err = _error(_ident(server, body | {"models": [{"kind": "oe", "nb": 2, "nf": 2, "nk": 1}]}))
+    assert err["field"] == "data.reference" and "varies" in err["message"], err
+
+
 def test_the_two_stage_method_on_a_file_reads_its_reference_columns(server: Server) -> None:
     from elab.ident import iddata
     from elab.ident import workflow as wf

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from elab.api import schemas as s
+from elab.errors import InvalidInput
 from elab.ident import IdData
 from elab.ident import workflow as wf
 from elab.ident.advice import Verdict
@@ -51,8 +52,14 @@ def identify(
     progress: wf.Progress | None = None,
 ) -> str:
     """:func:`elab.ident.workflow.run` and :func:`ident_json` (one job of the server's
-    identification workers: the JSON is written there, not in the web process)."""
-    return ident_json(wf.run(data, plan, progress, validation, references))
+    identification workers: the JSON is written there, not in the web process). The
+    references the two-stage method refuses are the request's ``data.reference``."""
+    try:
+        return ident_json(wf.run(data, plan, progress, validation, references))
+    except InvalidInput as exc:
+        if exc.field != "reference":
+            raise
+        raise InvalidInput("data.reference", exc.value, exc.allowed) from None
 
 
 def ident_json(result: Result) -> str:

@@ -227,7 +227,7 @@ def _stage_one(
     values = references.values
     if values.ndim != 2 or values.shape[0] != data.N:
         raise InvalidInput(
-            "references",
+            "reference",
             f"shape {values.shape}",
             f"one row per sample of the data ({data.N}), a column per reference",
         )
@@ -235,7 +235,7 @@ def _stage_one(
     varying = [i for i in range(values.shape[1]) if np.ptp(values[:n_est, i]) > 0]
     if not varying:
         raise InvalidInput(
-            "references",
+            "reference",
             ", ".join(references.names),
             "a reference or excitation that varies over the estimation part (the two-stage "
             "method predicts the input from it)",
@@ -243,7 +243,7 @@ def _stage_one(
     try:
         u, explained = stage_one(data.u, values[:, varying], taps, n_est)
     except InvalidInput as exc:
-        field = "two_stage" if exc.field == "taps" else "references"
+        field = "two_stage" if exc.field == "taps" else "reference"
         raise InvalidInput(field, exc.value, exc.allowed) from None
     staged = advice.Staged(
         references=tuple(references.names[i] for i in varying),

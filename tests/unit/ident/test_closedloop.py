@@ -232,8 +232,8 @@ def test_a_reference_the_input_hardly_follows_is_a_poor_two_stage() -> None:
     [
         (_plan(), None, "two_stage"),  # no references to predict from
         (_plan(two_stage=600), "r", "two_stage"),  # more taps than the estimation part bears
-        (_plan(), "constant", "references"),
-        (_plan(), "short", "references"),
+        (_plan(), "constant", "reference"),
+        (_plan(), "short", "reference"),
     ],
 )
 def test_the_workflow_refuses_two_stage_requests_it_cannot_do_by_name(
