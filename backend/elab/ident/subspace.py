@@ -154,9 +154,15 @@ def _hankel(data: IdData, s: int) -> Array:
 
 
 def _past(data: IdData, s: int) -> Array:
-    """W_p = [U_p; Y_p] (s block rows each, j columns)."""
-    H = _hankel(data, s)
-    return H[s * data.nu : s * (2 * data.nu + data.ny)]
+    """W_p = [U_p; Y_p] (s block rows each, j columns), as :func:`_hankel` orders them,
+    made from windows of the record (not the whole Hankel matrix and its slices)."""
+    j = data.N - 2 * s + 1
+
+    def block(x: Array) -> Array:  # rows lag-major: x(i + t), channel c at row i·p + c
+        windows = np.lib.stride_tricks.sliding_window_view(x, j, axis=0)[:s]  # (s, p, j)
+        return windows.reshape(s * x.shape[1], j)
+
+    return np.vstack([block(data.u), block(data.y)])
 
 
 def _lq_factor(data: IdData, s: int) -> Array:
