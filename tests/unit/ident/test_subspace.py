@@ -263,3 +263,19 @@ def test_an_unstable_candidate_whose_error_squares_past_the_largest_float_has_in
     sub = subspace.decompose(z, 8)
     fitted = subspace._model(sub, np.array([[1.3]]), np.array([[1.0]]), (), "subspace")
     assert fitted.loss == np.inf
+
+
+def test_the_modes_powers_equal_numpys_complex_power() -> None:
+    """The fitted initial state's modes λᵗ (real powers with their sign, and |λ|ᵗ e^{itθ})
+    equal numpy's complex power within 1e-11 (relative) wherever it is finite, for
+    decaying, oscillating, negative, zero, unit and growing λ."""
+    from elab.ident.models import _powers
+
+    lam = np.array([0.95, -0.7, 0.0, 0.8 + 0.3j, 0.8 - 0.3j, 1.0, -1.0, 1.02, -0.3j])
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+        got, want = _powers(lam, 3000), lam[None, :] ** np.arange(3000)[:, None]
+    finite = np.isfinite(want)
+    assert np.array_equal(np.isfinite(got), finite)
+    scale = np.maximum(np.abs(want[finite]), 1e-300)
+    assert np.max(np.abs(got[finite] - want[finite]) / scale) < 1e-11
+    assert np.all(got[:, [0, 1, 2, 5, 6, 7]].imag == 0)  # real λ: real powers, exactly
