@@ -18,6 +18,7 @@ estimation part: validation then reads the measured input).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -34,6 +35,9 @@ Array = NDArray[np.float64]
 #: slowest closed-loop pole is at z = 0.7 has decayed to 1e-6 of its start after 40
 DEFAULT_TAPS = 40
 MAX_TAPS = 1000
+#: multiply-adds stage 1's normal equations may take (rows × parameters²): about a minute
+#: on one core of the machines the lab runs on (15,000 rows at 1,001 parameters: 1 s)
+MAX_WORK = 1e12
 BLOCK = 1 << 21  # numbers of the regressor at a time (16 MiB)
 
 
@@ -107,6 +111,16 @@ def stage_one(
             taps,
             f"at most {max(n_fit // 2 - 1, 0) // refs.shape[1]} taps for {n_fit} samples "
             f"({refs.shape[1]} reference(s)): twice as many samples as parameters",
+        )
+    work = n_fit * float(taps * refs.shape[1] + 1) ** 2
+    if work > MAX_WORK:
+        most = max(int((math.sqrt(MAX_WORK / n_fit) - 1) // refs.shape[1]), 0)
+        raise InvalidInput(
+            "taps",
+            taps,
+            f"at most {most} taps on {n_fit:,} samples and {refs.shape[1]} reference(s) (the "
+            f"first stage's least squares would take {work:.1e} multiply-adds, over "
+            f"{MAX_WORK:.0e}); or a shorter stretch of the record",
         )
     if np.all(refs[:n_fit] == refs[0]):
         raise InvalidInput("r", "a constant", "a reference that varies (it excites the loop)")

@@ -379,3 +379,13 @@ def test_a_loop_without_delay_through_a_direct_feedthrough_is_an_algebraic_loop(
     with pytest.raises(InvalidInput) as err:
         plant_from_loop(loop, Controller((0.5,), (1.0,)))  # 1 − 2·0.5 = 0
     assert err.value.field == "indirect"
+
+
+def test_a_first_stage_beyond_its_work_budget_is_refused_before_it_starts() -> None:
+    """2,000,000 samples at 1000 taps would be 2e12 multiply-adds (minutes): refused at
+    once with the taps that fit, not after the identification's time limit."""
+    u = np.zeros((2_000_000, 1))
+    r = np.ones((2_000_000, 1))
+    with pytest.raises(InvalidInput) as err:
+        stage_one(u, r, 1000)
+    assert err.value.field == "taps" and "at most 706 taps on 2,000,000 samples" in str(err.value)
