@@ -184,6 +184,12 @@ def _add_identify(sub: Any) -> None:
         "docs/identification.md); validation reads the measured input",
     )
     p.add_argument("--taps", type=int, default=40, help="FIR taps of --reference's first stage")
+    p.add_argument(
+        "--indirect",
+        metavar="NUM/DEN",
+        help="closed-loop data under a known controller u = w − C(q) y: C's coefficients "
+        "of q⁻¹, e.g. 0.6/1 or 0.5,0.2/1,-0.3 (indirect method, docs/identification.md)",
+    )
     p.add_argument("--horizon", type=int, help="subspace block rows")
     p.add_argument(
         "--decimate",

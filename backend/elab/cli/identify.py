@@ -91,6 +91,7 @@ def cmd_identify(args: argparse.Namespace) -> str:
         horizon=args.horizon,
         decimate=args.decimate,
         two_stage=args.taps if references is not None else None,
+        indirect=None if args.indirect is None else _controller(args.indirect),
     )
     result = wf.run(data, plan, validation=validation, references=references)
     if args.json:  # the API's answer, validated against the same wire model
@@ -100,6 +101,23 @@ def cmd_identify(args: argparse.Namespace) -> str:
     staged = [n for n in result.notes if n.startswith("two-stage")]  # said first
     rest = replace(result, notes=tuple(n for n in result.notes if n not in staged))
     return "".join(n + "\n" for n in staged) + _identify_text(data, rest)
+
+
+def _controller(text: str) -> Any:
+    """``--indirect NUM/DEN``: the controller's coefficients of q⁻¹."""
+    from elab.ident.closedloop import Controller
+
+    num, sep, den = text.partition("/")
+    try:
+        coefs = [tuple(float(c) for c in part.split(",") if c.strip()) for part in (num, den)]
+    except ValueError:
+        coefs = []
+    if not sep or len(coefs) != 2:
+        raise InvalidInput("--indirect", text, "NUM/DEN: comma-separated numbers, e.g. 0.6/1")
+    try:
+        return Controller(coefs[0], coefs[1])
+    except InvalidInput as exc:
+        raise InvalidInput("--indirect", text, exc.allowed) from None
 
 
 def _names(text: str) -> list[str]:

@@ -389,3 +389,21 @@ def test_a_first_stage_beyond_its_work_budget_is_refused_before_it_starts() -> N
     with pytest.raises(InvalidInput) as err:
         stage_one(u, r, 1000)
     assert err.value.field == "taps" and "at most 706 taps on 2,000,000 samples" in str(err.value)
+
+
+def test_the_cli_runs_the_indirect_method(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data, r = closed_loop(16)
+    table = written(tmp_path, data, r)
+    args = ["identify", str(table), "--Ts", "0.01", "--model", "oe:1,1,1", "--detrend", "none"]
+    args += ["--analyses", "none", "--json"]
+    assert main([*args, "--indirect", "0.6/1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["models"][0]["name"] == "oe 1 1 1 (indirect)"
+    plan = _indirect(models=(wf.parse_model("oe:1,1,1"),))
+    mine = wf.run(IdData(data.y, data.u, 0.01), plan).models[0].fits.headline_fit.fit[0]
+    assert out["models"][0]["fit"]["headline"][0] == pytest.approx(mine, abs=1e-9)
+    for bad in ("0.6", "0.6/x", "0.6/0,1"):
+        assert main([*args, "--indirect", bad]) == 2
+        assert "--indirect" in capsys.readouterr().err
