@@ -38,6 +38,7 @@ X0_RCOND = 1e-8  # singular values of the observability matrix below this share 
 X0_GROWTH = 1e100  # an unstable model's free response is fitted while Aᵗ grows less
 MODAL_COND = 1e10  # x₀ is fitted in modal coordinates too where A's eigenvectors allow
 MODAL_ROWS = 200_000  # samples the modal fit uses, at most (its matrix is complex)
+MODE_FLOOR = 1e-20  # a mode this far decayed from its start is zero to the fit
 
 
 def observability(A: Array, C: Array, N: int) -> Array:
@@ -81,7 +82,13 @@ def _modal_refit(A: Array, C: Array, free: Array, x0: Array) -> Array:
     lam, V = np.linalg.eig(A)
     if not np.all(np.isfinite(lam)) or np.linalg.cond(V) > MODAL_COND:
         return x0
-    free = free[:MODAL_ROWS]  # both candidates judged on the same samples
+    # both candidates judged on the same samples; where every mode has decayed below
+    # MODE_FLOOR its rows of the fit are zeros, adding the same Σ free² to both misfits
+    # and nothing to the least squares: they are left out (a stable model of 10,000
+    # samples is fitted on its first few hundred)
+    rho = float(np.max(np.abs(lam)))
+    alive = MODAL_ROWS if rho >= 1 else 1 if rho == 0 else int(math.log(MODE_FLOOR) / math.log(rho))
+    free = free[: max(min(MODAL_ROWS, alive + 1), A.shape[0])]
     T, n = free.shape[0], A.shape[0]
     with np.errstate(over="ignore", invalid="ignore", under="ignore"):
         modes = _powers(lam, T)

@@ -279,3 +279,24 @@ def test_the_modes_powers_equal_numpys_complex_power() -> None:
     scale = np.maximum(np.abs(want[finite]), 1e-300)
     assert np.max(np.abs(got[finite] - want[finite]) / scale) < 1e-11
     assert np.all(got[:, [0, 1, 2, 5, 6, 7]].imag == 0)  # real λ: real powers, exactly
+
+
+def test_the_modal_fit_leaves_out_only_rows_where_every_mode_has_decayed(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A stable model's modal initial-state fit reads its first rows only (the rest are
+    zeros of the fit): the state it returns is the one every row gives, within 1e-9."""
+    from elab.ident import models
+
+    rng = np.random.default_rng(3)
+    A = np.diag([0.9, 0.5, -0.7, 0.95])
+    C = np.ones((1, 4))
+    x_true = np.array([1.0, -2.0, 0.5, 3.0])
+    t = np.arange(10_000)
+    free = ((np.diag(A)[None, :] ** t[:, None]) @ x_true)[:, None]
+    free += 1e-3 * rng.standard_normal(free.shape)
+    short = models._modal_refit(A, C, free, np.zeros(4))
+    monkeypatch.setattr(models, "MODE_FLOOR", 1e-300)  # every row
+    every = models._modal_refit(A, C, free, np.zeros(4))
+    np.testing.assert_allclose(short, every, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(short, x_true, atol=0.05)
