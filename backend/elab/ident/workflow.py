@@ -121,26 +121,7 @@ def run(
     report = progress or _unreported
     resampled = []
     as_recorded = data  # before resampling smooths its steps, clipping and freezes
-    if plan.indirect is not None and (plan.two_stage is not None or plan.decimate != 1):
-        raise InvalidInput(
-            "indirect",
-            "with two_stage" if plan.two_stage is not None else f"with decimate {plan.decimate}",
-            "one closed-loop method at a time, on every sample (the controller is given at "
-            "the recorded sample time)",
-        )
-    if plan.indirect is not None and (data.nu != 1 or data.ny != 1):
-        raise InvalidInput(
-            "indirect",
-            f"{data.nu} inputs and {data.ny} outputs",
-            "one input and one output (the controller is C(q) from y to u)",
-        )
-    if plan.two_stage is not None and references is None:
-        raise InvalidInput(
-            "two_stage",
-            plan.two_stage,
-            "the direct method (null) for data without references: name the signals that "
-            "drove the loop (a file's reference columns; a run has its own)",
-        )
+    _check_closed_loop(data, plan, references)
     staged, predicted = None, None
     if plan.two_stage is not None and references is not None:
         # stage 1 at the recorded rate: the loop's map from its references to u is linear
@@ -193,6 +174,36 @@ def run(
         notes=(*resampled, *notes, *skipped, *said),
         verdicts=verdicts,
     )
+
+
+def _check_closed_loop(data: IdData, plan: Plan, references: References | None) -> None:
+    """Refuse, before anything is computed, a closed-loop method the data cannot take."""
+    if plan.indirect is not None:
+        if plan.two_stage is not None or plan.decimate != 1:
+            raise InvalidInput(
+                "indirect",
+                "with two_stage" if plan.two_stage else f"with decimate {plan.decimate}",
+                "one closed-loop method at a time, on every sample (the controller is given "
+                "at the recorded sample time)",
+            )
+        if data.nu != 1 or data.ny != 1:
+            raise InvalidInput(
+                "indirect",
+                f"{data.nu} inputs and {data.ny} outputs",
+                "one input and one output (the controller is C(q) from y to u)",
+            )
+        for i, request in enumerate(plan.models):
+            if request.kind == "link":
+                raise InvalidInput(
+                    f"models[{i}].kind", "link", "arx, armax, oe or n4sid for the indirect method"
+                )
+    if plan.two_stage is not None and references is None:
+        raise InvalidInput(
+            "two_stage",
+            plan.two_stage,
+            "the direct method (null) for data without references: name the signals that "
+            "drove the loop (a file's reference columns; a run has its own)",
+        )
 
 
 def _loop_data(data: IdData, plan: Plan, validation: IdData | None) -> IdData:
@@ -452,10 +463,6 @@ def _models(
     for i, request in enumerate(plan.models):
         # said before each model, which may take seconds (ARMAX and OE: several starts)
         report(f"estimating {request.name}, model {i + 1} of {n}", 0.6 + 0.4 * i / n)
-        if plan.indirect is not None and request.kind == "link":
-            raise InvalidInput(
-                f"models[{i}].kind", "link", "arx, armax, oe or n4sid for the indirect method"
-            )
         source = ze if fit_on is None else fit_on
         model = _estimate(source, request, sub, best, plan.horizon, i, plan.decimate > 1)
         name = _name(request, model)
