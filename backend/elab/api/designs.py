@@ -204,7 +204,7 @@ class Weight:
 
 #: the robust rule's targets: the loop broken at the plant input, on the model
 GAIN_MARGIN_DB, PHASE_MARGIN_DEG = 6.0, 30.0
-ROBUST_STEPS = 24  # halvings of q by √2 tried: down to 1/4096 of the first
+ROBUST_STEPS = 24  # steps of q down by √2 tried: to 1/4096 of the first
 
 
 def _gain(
@@ -236,7 +236,7 @@ def _robust(m: Model, q0: float, R: float, observer_poles: Any, source: str) -> 
     unstable where the model predicted a clean step (issue 26)."""
     from elab.design import loop, observed
 
-    first: tuple[Any, float, float] | None = None
+    before = "its margins could not be computed"  # what q0's loop has, said if lowered
     for k in range(ROBUST_STEPS + 1):
         q = q0 / 2 ** (k / 2)
         K = observed.lqr_gain(m, observed.output_weight(m, q), R).K
@@ -246,19 +246,18 @@ def _robust(m: Model, q0: float, R: float, observer_poles: Any, source: str) -> 
         except (ArithmeticError, ValueError, np.linalg.LinAlgError):
             continue
         gm, pm = margins.gain_margin_db, margins.phase_margin_deg
-        if first is None:
-            first = (K, gm, pm)
         if gm >= GAIN_MARGIN_DB and pm >= PHASE_MARGIN_DEG:
             if k == 0:
                 return K, Weight(q, None)
             note = (
                 f"q lowered from {q0:.4g} ({source}) to {q:.4g}: with {q0:.4g} the loop on the "
-                f"model has {first[1]:.1f} dB of gain and {first[2]:.0f}° of phase margin, "
-                f"too thin to trust a model's details; now {gm:.1f} dB and {pm:.0f}° (at "
-                f"least {GAIN_MARGIN_DB:g} dB and {PHASE_MARGIN_DEG:g}°). Give q and robust "
-                "false to keep yours"
+                f"model {before}, too thin to trust a model's details; now {gm:.1f} dB and "
+                f"{pm:.0f}° (at least {GAIN_MARGIN_DB:g} dB and {PHASE_MARGIN_DEG:g}°). Give q "
+                "and robust false to keep yours"
             )
             return K, Weight(q, note)
+        if k == 0:
+            before = f"has {gm:.1f} dB of gain and {pm:.0f}° of phase margin"
     K = observed.lqr_gain(m, observed.output_weight(m, q0), R).K
     return K, Weight(
         q0,

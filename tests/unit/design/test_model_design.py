@@ -149,3 +149,24 @@ def test_a_model_and_its_designs_refuse_bad_numbers_by_name() -> None:
         observed.observed_feedback(m, [0.0, 0.0, 0.0, 0.0])  # the integrator stays at z = 1
     with pytest.raises(InvalidInput, match=r"^observer_poles:"):
         observed.observed_feedback(m, [20, -90, 3, 1], [0.5])
+
+
+@pytest.mark.parametrize("a", [1.2, 2.0])
+def test_the_robust_weight_lowers_q_until_the_margins_hold_or_says_it_cannot(a: float) -> None:
+    """The robust rule on a one-state discrete plant with its pole at ``a``: at 1.2 a
+    lower q gives the loop 6 dB and 30° (its own margins computed again agree, and the
+    note says from what to what); at 2.0 no q down to q/4096 does, q is kept and the
+    note says so."""
+    from elab.api.designs import GAIN_MARGIN_DB, PHASE_MARGIN_DEG, _robust
+
+    m = Model(np.array([[a]]), np.array([[1.0]]), np.array([[1.0]]), np.array([[0.0]]), 1.0)
+    K, weight = _robust(m, 100.0, 1.0, None, "the given q")
+    assert weight.note is not None
+    if a == 1.2:
+        assert weight.q < 100 and weight.note.startswith("q lowered from 100 (the given q)")
+        lp = loop.close(m, observed.observed_feedback(m, K).controller)
+        margins = loop.loop_margins(lp, m.Ts)
+        assert margins.gain_margin_db >= GAIN_MARGIN_DB
+        assert margins.phase_margin_deg >= PHASE_MARGIN_DEG
+    else:
+        assert weight.q == 100 and "kept: no q down to" in weight.note
