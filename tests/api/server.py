@@ -298,3 +298,20 @@ class Watcher:
             k += len(next(iter(self.columns[k0].values())))
         names = self.columns[keys[0]].keys()
         return keys[0], {n: np.concatenate([self.columns[k0][n] for k0 in keys]) for n in names}
+
+
+def identification_run(plant: str, seed: int, amplitude: float = 1.0) -> dict[str, Any]:
+    """The identification page's default experiment as a fast run's request: 30 s of a
+    PRBS at the plant input under the predefined controller, the reference at 0, the
+    server's realistic sensors (noise drawn from ``seed``)."""
+    return {
+        "plant": plant,
+        "experiment": "identification",
+        "pace": "fast",
+        "duration": 30,
+        "controller": {"kind": "predefined"},
+        "signal": {"kind": "step", "amplitude": 0},
+        "excitation": {"kind": "prbs", "amplitude": amplitude, "order": 10, "band": 0.05},
+        "excitation_at": "input",
+        "seed": seed,
+    }

@@ -21,7 +21,7 @@ import scipy.linalg
 
 from elab.controllers import read_controller
 from elab.plants import get_plant
-from tests.api.server import Server, until
+from tests.api.server import Server, identification_run, until
 from tests.api.test_access import instructor, instructors_file
 
 FLEX = get_plant("flexible_link")
@@ -365,20 +365,7 @@ def test_the_default_flow_ends_with_a_design_the_plant_follows(
     was, both link designs rang for seconds or went unstable on the physics.)"""
     with server.visitor().client() as c:
         proposal = c.get(f"/plants/{plant}").json()["identification"]
-        run = c.post(
-            "/runs",
-            json={
-                "plant": plant,
-                "experiment": "identification",
-                "pace": "fast",
-                "duration": 30,
-                "controller": {"kind": "predefined"},
-                "signal": {"kind": "step", "amplitude": 0},
-                "excitation": {"kind": "prbs", "amplitude": 1.0, "order": 10, "band": 0.05},
-                "excitation_at": "input",
-                "seed": 5,
-            },
-        ).json()
+        run = c.post("/runs", json=identification_run(plant, seed=5)).json()
         until(lambda: c.get(f"/runs/{run['id']}").json()["status"] == "finished", 60)
         models = []
         for text in proposal["models"].split(";"):

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from playwright.sync_api import Browser, Page, expect
 
-from tests.api.server import Server
+from tests.api.server import Server, identification_run
 from tests.e2e.proxy import BlipProxy
 
 SAMPLES = "() => Number(document.querySelector('.progress')?.dataset.samples ?? 0)"
@@ -552,18 +552,7 @@ def test_a_poor_experiment_gets_verdicts_that_name_the_problem_and_the_fix(
             time.sleep(0.1)
         raise AssertionError("the run did not finish")
 
-    base = {"plant": "flexible_link", "experiment": "identification", "pace": "fast"}
-    small = recorded(
-        base
-        | {
-            "duration": 30,
-            "controller": {"kind": "predefined"},
-            "signal": {"kind": "step", "amplitude": 0},
-            "excitation": {"kind": "prbs", "amplitude": 0.02, "order": 10, "band": 0.05},
-            "excitation_at": "input",
-            "seed": 1,
-        }
-    )
+    small = recorded(identification_run("flexible_link", seed=1, amplitude=0.02))
     page.goto(f"/plants/flexible_link/identification?run={small}")
     panel = page.get_by_test_id("ident-run")
     expect(page.locator(".run-panel .badge")).to_have_text("finished", timeout=60_000)
@@ -576,6 +565,7 @@ def test_a_poor_experiment_gets_verdicts_that_name_the_problem_and_the_fix(
     expect(panel.get_by_test_id("model-level-0")).to_have_text("poor")
     expect(panel.get_by_test_id("model-verdicts-0").locator("[data-topic=physics]")).to_be_visible()
 
+    base = {"plant": "flexible_link", "experiment": "identification", "pace": "fast"}
     open_loop = recorded(
         base
         | {

@@ -14,7 +14,7 @@ from playwright.sync_api import Browser, Page, expect
 
 from elab.controllers import read_controller
 from elab.plants import get_plant
-from tests.api.server import Server
+from tests.api.server import Server, identification_run
 
 NUMBER = r"[−-]?\d+(?:\.\d+)?(?:e[−-]?\d+)?"
 
@@ -229,18 +229,7 @@ def test_the_default_flow_from_run_to_design_to_its_run(page: Page, server: Serv
     import numpy as np
 
     run = httpx.post(
-        f"{server.url}/api/v1/runs",
-        json={
-            "plant": "flexible_link",
-            "experiment": "identification",
-            "pace": "fast",
-            "duration": 30,
-            "controller": {"kind": "predefined"},
-            "signal": {"kind": "step", "amplitude": 0},
-            "excitation": {"kind": "prbs", "amplitude": 1.0, "order": 10, "band": 0.05},
-            "excitation_at": "input",
-            "seed": 6,
-        },
+        f"{server.url}/api/v1/runs", json=identification_run("flexible_link", seed=6)
     ).json()
     page.goto(f"/plants/flexible_link/identification?run={run['id']}")
     panel = page.get_by_test_id("ident-run")
