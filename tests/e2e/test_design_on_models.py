@@ -77,19 +77,23 @@ def test_identify_share_design_run_and_export_an_lqr_on_the_model(
         expect(other.get_by_test_id("identified-step").locator(".main-svg").first).to_be_visible()
         expect(model.get_by_test_id("delete-model")).to_have_count(0)  # not theirs
 
-        # LQR on the model (Bryson's weight by default), discrete, computed by the server
+        # LQR on the model (Bryson's weight by default), discrete, computed by the server:
+        # the field shows Bryson's q, and left so the page sends no weight (the server's
+        # Bryson, not the field's four digits of it)
         other.locator("#model-method").select_option("lqr")
         q = float(other.locator("#model-output_weight").input_value())
+        link = get_plant("flexible_link")
+        assert q == pytest.approx((0.8 * link.u_max / link.signal.amplitude) ** 2, rel=1e-3)
         other.get_by_role("button", name="Design", exact=True).click()
         shown = gains(other.get_by_test_id("gain").inner_text())
         ref = httpx.post(
-            f"{server.url}/api/v1/models/{model_id}/design",
-            json={"method": "lqr", "output_weight": q, "R": 1},
+            f"{server.url}/api/v1/models/{model_id}/design", json={"method": "lqr", "R": 1}
         ).json()
         assert shown == pytest.approx(ref["K"], rel=1e-5)
         # the robust rule (on by default) says how it chose q, as the server did
         expect(other.locator("#model-robust")).to_be_checked()
         if ref["weight_note"]:
+            assert "(Bryson's rule)" in ref["weight_note"]
             expect(other.get_by_test_id("design-result")).to_contain_text(ref["weight_note"])
         expect(other.get_by_test_id("verdict")).to_contain_text("Closed loop: stable")
         expect(other.get_by_test_id("peak")).to_contain_text("Predicted peak input")

@@ -182,6 +182,8 @@ class ModelForm {
   private readonly body = h("div");
   private readonly msg = h("p.error", { role: "alert", "data-testid": "model-form-error" });
   private readonly robust = h("input", { type: "checkbox", id: "model-robust", checked: true });
+  /** Bryson's q as the form shows it: sent as no weight (the server's Bryson) unless changed. */
+  private bryson = Number.NaN;
 
   constructor(
     readonly plant: PlantDetail,
@@ -222,6 +224,7 @@ class ModelForm {
     if (method === "lqr") {
       const a = this.amplitude();
       const q = ((BRYSON_SHARE * this.plant.u_max) / a.si) ** 2;
+      this.bryson = Number(q.toPrecision(4));
       const unit = display(a.unit);
       fill(
         this.body,
@@ -256,7 +259,10 @@ class ModelForm {
   private request(v: Map<string, number>): ModelDesignRequest {
     const domain = this.domain;
     const method = this.method.value as Method;
-    if (method === "lqr") return { method, domain, output_weight: v.get("output_weight")!, R: v.get("R")!, robust: this.robust.checked };
+    if (method === "lqr") {
+      const q = v.get("output_weight")!;
+      return { method, domain, output_weight: q === this.bryson ? null : q, R: v.get("R")!, robust: this.robust.checked };
+    }
     if (method === "place") {
       const poles = this.model.A.map((_, i) => ({ re: v.get(`poles.${i}.re`)!, im: v.get(`poles.${i}.im`)! }));
       return { method, domain, poles: poles as [{ re: number; im: number }, ...{ re: number; im: number }[]] };
