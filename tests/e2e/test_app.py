@@ -155,6 +155,20 @@ def test_server_errors_show_next_to_their_field(page: Page) -> None:
     expect(page.locator("#f-duration-error")).to_contain_text("allowed: a number ≥ 0.01 and ≤ 3600")
 
 
+def page_identification(server: Server, rid: str, **asked: Any) -> Any:
+    """The API's answer to what the identification page sends for a link run by default
+    (θ from u, kept as recorded, the link's every 10th sample of its 1 kHz run, both order
+    searches), with ``asked`` (the models, a closed-loop method) added."""
+    body = {
+        "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
+        "detrend": "none",
+        "decimate": 10,
+        "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]},
+        "n4sid_orders": [1, 10],
+    }
+    return httpx.post(f"{server.url}/api/v1/ident", timeout=60, json=body | asked).json()
+
+
 def test_identification_run_and_data_set(page: Page, server: Server, shots: Path) -> None:
     page.goto("/plants/flexible_link/identification")
     expect(page.locator("#excitation-kind")).to_have_value("prbs")
@@ -181,21 +195,14 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     panel.get_by_role("button", name="Identify").click()
     table = panel.get_by_test_id("ident-models")
     expect(table).to_contain_text("n4sid 4", timeout=60_000)
-    api = httpx.post(
-        f"{server.url}/api/v1/ident",
-        timeout=60,
-        json={
-            "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
-            "detrend": "none",
-            "decimate": 10,  # the link's proposal: every 10th sample of its 1 kHz run
-            "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]},
-            "n4sid_orders": [1, 10],
-            "models": [
-                {"kind": "arx", "na": 4, "nb": 4, "nk": 1},
-                {"kind": "n4sid", "order": 4, "horizon": 0},
-            ],
-        },
-    ).json()
+    api = page_identification(
+        server,
+        rid,
+        models=[
+            {"kind": "arx", "na": 4, "nb": 4, "nk": 1},
+            {"kind": "n4sid", "order": 4, "horizon": 0},
+        ],
+    )
     for i, m in enumerate(api["models"]):
         cells = table.locator("tbody tr").nth(i).locator("td")
         shown = float(cells.first.inner_text().split()[0])
@@ -259,19 +266,9 @@ def test_the_two_stage_method_from_the_page_equals_the_apis(page: Page, server: 
     verdicts = panel.get_by_test_id("data-verdicts")
     expect(verdicts.locator("[data-topic=two_stage]")).to_contain_text("the references explain")
     expect(verdicts.locator("[data-topic=feedback]")).to_contain_text("two-stage method")
-    api = httpx.post(
-        f"{server.url}/api/v1/ident",
-        timeout=60,
-        json={
-            "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
-            "detrend": "none",
-            "decimate": 10,
-            "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]},
-            "n4sid_orders": [1, 10],
-            "two_stage": 1000,
-            "models": [{"kind": "oe", "nb": 4, "nf": 4, "nk": 1}],
-        },
-    ).json()
+    api = page_identification(
+        server, rid, two_stage=1000, models=[{"kind": "oe", "nb": 4, "nf": 4, "nk": 1}]
+    )
     shown = float(table.locator("tbody tr").first.locator("td").first.inner_text().split()[0])
     want = api["models"][0]["fit"]["validation_simulation"][0]
     assert shown == pytest.approx(want, abs=1e-3 * max(1, abs(shown)))
