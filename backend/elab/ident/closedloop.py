@@ -197,7 +197,15 @@ class Controller:
         rest before the first sample."""
         from scipy.signal import lfilter
 
-        return np.asarray(u + lfilter(self.num, self.den, y, axis=0), dtype=np.float64)
+        with np.errstate(all="ignore"):  # a controller that blows up is refused below
+            w = np.asarray(u + lfilter(self.num, self.den, y, axis=0), dtype=np.float64)
+        if not np.all(np.isfinite(w)):
+            raise InvalidInput(
+                "indirect",
+                {"num": list(self.num), "den": list(self.den)},
+                "a controller whose output C(q) y stays finite on these data",
+            )
+        return w
 
     def state_space(self) -> tuple[Array, Array, Array, Array]:
         """C(q) as a discrete state space (A, B, C, D)."""

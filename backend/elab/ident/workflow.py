@@ -243,7 +243,7 @@ def _stage_one(
             f"one row per sample of the data ({data.N}), a column per reference",
         )
     n_est = data.N if validation is not None else _split_at(data, plan.split)
-    varying = [i for i in range(values.shape[1]) if np.ptp(values[:n_est, i]) > 0]
+    varying = [i for i in range(values.shape[1]) if np.any(values[:n_est, i] != values[0, i])]
     if not varying:
         raise InvalidInput(
             "reference",
@@ -450,7 +450,7 @@ def _models(
     """Each requested model, estimated (from ``fit_on``, by default ``ze``; with the
     indirect method the loop's data, the model then turned into the plant) and assessed
     on ``ze`` and ``zv``, and what a reader must know of it."""
-    flat = [zv.output_names[j] for j in range(zv.ny) if np.ptp(zv.y[:, j]) == 0]
+    flat = [zv.output_names[j] for j in range(zv.ny) if np.all(zv.y[:, j] == zv.y[0, j])]
     notes = []
     if flat and plan.models:
         notes.append(

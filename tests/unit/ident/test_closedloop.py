@@ -366,6 +366,29 @@ def test_a_controller_that_is_no_controller_is_refused_by_name(
     assert err.value.field == field
 
 
+@pytest.mark.parametrize(("num", "den"), [((0.6,), (5e-324,)), ((1e308,), (1.0,))])
+def test_a_controller_whose_output_overflows_on_the_data_is_refused_by_name(
+    num: tuple[float, ...], den: tuple[float, ...]
+) -> None:
+    """C(q) y of 1e308 · y or y / 5e-324 is not finite: the request's controller is named,
+    not the data (it had been refused as ``u[18, 0]: got inf``, with an overflow warning)."""
+    data, r = closed_loop(1)
+    plan = _indirect(indirect=Controller(num, den))
+    with pytest.raises(InvalidInput) as err:
+        wf.run(data, plan, references=References(r[:, None], ("r",)))
+    assert err.value.field == "indirect", err.value
+    assert "stays finite" in str(err.value)
+
+
+@pytest.mark.parametrize("size", [1e308, -1e308])
+def test_a_reference_at_the_largest_floats_is_staged_without_overflow(size: float) -> None:
+    """ "Does the reference vary" is asked without its range (±1e308 would overflow it)."""
+    data, r = closed_loop(1)
+    refs = References(r[:, None] * size, ("r",))
+    result = wf.run(data, _plan(), references=refs)
+    assert {v.topic for v in result.verdicts} >= {"two_stage"}
+
+
 def test_a_loop_without_delay_through_a_direct_feedthrough_is_an_algebraic_loop() -> None:
     loop = LinearModel(
         np.zeros((0, 0)),
