@@ -30,19 +30,33 @@ def offline(duration: float) -> np.ndarray:
 
 
 async def _burst(srv: Server, bodies: list[dict[str, Any]]) -> list[tuple[httpx.AsyncClient, str]]:
-    """Each body from a new identity, all at once; the clients and their runs."""
-    # (the 300 downloads one after another left the last clients idle for longer than
-    # the server's keep-alive, and one request was lost: see KEEP_ALIVE)
-    clients = [
-        httpx.AsyncClient(base_url=srv.url + "/api/v1", timeout=120, limits=KEEP_ALIVE, verify=TLS)
+    """Each body from a new identity, all at once; the clients and their runs. The
+    identities and runs are made on connections used once: a POST sent on a connection
+    kept from the /me burst was lost when the server's keep-alive closed it first (its
+    5 s ran out while 300 clients in one loop read their answers late; a POST is not sent
+    again). The clients that poll afterwards keep connections (see KEEP_ALIVE)."""
+    once = httpx.Limits(max_keepalive_connections=0)
+    makers = [
+        httpx.AsyncClient(base_url=srv.url + "/api/v1", timeout=120, limits=once, verify=TLS)
         for _ in bodies
     ]
-    await asyncio.gather(*(c.get("/me") for c in clients))  # each gets its identity
+    await asyncio.gather(*(c.get("/me") for c in makers))  # each gets its identity
     answers = await asyncio.gather(
-        *(c.post("/runs", json=b) for c, b in zip(clients, bodies, strict=True))
+        *(c.post("/runs", json=b) for c, b in zip(makers, bodies, strict=True))
     )
     for r in answers:
         assert r.status_code == 201, r.text
+    clients = [
+        httpx.AsyncClient(
+            base_url=srv.url + "/api/v1",
+            timeout=120,
+            limits=KEEP_ALIVE,
+            verify=TLS,
+            cookies=m.cookies,
+        )
+        for m in makers
+    ]
+    await asyncio.gather(*(m.aclose() for m in makers))
     return [(c, r.json()["id"]) for c, r in zip(clients, answers, strict=True)]
 
 
