@@ -80,3 +80,16 @@ export async function copyText(text: string, button: HTMLButtonElement, done = "
   }
   setTimeout(() => (button.textContent = label), 2000);
 }
+
+/** The least time between two draws of a live view (the plot and the schematic): 25 ms,
+ * every other frame of a 60 Hz display (30 a second, which looks smooth); 200 ms (5 a
+ * second) for a reader whose system asks for less motion (prefers-reduced-motion: the
+ * lines step instead of sliding, and a slow machine's CPU is spared: a watched live run
+ * cost Chromium's renderer 0.9 of a core at 30 draws a second, docs/benchmarks.md). Read
+ * at each draw: a change of the setting applies at once. */
+export const FRAME_MS = 25;
+export const CALM_FRAME_MS = 200;
+const calm = typeof matchMedia === "function" ? matchMedia("(prefers-reduced-motion: reduce)") : null;
+export function frameInterval(): number {
+  return calm?.matches ? CALM_FRAME_MS : FRAME_MS;
+}

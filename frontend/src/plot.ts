@@ -1,6 +1,7 @@
 // The only module that imports plotly.js: the live plot of a run and the static charts
 // (Bode, step, poles). Views hand it typed arrays and titles, never plotly objects.
 import Plotly from "plotly.js-basic-dist-min";
+import { frameInterval } from "./dom";
 import { decimate, type SampleRing } from "./series";
 
 const COLORS = ["#2563eb", "#dc2626", "#059669", "#d97706", "#7c3aed", "#0891b2", "#be185d", "#4b5563"];
@@ -42,12 +43,11 @@ const CONFIG: Partial<Plotly.Config> = { responsive: true, displaylogo: false, s
 export const plotSettings = { decimate: true };
 
 /**
- * The live plot draws at most every 25 ms: every other frame of a 60 Hz display, 30 frames
- * per second, which looks smooth and leaves the main thread more than half its time
- * (docs/benchmarks.md). Samples arrive about 50 times a second; none is lost by skipping a
- * draw, the next one shows them.
+ * The live plot draws at most every frameInterval() (dom.ts: 25 ms, 30 frames per second,
+ * which looks smooth and leaves the main thread more than half its time, docs/benchmarks.md;
+ * 200 ms where the reader asks for reduced motion). Samples arrive about 50 times a second;
+ * none is lost by skipping a draw, the next one shows them.
  */
-const MIN_FRAME_MS = 25;
 
 export interface LiveTrace {
   /** channel name in the ring */
@@ -124,14 +124,14 @@ export class LivePlot {
     this.resize.observe(div);
   }
 
-  /** Redraw at the next animation frame that is at least MIN_FRAME_MS after the last draw
+  /** Redraw at the next animation frame that is at least frameInterval() after the last draw
    * (many calls, one draw). */
   dirty(): void {
     if (this.pending || this.destroyed) return;
     this.pending = true;
     const frame = (now: number) => {
       if (this.destroyed) return; // purged meanwhile: plotly has nothing to draw into
-      if (now - this.lastDraw < MIN_FRAME_MS) {
+      if (now - this.lastDraw < frameInterval()) {
         requestAnimationFrame(frame);
         return;
       }

@@ -6,7 +6,7 @@ import { controlLabel, ENDED, reasonTone } from "./access";
 import { api, ApiError, dataUrl } from "./api";
 import { CompanionRun } from "./companion";
 import { computeText } from "./controllertext";
-import { copyText, csv, h, fill, saveText } from "./dom";
+import { copyText, csv, fill, frameInterval, h, saveText } from "./dom";
 import { identity } from "./identity";
 import { type ChangeEntry, type ChangeLike, ParamLog } from "./paramlog";
 import { channelColor, LivePlot, type LiveTrace } from "./plot";
@@ -60,6 +60,8 @@ export class RunPanel {
   private readonly stream: RunStream;
   private readonly statusEl = h("span.badge");
   private readonly progressEl = h("span.progress");
+  private progressFrame = 0;
+  private progressAt = -Infinity;
   private readonly connEl = h("span.conn", { "aria-live": "polite" });
   private readonly messageEl = h("p.error", { role: "alert" });
   /** why a run was paused or stopped: what people do with runs, not a failure */
@@ -194,7 +196,7 @@ export class RunPanel {
       },
       samples: (k0, n, cols) => {
         this.ring.push(k0, n, cols);
-        this.progress();
+        this.progressSoon();
         this.plot.dirty();
         if (this.prediction?.series.follow(this.ring)) this.prediction.plot.dirty();
         if (!this.replay) this.schematic.show(this.ring.end - 1);
@@ -443,6 +445,22 @@ export class RunPanel {
     } catch (err) {
       fill(this.messageEl, err instanceof ApiError ? err.message : String(err));
     }
+  }
+
+  /** The progress line at the live plot's pace (frameInterval(): many messages, one
+   * update), not at every message (50 a second, each a layout and a paint). */
+  private progressSoon(): void {
+    if (this.progressFrame) return;
+    const frame = (now: number) => {
+      if (now - this.progressAt < frameInterval()) {
+        this.progressFrame = requestAnimationFrame(frame);
+        return;
+      }
+      this.progressFrame = 0;
+      this.progressAt = now;
+      this.progress();
+    };
+    this.progressFrame = requestAnimationFrame(frame);
   }
 
   private progress(): void {

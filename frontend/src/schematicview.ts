@@ -2,16 +2,13 @@
 // from one sample of the ring (the newest while live, the replay's position after) at most
 // once per animation frame. Geometry in schematic.ts; this module only builds and updates
 // the SVG, and says which sample it shows (data-k) and the values it drew.
-import { h } from "./dom";
+import { frameInterval, h } from "./dom";
 import type { PlantDetail, RunInfo } from "./protocol.gen";
 import { beltView, DEG, fixed, growSpan, linkShape, pathD, symbol, toScreen } from "./schematic";
 import type { SampleRing } from "./series";
 import { display, fmt } from "./units";
 
 const NS = "http://www.w3.org/2000/svg";
-/** As the live plot (plot.ts): at most every 25 ms, 30 frames per second on a 60 Hz
- * display, in step with the plot's draws; samples arrive about 50 times a second. */
-const MIN_FRAME_MS = 25;
 type Value = (channel: string) => number;
 
 function svg(tag: string, attrs: Record<string, string | number> = {}, ...children: SVGElement[]): SVGElement {
@@ -172,13 +169,13 @@ export class PlantSchematic {
     this.root.append(this.svgEl, h("figcaption", this.readout));
   }
 
-  /** Show sample k at the next animation frame at least MIN_FRAME_MS after the last draw
-   * (many calls, one draw: the newest k). */
+  /** Show sample k at the next animation frame at least frameInterval() after the last
+   * draw, in step with the live plot's (many calls, one draw: the newest k). */
   show(k: number): void {
     this.k = k;
     if (this.frame || !this.drawing) return;
     const frame = (now: number) => {
-      if (now - this.lastDraw < MIN_FRAME_MS) {
+      if (now - this.lastDraw < frameInterval()) {
         this.frame = requestAnimationFrame(frame);
         return;
       }

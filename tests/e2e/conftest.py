@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Iterator
 from pathlib import Path
@@ -29,15 +30,27 @@ WAIT_MS = 30_000
 expect.set_options(timeout=WAIT_MS)
 
 
+#: What the pages ask of the system's motion setting, unless a module sets ``MOTION``:
+#: "reduce", so the live views draw 5 times a second instead of 30 (frontend/src/dom.ts,
+#: ``frameInterval``). A watched live run cost Chromium's renderer 0.9 of a core at 30 draws
+#: a second and 0.3 at 5 (docs/benchmarks.md): Chromium was the suite's largest share of
+#: CPU. tests/e2e/test_run_view.py, which checks the schematic and the plot following the
+#: stream, runs at full motion ("no-preference").
+MOTION = "reduce"
+
+
 @pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
+def browser(request: pytest.FixtureRequest) -> Iterator[Browser]:
     """Chromium for one test module. Not for the session: Playwright's sync API keeps an
     event loop running in the main thread while it is open, and a test worker runs unit
-    tests that call asyncio.run() after the browser tests."""
+    tests that call asyncio.run() after the browser tests. Its contexts ask for the
+    module's ``MOTION`` unless they say otherwise."""
     assert Path(CHROMIUM).exists(), "Debian's chromium is needed: make test installs it"
     assert APP.exists(), "the app is not built: make install builds it"
+    motion = getattr(request.module, "MOTION", MOTION)
     with sync_playwright() as p:
         b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        b.new_context = functools.partial(b.new_context, reduced_motion=motion)  # type: ignore[method-assign]
         yield b
         b.close()
 

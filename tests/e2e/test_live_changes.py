@@ -109,3 +109,38 @@ def test_identification_runs_with_realistic_sensors_by_default(page: Page, serve
     assert rid2 != rid
     head = httpx.get(f"{server.url}/api/v1/runs/{rid2}/data").text
     assert "# noise: none (ideal sensors)" in head and "# quantisation: none" in head
+
+
+COUNT_DRAWS = """() => new Promise(done => {
+  const plot = document.querySelector('[data-testid=live-plot]');
+  const svg = document.querySelector('[data-testid=schematic] svg');
+  const progress = document.querySelector('.progress');
+  const n = {plot: 0, schematic: 0, progress: 0};
+  plot.addEventListener('elab:draw', () => n.plot++);
+  const count = (what) => new MutationObserver((records) => { n[what] += records.length; });
+  count('schematic').observe(svg, {attributes: true, attributeFilter: ['data-k']});
+  count('progress').observe(progress, {attributes: true, attributeFilter: ['data-samples']});
+  const t0 = performance.now();
+  setTimeout(() => done({...n, seconds: (performance.now() - t0) / 1000}), 3000);
+})"""
+
+
+def test_a_reader_who_asks_for_less_motion_sees_five_draws_a_second(
+    page: Page, server: Server
+) -> None:
+    """prefers-reduced-motion (the suite's pages ask for it, tests/e2e/conftest.py): the
+    live plot, the schematic and the progress line follow a live run 5 times a second at
+    most instead of 30 (at every one of its 50 messages a second, for the progress line),
+    and still follow it."""
+    with server.client() as owner:
+        rid = owner.post("/runs", json={"plant": "flexible_link", "duration": 30}).json()["id"]
+        page.goto(f"/runs/{rid}")
+        assert page.evaluate("matchMedia('(prefers-reduced-motion: reduce)').matches")
+        page.wait_for_function(
+            "() => Number(document.querySelector('.progress')?.dataset.samples ?? 0) >= 200"
+        )
+        counts = page.evaluate(COUNT_DRAWS)
+        owner.post(f"/runs/{rid}/stop")
+    most = 5 * counts["seconds"] + 1  # one every 200 ms at most, and the first at once
+    for what in ("plot", "schematic", "progress"):
+        assert 1 <= counts[what] <= most, counts

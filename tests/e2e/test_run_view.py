@@ -30,6 +30,8 @@ SAMPLES = "() => Number(document.querySelector('.progress')?.dataset.samples ?? 
 PLOT_END = """() => { const d = document.querySelector('[data-testid=live-plot]').data;
   return Math.max(...d.map(t => t.x.length ? t.x[t.x.length - 1] : 0)); }"""
 K = [20, -93.5614, 3.3621, 0.9623]  # the flexible link's predefined gains
+#: the live views at full motion here (30 draws a second; conftest.MOTION)
+MOTION = "no-preference"
 
 
 @pytest.fixture
