@@ -87,8 +87,8 @@ export async function copyText(text: string, button: HTMLButtonElement, done = "
  * lines step instead of sliding, and a slow machine's CPU is spared: a watched live run
  * cost Chromium's renderer 0.9 of a core at 30 draws a second, docs/benchmarks.md). Read
  * at each draw: a change of the setting applies at once. */
-export const FRAME_MS = 25;
-export const CALM_FRAME_MS = 200;
+const FRAME_MS = 25;
+const CALM_FRAME_MS = 200;
 const calm = typeof matchMedia === "function" ? matchMedia("(prefers-reduced-motion: reduce)") : null;
 export function frameInterval(): number {
   return calm?.matches ? CALM_FRAME_MS : FRAME_MS;

@@ -508,6 +508,8 @@ export class RunPanel {
 
   destroy(): void {
     this.closed = true;
+    if (this.progressFrame) cancelAnimationFrame(this.progressFrame);
+    this.progressFrame = 0;
     document.removeEventListener("keydown", this.onKey);
     this.stream.close();
     this.replay?.destroy();
