@@ -93,3 +93,32 @@ const calm = typeof matchMedia === "function" ? matchMedia("(prefers-reduced-mot
 export function frameInterval(): number {
   return calm?.matches ? CALM_FRAME_MS : FRAME_MS;
 }
+
+/** Calls `fn` at an animation frame at least frameInterval() after its last call: ask()
+ * as often as data arrive, `fn` runs once for all of them (the live plot, the schematic,
+ * the progress line). cancel() drops a call asked for and not made yet. */
+export class FramePacer {
+  private id = 0;
+  private last = -Infinity;
+
+  constructor(private readonly fn: () => void) {}
+
+  ask(): void {
+    if (this.id) return;
+    const frame = (now: number) => {
+      if (now - this.last < frameInterval()) {
+        this.id = requestAnimationFrame(frame);
+        return;
+      }
+      this.id = 0;
+      this.last = now;
+      this.fn();
+    };
+    this.id = requestAnimationFrame(frame);
+  }
+
+  cancel(): void {
+    if (this.id) cancelAnimationFrame(this.id);
+    this.id = 0;
+  }
+}

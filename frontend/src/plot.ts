@@ -1,7 +1,7 @@
 // The only module that imports plotly.js: the live plot of a run and the static charts
 // (Bode, step, poles). Views hand it typed arrays and titles, never plotly objects.
 import Plotly from "plotly.js-basic-dist-min";
-import { frameInterval } from "./dom";
+import { FramePacer } from "./dom";
 import { decimate, type SampleRing } from "./series";
 
 const COLORS = ["#2563eb", "#dc2626", "#059669", "#d97706", "#7c3aed", "#0891b2", "#be185d", "#4b5563"];
@@ -103,11 +103,12 @@ const axisKey = (i: number): string => (i === 1 ? "yaxis" : `yaxis${i}`);
  * decimated to two points per pixel column per trace.
  */
 export class LivePlot {
-  private pending = false;
+  /** draws at the pace of frameInterval(); cancelled when purged (plotly has nothing to
+   * draw into then) */
+  private readonly pacer = new FramePacer(() => this.draw());
   private marks: PlotMark[] = [];
   private end: number | null = null;
   private draws = 0;
-  private lastDraw = -Infinity;
   /** what the last full plot was made of; while it holds, draws take the fast path */
   private layoutKey = "";
   private yRanges: ([number, number] | null)[] = [];
@@ -127,19 +128,7 @@ export class LivePlot {
   /** Redraw at the next animation frame that is at least frameInterval() after the last draw
    * (many calls, one draw). */
   dirty(): void {
-    if (this.pending || this.destroyed) return;
-    this.pending = true;
-    const frame = (now: number) => {
-      if (this.destroyed) return; // purged meanwhile: plotly has nothing to draw into
-      if (now - this.lastDraw < frameInterval()) {
-        requestAnimationFrame(frame);
-        return;
-      }
-      this.pending = false;
-      this.lastDraw = now;
-      this.draw();
-    };
-    requestAnimationFrame(frame);
+    if (!this.destroyed) this.pacer.ask();
   }
 
   setWindow(seconds: number | null): void {
@@ -287,6 +276,7 @@ export class LivePlot {
 
   destroy(): void {
     this.destroyed = true;
+    this.pacer.cancel();
     this.resize.disconnect();
     purge(this.div);
   }

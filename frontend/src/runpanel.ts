@@ -6,7 +6,7 @@ import { controlLabel, ENDED, reasonTone } from "./access";
 import { api, ApiError, dataUrl } from "./api";
 import { CompanionRun } from "./companion";
 import { computeText } from "./controllertext";
-import { copyText, csv, fill, frameInterval, h, saveText } from "./dom";
+import { copyText, csv, FramePacer, fill, h, saveText } from "./dom";
 import { identity } from "./identity";
 import { type ChangeEntry, type ChangeLike, ParamLog } from "./paramlog";
 import { channelColor, LivePlot, type LiveTrace } from "./plot";
@@ -60,8 +60,9 @@ export class RunPanel {
   private readonly stream: RunStream;
   private readonly statusEl = h("span.badge");
   private readonly progressEl = h("span.progress");
-  private progressFrame = 0;
-  private progressAt = -Infinity;
+  /** the progress line at the live plot's pace, not at every message (50 a second, each
+   * a layout and a paint) */
+  private readonly progressPacer = new FramePacer(() => this.progress());
   private readonly connEl = h("span.conn", { "aria-live": "polite" });
   private readonly messageEl = h("p.error", { role: "alert" });
   /** why a run was paused or stopped: what people do with runs, not a failure */
@@ -196,7 +197,7 @@ export class RunPanel {
       },
       samples: (k0, n, cols) => {
         this.ring.push(k0, n, cols);
-        this.progressSoon();
+        this.progressPacer.ask();
         this.plot.dirty();
         if (this.prediction?.series.follow(this.ring)) this.prediction.plot.dirty();
         if (!this.replay) this.schematic.show(this.ring.end - 1);
@@ -447,22 +448,6 @@ export class RunPanel {
     }
   }
 
-  /** The progress line at the live plot's pace (frameInterval(): many messages, one
-   * update), not at every message (50 a second, each a layout and a paint). */
-  private progressSoon(): void {
-    if (this.progressFrame) return;
-    const frame = (now: number) => {
-      if (now - this.progressAt < frameInterval()) {
-        this.progressFrame = requestAnimationFrame(frame);
-        return;
-      }
-      this.progressFrame = 0;
-      this.progressAt = now;
-      this.progress();
-    };
-    this.progressFrame = requestAnimationFrame(frame);
-  }
-
   private progress(): void {
     const t = this.ring.end * this.run.Ts;
     const total = this.run.n_planned * this.run.Ts;
@@ -508,8 +493,7 @@ export class RunPanel {
 
   destroy(): void {
     this.closed = true;
-    if (this.progressFrame) cancelAnimationFrame(this.progressFrame);
-    this.progressFrame = 0;
+    this.progressPacer.cancel();
     document.removeEventListener("keydown", this.onKey);
     this.stream.close();
     this.replay?.destroy();

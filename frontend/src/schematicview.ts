@@ -2,7 +2,7 @@
 // from one sample of the ring (the newest while live, the replay's position after) at most
 // once per animation frame. Geometry in schematic.ts; this module only builds and updates
 // the SVG, and says which sample it shows (data-k) and the values it drew.
-import { frameInterval, h } from "./dom";
+import { FramePacer, h } from "./dom";
 import type { PlantDetail, RunInfo } from "./protocol.gen";
 import { beltView, DEG, fixed, growSpan, linkShape, pathD, symbol, toScreen } from "./schematic";
 import type { SampleRing } from "./series";
@@ -141,8 +141,7 @@ export class PlantSchematic {
   private readonly channels: { name: string; scale: number; unit: string }[] = [];
   private readonly ts: number;
   private k = -1;
-  private frame = 0;
-  private lastDraw = -Infinity;
+  private readonly pacer = new FramePacer(() => this.draw());
 
   constructor(
     plant: PlantDetail,
@@ -173,17 +172,7 @@ export class PlantSchematic {
    * draw, in step with the live plot's (many calls, one draw: the newest k). */
   show(k: number): void {
     this.k = k;
-    if (this.frame || !this.drawing) return;
-    const frame = (now: number) => {
-      if (now - this.lastDraw < frameInterval()) {
-        this.frame = requestAnimationFrame(frame);
-        return;
-      }
-      this.frame = 0;
-      this.lastDraw = now;
-      this.draw();
-    };
-    this.frame = requestAnimationFrame(frame);
+    if (this.drawing) this.pacer.ask();
   }
 
   private draw(): void {
@@ -205,7 +194,6 @@ export class PlantSchematic {
   }
 
   destroy(): void {
-    if (this.frame) cancelAnimationFrame(this.frame);
-    this.frame = 0;
+    this.pacer.cancel();
   }
 }
