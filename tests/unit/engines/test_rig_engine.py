@@ -357,13 +357,15 @@ def test_a_python_controller_drives_the_rig_like_its_declarative_twin(
     engine = _engine(tmp_path, rig, heard, SafetyLimits(n_late=1000), code_deadline=0.9e-3)
     try:
         code = CodeController(python_source(PLANT, PLANT.predefined), "lqr.py")
-        spec = RunSpec(PLANT, code, Step(math.radians(20)), duration=2.0)
+        # a 10° step: a 20° one tripped α's 15° limit once in a loaded run (late answers
+        # held the last voltage for a while; the same change as the declarative test's)
+        spec = RunSpec(PLANT, code, Step(math.radians(10)), duration=2.0)
         _drive(engine, _order("r-11", spec))
         ended = heard.wait_ended("r-11")
         assert (ended.state, ended.n) == (RunState.FINISHED, 2000), ended.error
         theta = engine.store.read("r-11", 0, 2000)[:, 2]
         # tracked as the LQR does (a sample the rig dropped is NaN in the recording)
-        assert abs(math.degrees(np.nanmean(theta[-200:])) - 20.0) < 4.0
+        assert abs(math.degrees(np.nanmean(theta[-200:])) - 10.0) < 2.0
     finally:
         engine.close()
 
