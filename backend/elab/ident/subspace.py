@@ -466,20 +466,24 @@ def _kalman_gain(
             raise np.linalg.LinAlgError("unstable predictor")
         return K, Re
 
-    try:
-        P = filter_dare(A, C, Q, Rv, S)
-        if P is not None:
-            try:
+    # the doubling first; scipy's QZ solver where it gives nothing or an unstable predictor
+    solvers = (
+        lambda: filter_dare(A, C, Q, Rv, S),
+        lambda: scipy.linalg.solve_discrete_are(A.T, C.T, Q, Rv, s=S),
+    )
+    for solve in solvers:
+        try:
+            P = solve()
+            if P is not None:
                 return *gain(P), "riccati"
-            except (np.linalg.LinAlgError, ValueError):
-                pass  # scipy's solver decides
-        return *gain(scipy.linalg.solve_discrete_are(A.T, C.T, Q, Rv, s=S)), "riccati"
-    except (np.linalg.LinAlgError, ValueError):
-        return np.zeros((n, ny)), Rv, "none"  # an output-error model: the predictor simulates
+        except (np.linalg.LinAlgError, ValueError):
+            pass
+    return np.zeros((n, ny)), Rv, "none"  # an output-error model: the predictor simulates
 
 
 DARE_TOL = 1e-13  # relative change of the doubling's iterate at which it has converged
 DARE_STEPS = 64  # doublings at most (each squares the horizon: 2⁶⁴ steps of the filter)
+DARE_RESIDUAL = 1e-9  # a converged P that leaves more of the equation unsolved is refused
 
 
 def filter_dare(A: Array, C: Array, Q: Array, R: Array, S: Array) -> Array | None:
@@ -507,7 +511,7 @@ def filter_dare(A: Array, C: Array, Q: Array, R: Array, S: Array) -> Array | Non
                     return None
                 if np.linalg.norm(H_next - H, 1) <= DARE_TOL * np.linalg.norm(H_next, 1):
                     P = (H_next + H_next.T) / 2
-                    return P if _dare_residual(A, C, Q, R, S, P) <= 1e-9 else None
+                    return P if _dare_residual(A, C, Q, R, S, P) <= DARE_RESIDUAL else None
                 H = H_next
     except np.linalg.LinAlgError:
         return None
