@@ -150,6 +150,12 @@ def test_bad_validation_records_get_errors_naming_the_field(server: Server) -> N
     _field_error(ident(_file(VALIDATION) | {"text": ""}), "validation.file.text")
     _field_error(ident(_file(["# no samples"])), "validation", "no rows")
     _field_error(ident(_file(VALIDATION[:1])), "validation", "at least 2 samples")
+    huge_value = VALIDATION.copy()
+    huge_value[3] = huge_value[3].split()[0] + " 1e300"  # its squares overflow
+    _field_error(ident(_file(huge_value)), "validation.c2", "1e+300", "[1e-50, 1e+50]")
+    tiny = [f"{float(row.split()[0]) * 1e-60} {row.split()[1]}" for row in ESTIMATION]
+    r = _ident(server, {"data": _file(tiny)})
+    _field_error(r, "data.c1", "6.41e-60", "or all zero")
     _field_error(ident({"source": "file"}), "validation.file.text")
     # too long: both records together over the samples limit, named before any work
     n = MAX_SAMPLES - len(ESTIMATION) + 1

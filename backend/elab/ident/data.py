@@ -41,6 +41,12 @@ def _columns(name: str, values: ArrayLike) -> Array:
 #: time axis and every frequency stay well inside double precision (a sample time of 5e-324
 #: or 1e308 overflowed them)
 TS_RANGE = (1e-9, 1e9)
+#: the largest magnitude a channel may reach, and the least its largest may be (a channel
+#: of zeros is allowed here and refused where it cannot be used): every method squares
+#: the signals and sums them over the samples and lags, and the spectra square those, so
+#: a sample of 1e100 overflowed and one of 1e-300 vanished (an input of 1e-300 was
+#: "not persistently exciting"); inside this range the results scale with the data
+MAGNITUDE = (1e-50, 1e50)
 
 
 @dataclass(frozen=True)
@@ -89,6 +95,8 @@ class IdData:
             if len(given) != n:
                 raise InvalidInput(attr, list(given), f"{n} entries (one per channel)")
             object.__setattr__(self, attr, given)
+        for x, names in ((y, self.output_names), (u, self.input_names)):
+            _require_magnitude(x, names)
 
     @property
     def N(self) -> int:
@@ -172,12 +180,17 @@ def iddata(y: ArrayLike, u: ArrayLike, Ts: float, **names: tuple[str, ...]) -> I
 
 
 def _detrend(a: Array, kind: str) -> Array:
+    """``a`` less each column's mean or line; a constant column becomes exactly zero (its
+    mean is rounded: 2.5e45 less its mean left a residue of 1e29 that looked like a signal)."""
     if kind == "mean":
-        return np.asarray(a - a.mean(axis=0), dtype=np.float64)
-    t = np.arange(a.shape[0], dtype=float)
-    T = np.column_stack([np.ones_like(t), t])
-    coef, *_ = np.linalg.lstsq(T, a, rcond=None)
-    return np.asarray(a - T @ coef, dtype=np.float64)
+        out = a - a.mean(axis=0)
+    else:
+        t = np.arange(a.shape[0], dtype=float)
+        T = np.column_stack([np.ones_like(t), t])
+        coef, *_ = np.linalg.lstsq(T, a, rcond=None)
+        out = a - T @ coef
+    out[:, np.all(a == a[:1], axis=0)] = 0.0
+    return np.asarray(out, dtype=np.float64)
 
 
 def require_varying(y: Array, names: tuple[str, ...] | list[str], part: str) -> None:
@@ -196,6 +209,18 @@ def require_varying(y: Array, names: tuple[str, ...] | list[str], part: str) -> 
             )
 
 
+def _require_magnitude(x: Array, names: tuple[str, ...]) -> None:
+    peaks = np.max(np.abs(x), axis=0)
+    for j, peak in enumerate(peaks):
+        if peak > MAGNITUDE[1] or 0 < peak < MAGNITUDE[0]:
+            raise InvalidInput(
+                names[j],
+                f"a channel whose largest magnitude is {peak:.3g}",
+                f"a largest magnitude in [{MAGNITUDE[0]:g}, {MAGNITUDE[1]:g}], or all zero "
+                "(record it in another unit: its squares and sums must stay representable)",
+            )
+
+
 def require_exciting(u: Array, order: int, field: str = "u") -> None:
     """Raise unless every input is persistently exciting of ``order``.
 
@@ -208,12 +233,15 @@ def require_exciting(u: Array, order: int, field: str = "u") -> None:
         return
     for j in range(u.shape[1]):
         x = u[:, j]
+        peak = float(np.max(np.abs(x)))
+        x = x / peak if peak > 0 else x  # the judgement is relative: any unit alike
         n = min(order, x.shape[0] - 1)
         # a contiguous copy: BLAS multiplies it several times faster than the strided view
         lags = np.ascontiguousarray(np.lib.stride_tricks.sliding_window_view(x, n))
         s = np.linalg.eigvalsh(lags.T @ lags)[::-1]
         if s[0] <= 0 or s[-1] <= 1e-13 * s[0]:
-            what = "constant" if np.ptp(x) == 0 else f"not persistently exciting of order {order}"
+            constant = bool(np.all(x == x[0]))
+            what = "constant" if constant else f"not persistently exciting of order {order}"
             raise InvalidInput(
                 f"{field}[{j}]" if u.shape[1] > 1 else field,
                 f"an input that is {what}",

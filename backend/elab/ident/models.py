@@ -325,10 +325,14 @@ def _log_zoh(m: LinearModel) -> tuple[Array, Array]:
     import scipy.linalg  # here: the web process imports this module, not scipy
 
     n, nu = m.nx, m.nu
+    # B by a power of two near its size (exact): logm(T M T⁻¹) = T logm(M) T⁻¹ with
+    # T = diag(I, βI), and a B of 1e-50 beside an A of 1 left logm inaccurate
+    norm = float(np.max(np.abs(m.B)))
+    beta = math.ldexp(1.0, math.frexp(norm)[1]) if norm > 0 else 1.0
     M = np.zeros((n + nu, n + nu))
-    M[:n, :n], M[:n, n:], M[n:, n:] = m.A, m.B, np.eye(nu)
+    M[:n, :n], M[:n, n:], M[n:, n:] = m.A, m.B / beta, np.eye(nu)
     L = scipy.linalg.logm(M) / m.Ts
     if np.max(np.abs(np.imag(L))) > 1e-8:
         raise ValueError("no real logarithm")
     L = np.real(L)
-    return L[:n, :n], L[:n, n:]
+    return L[:n, :n], L[:n, n:] * beta

@@ -221,3 +221,59 @@ def test_a_static_model_and_an_explicit_order_need_no_more(
     assert result.analyses.n4sid_orders is None and result.models[0].name == "n4sid 2"
     plan = wf.Plan(models=(wf.parse_model("n4sid"),), correlation=False, spectral=False)
     assert wf.run(iddata(system(u), u, 0.1), plan).analyses.n4sid_orders  # needed there
+
+
+@pytest.mark.parametrize(
+    ("peak", "channel"), [(1e300, "y1"), (1e51, "y1"), (1e-300, "u1"), (5e-324, "u1")]
+)
+def test_a_channel_outside_the_representable_range_is_refused_by_name(
+    peak: float, channel: str
+) -> None:
+    """Data of 1e300 overflowed every method's sums of squares (a RuntimeWarning, or inf
+    in a result), and an input of 1e-300 was said to be "not persistently exciting"."""
+    u, y = noise(), system(noise())
+    u, y = (u, y / np.abs(y).max() * peak) if channel == "y1" else (u / np.abs(u).max() * peak, y)
+    with pytest.raises(InvalidInput) as refused:
+        iddata(y, u, 0.1)
+    assert refused.value.field == channel
+    assert "largest magnitude in [1e-50, 1e+50], or all zero" in str(refused.value)
+
+
+SCALES = [2.0**165, 2.0**-165, 1e49, 1e-49, 3e17, 7e-23]
+
+
+@pytest.mark.parametrize("scale", SCALES)
+@pytest.mark.parametrize("model", ["n4sid", "arx:2,2,1", "oe:2,2,1"])
+def test_every_unit_gives_the_same_models(model: str, scale: float) -> None:
+    """The dryer's data in any unit inside the range: the same poles and fits, without a
+    warning (pytest makes warnings errors), within round-off of the conditioning.
+    Before, 1e-100 gave n4sid a realisation whose continuous form logm could not take
+    accurately, and an input of 1e-300 was refused as not exciting."""
+    from tests.unit.ident.public_sets import SETS
+
+    ze, _ = next(s for s in SETS if s.name == "dryer").records()
+    chosen = plan(model, correlation=True, spectral=True)
+    base = wf.run(ze, chosen).models[0]
+    scaled = wf.run(iddata(ze.y * scale, ze.u * scale, ze.Ts), chosen).models[0]
+    assert scaled.name == base.name  # the same order chosen
+    poles = np.sort_complex(np.linalg.eigvals(base.model.A))
+    moved = np.sort_complex(np.linalg.eigvals(scaled.model.A))
+    np.testing.assert_allclose(moved, poles, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        scaled.fits.headline_fit.fit, base.fits.headline_fit.fit, rtol=0, atol=1e-7
+    )
+    assert (scaled.continuous is None) == (base.continuous is None)
+    if base.continuous is not None and scaled.continuous is not None:
+        np.testing.assert_allclose(scaled.continuous.A, base.continuous.A, rtol=1e-6, atol=1e-9)
+
+
+def test_a_constant_input_of_any_size_is_constant_after_detrending() -> None:
+    """2.5e45 less its rounded mean left 1e29 of round-off that the correlation analysis
+    took for a signal (and divided 0 by 0)."""
+    u = np.r_[np.full(N // 2, 2.5e45), 2.5e45 * noise(N // 2)]
+    z = iddata(system(u / 1e45), u, 0.1).detrend()
+    assert np.all(z.u[: N // 2] != 0)  # the whole record's mean: not constant
+    head = iddata(system(u / 1e45)[: N // 2], u[: N // 2], 0.1).detrend()
+    assert np.all(head.u == 0.0)
+    with pytest.raises(InvalidInput, match="an input that is constant"):
+        wf.run(iddata(system(u / 1e45), u, 0.1), plan("arx:2,2,1"))
