@@ -138,15 +138,20 @@ def fast_len(n: int) -> int:
     return best
 
 
-def simulate(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> Array:
-    """The simulated output (an unstable model's may overflow to inf or nan)."""
+def simulate(
+    A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array, h: Array | None = None
+) -> Array:
+    """The simulated output (an unstable model's may overflow to inf or nan); ``h``: C Aᵗ
+    for t < N where the caller has it (:func:`~elab.ident.models.observability`)."""
     with np.errstate(over="ignore", invalid="ignore"):
-        return convolved(A, B, C, D, x0, u)
+        return convolved(A, B, C, D, x0, u, h)
 
 
-def convolved(A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array) -> Array:
+def convolved(
+    A: Array, B: Array, C: Array, D: Array, x0: Array, u: Array, h: Array | None = None
+) -> Array:
     N = u.shape[0]
-    h = observability(A, C, N)
+    h = observability(A, C, N) if h is None else h
     y = h @ x0 + u @ D.T
     L = fast_len(2 * N - 1)  # as scipy.signal.fftconvolve pads
     for k in range(u.shape[1]):

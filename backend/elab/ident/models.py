@@ -55,21 +55,23 @@ def observability(A: Array, C: Array, N: int) -> Array:
     return out
 
 
-def initial_state(A: Array, C: Array, free: Array) -> Array:
+def initial_state(A: Array, C: Array, free: Array, Ob: Array | None = None) -> Array:
     """x₀ minimising ‖free(t) − C Aᵗ x₀‖ over the data, well-conditioned: the singular
     directions of the observability matrix below :data:`X0_RCOND` of the largest are left
     out (the minimum-norm solution, not one that trades a huge x₀ against noise). An
     unstable model is fitted over the samples where Aᵗ stays below :data:`X0_GROWTH`
     (beyond them its simulation overflows), and samples whose free response is not
-    finite are left out."""
+    finite are left out. ``Ob``: :func:`observability` over the data where the caller
+    has it."""
     N, n = free.shape[0], A.shape[0]
     if n == 0 or N == 0:
         return np.zeros(n)
     rho = float(np.max(np.abs(np.linalg.eigvals(A))))
     T = N if rho <= 1.0 else max(n, min(N, int(math.log(X0_GROWTH) / math.log(rho))))
-    with np.errstate(over="ignore", invalid="ignore"):
-        Ob = observability(A, C, T)
-    return _modal_refit(A, C, free[:T], fit_state(Ob, free[:T]))
+    if Ob is None:
+        with np.errstate(over="ignore", invalid="ignore"):
+            Ob = observability(A, C, T)
+    return _modal_refit(A, C, free[:T], fit_state(Ob[:T], free[:T]))
 
 
 def _modal_refit(A: Array, C: Array, free: Array, x0: Array) -> Array:
@@ -115,10 +117,14 @@ def _powers(lam: NDArray[np.complex128], T: int) -> NDArray[np.complex128]:
     slower (2 ms of a 12 ms subspace identification at 2,000 samples)."""
     t = np.arange(T, dtype=np.float64)[:, None]
     mag = np.abs(lam)[None, :] ** t
-    real = lam.imag == 0
-    sign = np.where(lam.real < 0, -1.0, 1.0)[None, :] ** t  # exact ±1
-    turn = np.exp(1j * (np.angle(lam)[None, :] * t))
-    return np.where(real[None, :], sign * mag, mag * turn).astype(np.complex128)
+    out = mag.astype(np.complex128)
+    negative = (lam.imag == 0) & (lam.real < 0)
+    out[1::2, negative] *= -1.0  # exact ±1
+    turning = lam.imag != 0
+    if turning.any():
+        angle = np.angle(lam[turning])[None, :] * t
+        out[:, turning] = mag[:, turning] * (np.cos(angle) + 1j * np.sin(angle))
+    return out
 
 
 def fit_state(Ob: Array, free: Array) -> Array:

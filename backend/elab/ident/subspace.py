@@ -133,9 +133,13 @@ def _correlation(w: Array, s: int) -> Array:
     j = N - k + 1
     R = np.empty((k, k, p, p))
     lags = np.lib.stride_tricks.sliding_window_view(w, (j, p))[:, 0]  # (k, j, p)
-    R[:, 0] = np.einsum("ltp,tq->lpq", lags, w[:j], optimize=True)
+    R[:, 0] = np.matmul(lags.transpose(0, 2, 1), w[:j])  # (einsum's path search: 0.1 ms)
     end, start = w[j:], w[: k - 1]  # w(ℓ + j) and w(ℓ), ℓ < 2s − 1
-    step = np.einsum("lp,mq->lmpq", end, end) - np.einsum("lp,mq->lmpq", start, start)
+
+    def outer(a: Array) -> Array:  # [ℓ, m, p, q] = a(ℓ)_p a(m)_q
+        return a[:, None, :, None] * a[None, :, None, :]
+
+    step = outer(end) - outer(start)
     for m in range(k - 1):
         R[m + 1 :, m + 1] = R[m:-1, m] + step[m:, m]
     upper = np.triu_indices(k, 1)
@@ -433,10 +437,11 @@ def _bdx0(sub: Subspace, A: Array, C: Array, bd: BD) -> tuple[Array, Array, Arra
         B, D, x0 = simulation_bd(sub.data, A, C)
         return B, D, x0, y - simulate(A, B, C, D, x0, u)
     B, D = subspace_bd(sub, A, C)
-    free = y - simulate(A, B, C, D, np.zeros(A.shape[0]), u)
-    x0 = initial_state(A, C, free)
     with np.errstate(over="ignore", invalid="ignore"):
-        return B, D, x0, free - observability(A, C, sub.data.N) @ x0
+        Ob = observability(A, C, sub.data.N)  # once for the three
+        free = y - simulate(A, B, C, D, np.zeros(A.shape[0]), u, Ob)
+        x0 = initial_state(A, C, free, Ob)
+        return B, D, x0, free - Ob @ x0
 
 
 def _kalman_gain(
