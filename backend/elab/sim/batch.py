@@ -117,11 +117,15 @@ class Batch:
             raise ValueError(f"n: got {n}; allowed: at most block = {self.block} samples")
         active = np.asarray(sorted(self._runs) if slots is None else slots, dtype=np.int64)
         for s in active[self._exo_off[active] + n > self.block]:
+            # a refill starts at the run's next sample: nothing in its block is kept, so
+            # the signals are written straight into it
+            run = self._runs[int(s)]
             try:
-                exo = self._runs[int(s)].exogenous(int(self._k[s]), self.block)
+                into = self._a["exo"][s, :, : 2 + run.spec.plant.ny]
+                run.exogenous(int(self._k[s]), self.block, out=into)
             except Exception as exc:  # one run's signals must not stop the others
+                self._exo_off[s] = self.block  # half written: filled again before use
                 raise SignalFault(int(s), int(self._k[s])) from exc
-            self._a["exo"][s, :, : exo.shape[1]] = exo
             self._exo_off[s] = 0
         R, X, Y = self._dims[:3]
         width = 2 + Y + X  # grows when a run with more outputs or states joins
@@ -160,19 +164,19 @@ class Batch:
         p, Y = self._runs[slot].spec.plant, self._dims[2]
         return slice(2, 2 + p.ny), slice(2 + Y, 2 + Y + p.nx)
 
-    def samples(self, slot: int) -> Samples:
-        """A copy of the chunk the last :meth:`advance` produced for ``slot``."""
+    def samples(self, slot: int, copy: bool = True) -> Samples:
+        """A copy of the chunk the last :meth:`advance` produced for ``slot``, or with
+        ``copy=False`` views of the block, for a batch that steps no more (its block is
+        written again by the next :meth:`advance`)."""
         run, n = self._runs[slot], self._last_n
         ys, xs = self.columns(slot)
         o = self._out[slot, :n]
+        columns = (o[:, 0], o[:, 1], o[:, ys], o[:, xs])
         return Samples(
             run.spec.plant,
             run.Ts,
             int(self._k[slot]) - n,
-            o[:, 0].copy(),
-            o[:, 1].copy(),
-            o[:, ys].copy(),
-            o[:, xs].copy(),
+            *(c.copy() if copy else c for c in columns),
         )
 
     def _load(self, s: int, run: CompiledRun, keep_state: bool = False) -> None:
@@ -197,12 +201,13 @@ class Batch:
         for name, shape in _MATRICES.items():
             new = np.zeros(shape(*dims))
             old = self._a[name]
-            new[tuple(slice(0, d) for d in old.shape)] = old
+            if name != "exo":  # the signals are generated again (below), not copied
+                new[tuple(slice(0, d) for d in old.shape)] = old
             self._a[name] = new
-        # the layout [r, z...] and [r, e, v...] keeps its column positions, so old
-        # values copied into the top-left corner stay where the loop reads them
+        # the layout [r, z...] keeps its column positions, so old values copied into
+        # the top-left corner stay where the loop reads them
         self._use_state = _grow(self._use_state, R)
-        self._exo_off = _grow(self._exo_off, R)
+        self._exo_off = np.full(R, L, dtype=np.int64)  # every run's signals refilled
         self._k = _grow(self._k, R)
         self._dims = dims
 

@@ -16,19 +16,26 @@ from numpy.typing import NDArray
 BLOCK = 1024
 
 
-def sensor_noise(seed: int, k0: int, n: int, std: NDArray[np.float64]) -> NDArray[np.float64]:
-    """White Gaussian noise for samples ``k0 .. k0+n-1``, shape ``(n, len(std))``."""
+def sensor_noise(
+    seed: int,
+    k0: int,
+    n: int,
+    std: NDArray[np.float64],
+    out: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """White Gaussian noise for samples ``k0 .. k0+n-1``, shape ``(n, len(std))``
+    (written into ``out`` where given)."""
     m = std.size
-    out = np.empty((n, m))
+    out = np.empty((n, m)) if out is None else out
     first, last = k0 // BLOCK, (k0 + n - 1) // BLOCK if n else k0 // BLOCK - 1
     pos = 0
     for j in range(first, last + 1):
         block = _block(seed, j, m)
         lo = max(k0, j * BLOCK) - j * BLOCK
         hi = min(k0 + n, (j + 1) * BLOCK) - j * BLOCK
-        out[pos : pos + hi - lo] = block[lo:hi]
+        np.multiply(block[lo:hi], std, out=out[pos : pos + hi - lo])
         pos += hi - lo
-    return out * std
+    return out
 
 
 @lru_cache(maxsize=1024)  # ≤ 8 MiB per channel; a live run reuses its current block

@@ -57,10 +57,12 @@ class Square:
         finite_float("signal.duty", self.duty, 0.0, 1.0, lo_open=True)
 
     def sample(self, k0: int, n: int, Ts: float) -> Array:
-        k = k0 + np.arange(n)
-        # phase from integer sample counts, so no drift accumulates over long runs
+        # phase from integer sample counts, so no drift accumulates over long runs (the
+        # counts as floats are exact below 2⁵³; computed in place: no temporaries)
         per = self.period / Ts
-        phase = np.mod(k, per) / per
+        phase = np.arange(k0, k0 + n, dtype=np.float64)
+        np.mod(phase, per, out=phase)
+        phase /= per
         high, low = self.offset + self.amplitude, self.offset - self.amplitude
         return np.where(phase < self.duty, high, low)
 

@@ -73,16 +73,20 @@ class CompiledRun:
     noise_std: Array
     x0: Array  # deviation from the operating point
 
-    def exogenous(self, k0: int, n: int) -> Array:
-        """Inputs from outside the loop for samples k0..k0+n-1: ``[r, e, v_1..v_ny]``."""
+    def exogenous(self, k0: int, n: int, out: Array | None = None) -> Array:
+        """Inputs from outside the loop for samples k0..k0+n-1: ``[r, e, v_1..v_ny]``,
+        written into ``out`` (n × 2 + ny) where given (a batch's own block)."""
         spec, ny = self.spec, self.spec.plant.ny
-        exo = np.zeros((n, 2 + ny))
+        exo = np.empty((n, 2 + ny)) if out is None else out
         exo[:, 0] = spec.reference.sample(k0, n, self.Ts)
+        exo[:, 1] = 0.0
         if spec.excitation is not None:
             col = 0 if spec.excitation_at == "reference" else 1
             exo[:, col] += spec.excitation.sample(k0, n, self.Ts)
         if spec.noise_seed is not None:
-            exo[:, 2:] = sensor_noise(spec.noise_seed, k0, n, self.noise_std)
+            sensor_noise(spec.noise_seed, k0, n, self.noise_std, out=exo[:, 2:])
+        else:
+            exo[:, 2:] = 0.0
         return exo
 
 

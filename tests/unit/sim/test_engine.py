@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import control as ct
 import numpy as np
@@ -26,6 +27,7 @@ from elab.sim import (
     compile_run,
     simulate,
 )
+from elab.sim.batch import SignalFault
 from tests.unit.conftest import discrete_loop
 
 FLEX = get_plant("flexible_link")
@@ -150,6 +152,58 @@ def test_a_larger_plant_joining_a_running_batch_changes_nothing() -> None:
 
 def spec_of(specs: list[RunSpec], slot: int) -> RunSpec:
     return specs[slot]
+
+
+def test_runs_joining_mid_block_refill_their_signals_bit_exact() -> None:
+    """Growing the batch generates every run's signals again from its next sample (they
+    are not copied): a run 300 samples into a block of 1,000 when a larger plant joins
+    goes on with exactly the samples it has alone, noise and square wave included."""
+    specs = [
+        _default_spec(pid, noise_seed=5, excitation=PRBS(0.5, order=7))
+        for pid in ("flexible_link", "double_pendulum", "belt_conveyor")
+    ]
+    batch = Batch(capacity=1, block=1000)  # grows in runs, outputs and states
+    got: dict[int, list[Samples]] = {}
+    for spec in specs:
+        got[batch.add(compile_run(spec))] = []
+        for _ in range(3):
+            batch.advance(300)
+            for s in got:
+                got[s].append(batch.samples(s))
+    for s, chunks in got.items():
+        mine = Samples.concatenate(chunks)
+        alone = simulate(specs[s])
+        for field in "ruyx":
+            np.testing.assert_array_equal(getattr(mine, field), getattr(alone, field)[: mine.n])
+
+
+@dataclass(frozen=True)
+class _FailsAfter(Step):
+    """A step whose values cannot be computed from sample ``bad`` on."""
+
+    bad: int = 0
+
+    def sample(self, k0: int, n: int, Ts: float) -> np.ndarray:
+        if k0 + n > self.bad:
+            raise ValueError("no value here")
+        return super().sample(k0, n, Ts)
+
+
+def test_a_run_whose_signals_fail_is_never_stepped_on_half_written_signals() -> None:
+    """Signals are written straight into the batch's block: one that fails half-way is
+    generated again before that run steps (the fault is raised again), and the others
+    step on, bit-exact."""
+    good = _default_spec("flexible_link", noise_seed=1)
+    bad = _default_spec("flexible_link", excitation=_FailsAfter(0.1, bad=1500))
+    batch = Batch(capacity=2, block=1000)
+    slots = batch.add(compile_run(good)), batch.add(compile_run(bad))
+    batch.advance(995)
+    for n in (10, 5):  # 5 more fit in the block as it was before the failed refill
+        with pytest.raises(SignalFault) as fault:
+            batch.advance(n)
+        assert fault.value.slot == slots[1] and fault.value.k == 995
+    batch.advance(10, [slots[0]])
+    np.testing.assert_array_equal(batch.samples(slots[0]).y, simulate(good).y[995:1005])
 
 
 def test_quantisation_puts_outputs_on_the_encoder_grid() -> None:
