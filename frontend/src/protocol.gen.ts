@@ -1411,7 +1411,10 @@ export interface IdentRequest {
    * a separate validation record (the same channels and sample time); with detrend 'mean', the estimation record's means are removed from both
    */
   validation?: (RunData | FileData) | null;
-  detrend?: "mean" | "linear" | "none";
+  /**
+   * 'mean' and 'linear' take each part's own trend off; 'none' keeps the data as recorded; 'operating_point' takes the run's plant's rest off every channel (a run's data only: a file's rest is not known), which keeps an integrating plant's record as it is and takes off offsets like the upright pendulum's π
+   */
+  detrend?: "mean" | "linear" | "none" | "operating_point";
   /**
    * not used with a validation record
    */

@@ -400,3 +400,41 @@ def test_bad_data_get_clear_errors(server: Server) -> None:
     assert "ELAB_MAX_UPLOAD" in err["message"]
     with server.client() as c:  # the server is fine afterwards
         assert c.get("/plants").status_code == 200
+
+
+def test_the_plants_rest_is_taken_off_a_runs_channels(server: Server) -> None:
+    """``detrend: "operating_point"``: the upright pendulum's β₂ is identified about its
+    rest (π), not about its mean, and the note says what was taken off; a file has no
+    rest to take off, and is refused by name."""
+    rid = _finished_run(
+        server,
+        {
+            "plant": "double_pendulum",
+            "experiment": "identification",
+            "pace": "fast",
+            "duration": 4,
+            "signal": {"kind": "step", "amplitude": 0},
+            "excitation": {"kind": "prbs", "amplitude": 1.0, "order": 10, "band": 0.05},
+            "excitation_at": "input",
+            "quantize": False,  # quantised, β₁ moves less than one encoder count
+        },
+    )
+    body = {
+        "data": {"source": "run", "run": rid, "output": ["alpha", "beta1", "beta2"]},
+        "detrend": "operating_point",
+        "correlation": False,
+        "spectral": False,
+        "models": [{"kind": "n4sid", "order": 6, "horizon": 20}],
+    }
+    r = _ident(server, body)
+    assert r.status_code == 200, r.text[:500]
+    out = r.json()
+    beta2 = np.array(out["data"]["y"][2])
+    assert np.all(np.abs(beta2) < 0.05), beta2[:5]  # about 0: π taken off, as recorded
+    assert np.std(beta2) > 0 and abs(np.mean(beta2)) > 1e-6  # no mean taken off either
+    note = next(n for n in out["notes"] if n.startswith("the plant's rest taken off"))
+    assert "beta2 3.14159" in note and "u 0" in note
+    table = "u,y\n" + "".join(f"{np.sin(k / 7)},{np.cos(k / 5)}\n" for k in range(400))
+    file = {"source": "file", "text": table, "input": ["u"], "output": ["y"], "Ts": 0.01}
+    err = _error(_ident(server, body | {"data": file, "models": []}), 422)
+    assert err["field"] == "detrend" and "a file's" in err["message"]

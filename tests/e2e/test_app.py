@@ -157,11 +157,11 @@ def test_server_errors_show_next_to_their_field(page: Page) -> None:
 
 def page_identification(server: Server, rid: str, **asked: Any) -> Any:
     """The API's answer to what the identification page sends for a link run by default
-    (θ from u, kept as recorded, the link's every 10th sample of its 1 kHz run, both order
-    searches), with ``asked`` (the models, a closed-loop method) added."""
+    (θ from u, about the plant's rest, the link's every 10th sample of its 1 kHz run, both
+    order searches), with ``asked`` (the models, a closed-loop method) added."""
     body = {
         "data": {"source": "run", "run": rid, "input": ["u"], "output": ["theta"]},
-        "detrend": "none",
+        "detrend": "operating_point",
         "decimate": 10,
         "arx_search": {"na": [1, 10], "nb": [1, 10], "nk": [1, 10]},
         "n4sid_orders": [1, 10],
@@ -182,8 +182,8 @@ def test_identification_run_and_data_set(page: Page, server: Server, shots: Path
     assert req["excitation"]["kind"] == "prbs" and req["excitation_at"] == "input"
     # the analysis of this run, in the page, equals the API's answer to the same request
     panel = page.get_by_test_id("ident-run")
-    # the link integrates and its runs start at rest: its data are kept as recorded
-    expect(panel.locator("#id-detrend")).to_have_value("none")
+    # the link integrates and its runs start at rest: its rest is taken off (0 here)
+    expect(panel.locator("#id-detrend")).to_have_value("operating_point")
     expect(panel.get_by_test_id("detrend-why")).to_contain_text("a ramp the plant never made")
     expect(panel.locator("#id-models")).to_have_value("oe:4,4,1; n4sid:4")
     expect(panel.locator("#id-decimate")).to_have_value("10")

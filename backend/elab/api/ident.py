@@ -74,7 +74,7 @@ async def identify(request: Request) -> Response:
     mine: Callable[[], None] | None = slot
     try:
         got = await records(request, req, partial(_parse, request))
-        plan = _plan(req, got.ran, _physics(got.data, got.ran))
+        plan = _plan(req, got.ran, _physics(got.data, got.ran), _rest(req, got.data, got.ran))
         work = (got.data, plan, got.validation, got.references)
         if "application/x-ndjson" in request.headers.get("accept", ""):
             mine = None  # given back when the stream ends, however it ends
@@ -214,7 +214,23 @@ def _physics(data: IdData, ran: Requested | None) -> Physics | None:
     return physics_of(get_plant(ran.plant), data.output_names, data.Ts, ran.rig)
 
 
-def _plan(req: s.IdentRequest, ran: Requested | None, physics: Physics | None = None) -> wf.Plan:
+def _rest(
+    req: s.IdentRequest, data: IdData, ran: Requested | None
+) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+    """The data's channels at the run's plant's rest (its operating point, u = 0), for
+    ``detrend: "operating_point"``; None for a file (the workflow then refuses it)."""
+    if req.detrend != "operating_point" or ran is None:
+        return None
+    plant = get_plant(ran.plant)
+    return plant.rest_values(data.output_names), plant.rest_values(data.input_names)
+
+
+def _plan(
+    req: s.IdentRequest,
+    ran: Requested | None,
+    physics: Physics | None = None,
+    rest: tuple[tuple[float, ...], tuple[float, ...]] | None = None,
+) -> wf.Plan:
     def span(name: str, v: list[int]) -> range:
         if v[0] > v[1]:
             raise InvalidInput(name, v, "[lowest, highest] with lowest ≤ highest")
@@ -262,4 +278,5 @@ def _plan(req: s.IdentRequest, ran: Requested | None, physics: Physics | None = 
         indirect=None
         if req.indirect is None
         else Controller(tuple(req.indirect.num), tuple(req.indirect.den)),
+        operating_point=rest,
     )

@@ -78,7 +78,7 @@ def _stability(poles: Poles) -> Verdict:
 
 
 def _integrator(poles: Poles, detrend: str) -> list[Verdict]:
-    if detrend == "none" or not np.any(np.abs(poles - 1.0) < NEAR_ONE):
+    if detrend in ("none", "operating_point") or not np.any(np.abs(poles - 1.0) < NEAR_ONE):
         return []
     return [
         Verdict(

@@ -65,7 +65,9 @@ class Plan:
     """What to compute; ``split`` is the estimation share (the rest validates)."""
 
     models: tuple[ModelRequest, ...] = ()
-    detrend: Literal["mean", "linear", "none"] = "mean"
+    #: "operating_point": the channels' values at the plant's rest taken off every sample
+    #: (a lab run's, :attr:`operating_point`), no trend estimated from the data
+    detrend: Literal["mean", "linear", "none", "operating_point"] = "mean"
     split: float = 0.5
     correlation: bool = True
     max_lag: int = 30
@@ -86,6 +88,9 @@ class Plan:
     #: the indirect method's known controller (u = w − C y): the models are fitted to
     #: the loop w → y and turned into the plant with it
     indirect: Controller | None = None
+    #: the outputs' and the inputs' values at the plant's rest, where the source knows
+    #: them (a lab run: its plant's operating point), for ``detrend="operating_point"``
+    operating_point: tuple[tuple[float, ...], tuple[float, ...]] | None = None
 
 
 def parse_model(text: str) -> ModelRequest:
@@ -145,6 +150,8 @@ def run(
         fit_on = _loop_data(data, plan, validation)
         resampled.insert(0, _indirect_note(plan.indirect, data))
     z = _joined(data, ze, zv)
+    if plan.detrend == "operating_point":
+        resampled.append(_rest_note(plan, data))
     notes = suspicious(as_recorded)  # as given: detrending moves the edges
     if validation is not None:
         notes += [f"validation record: {n}" for n in suspicious(validation)]
@@ -210,10 +217,23 @@ def _loop_data(data: IdData, plan: Plan, validation: IdData | None) -> IdData:
     """The estimation part with the loop's external input w = u + C y in place of u (the
     indirect method fits the loop w → y), detrended as the measured part is."""
     assert plan.indirect is not None
-    w = plan.indirect.external(data.u, data.y)
+    y0, u0 = _offsets(plan, data)
+    w = plan.indirect.external(data.u - u0, data.y - y0) + u0  # the loop about its rest
     with_w = replace(data, u=w)
     ze_w, _ = _estimation_and_validation(with_w, plan, validation)
     return ze_w
+
+
+def _rest_note(plan: Plan, data: IdData) -> str:
+    y0, u0 = _offsets(plan, data)
+    rest = ", ".join(
+        f"{name} {value:.6g}"
+        for name, value in zip((*data.output_names, *data.input_names), (*y0, *u0), strict=True)
+    )
+    return (
+        f"the plant's rest taken off every sample ({rest}): no trend estimated from the "
+        "data, so an integrating plant's record keeps its shape"
+    )
 
 
 def _indirect_note(controller: Controller, data: IdData) -> str:
@@ -354,7 +374,11 @@ def _estimation_and_validation(
     else:
         ze, zv = data, _same_channels(data, validation)
     require_varying(ze.y, list(data.output_names), "estimation part")
-    if plan.detrend != "none" and validation is None:
+    if plan.detrend == "operating_point":
+        y0, u0 = _offsets(plan, data)
+        ze = replace(ze, y=ze.y - y0, u=ze.u - u0)
+        zv = replace(zv, y=zv.y - y0, u=zv.u - u0)
+    elif plan.detrend != "none" and validation is None:
         ze, zv = ze.detrend(plan.detrend), zv.detrend(plan.detrend)
     elif plan.detrend == "mean":
         y0, u0 = ze.y.mean(axis=0), ze.u.mean(axis=0)
@@ -363,6 +387,28 @@ def _estimation_and_validation(
     elif plan.detrend == "linear":
         ze, zv = ze.detrend("linear"), zv.detrend("linear")
     return ze, zv
+
+
+def _offsets(plan: Plan, data: IdData) -> tuple[Array, Array]:
+    """The outputs' and inputs' values at the plant's rest with ``detrend="operating_point"``
+    (zeros otherwise)."""
+    if plan.detrend != "operating_point":
+        return np.zeros(data.ny), np.zeros(data.nu)
+    if plan.operating_point is None:
+        raise InvalidInput(
+            "detrend",
+            "operating_point",
+            "'mean', 'linear' or 'none' for data whose plant's rest is not known (a file's); "
+            "'operating_point' takes a lab run's plant's rest off its channels",
+        )
+    y0, u0 = (np.asarray(v, dtype=np.float64) for v in plan.operating_point)
+    if y0.shape != (data.ny,) or u0.shape != (data.nu,):
+        raise InvalidInput(
+            "operating_point",
+            f"{y0.size} outputs and {u0.size} inputs",
+            f"one value per channel: {data.ny} outputs and {data.nu} inputs",
+        )
+    return y0, u0
 
 
 def _joined(data: IdData, ze: IdData, zv: IdData) -> IdData:

@@ -52,12 +52,14 @@ export class IdentAnalysis {
     const [arx, arxLabel] = box(`${pre}-arx`, "ARX order search on the validation data (arxstruc)");
     const [n4sid, n4sidLabel] = box(`${pre}-n4sid`, "subspace singular values over orders");
     this.checks = { correlation, spectral, arx, n4sid };
-    this.detrend = h("select", { id: `${pre}-detrend` }, h("option", { value: "mean" }, "remove the mean (MATLAB's default)"), h("option", { value: "linear" }, "remove a straight line"), h("option", { value: "none" }, "keep as recorded"));
+    const rest = source.kind === "run" ? [h("option", { value: "operating_point" }, "take off the plant's rest (its operating point)")] : [];
+    this.detrend = h("select", { id: `${pre}-detrend` }, h("option", { value: "mean" }, "remove the mean (MATLAB's default)"), h("option", { value: "linear" }, "remove a straight line"), h("option", { value: "none" }, "keep as recorded"), ...rest);
     // a lab run starts at rest at the operating point, u = 0: an integrating plant's data
-    // are identified as recorded (a mean removed from u would add a ramp to θ)
-    const atRest = source.kind === "run" && plant.integrating && plant.operating_point.every((v) => v === 0);
-    if (atRest) this.detrend.value = "none";
-    const detrendWhy = atRest ? h("small.hint", { "data-testid": "detrend-why" }, "Kept as recorded by default: this plant integrates (a pole at s = 0) and its runs start at rest, so removing the input's mean would add a ramp the plant never made.") : "";
+    // are identified about that rest (a mean removed from u would add a ramp to θ; the
+    // upright pendulum's π is taken off, which "as recorded" would keep)
+    const atRest = source.kind === "run" && plant.integrating;
+    if (atRest) this.detrend.value = "operating_point";
+    const detrendWhy = atRest ? h("small.hint", { "data-testid": "detrend-why" }, "The plant's rest is taken off by default: this plant integrates (a pole at s = 0) and its runs start at rest, so removing the input's mean would add a ramp the plant never made.") : "";
     // a run gets its plant's proposals (models, resampling) with the reason; a file the general ones
     const proposed = source.kind === "run" ? plant.identification : { models: "arx:4,4,1; armax:2,2,2,1; n4sid", decimate: 1, why: "" };
     this.models = h("input.mono", { id: `${pre}-models`, value: proposed.models, spellcheck: false, autocomplete: "off", oninput: () => this.checkModels() });
@@ -103,7 +105,7 @@ export class IdentAnalysis {
       proposed.why ? h("small.hint", { "data-testid": "ident-proposed-why" }, `Proposed for this plant: ${proposed.models}, one sample in ${proposed.decimate}. ${proposed.why}`) : "",
       closedLoop,
       h("fieldset", h("legend", "Analyses"), corrLabel, specLabel, arxLabel, h("div.grid", num("arx_search.na.0", "na from", 1, 0, 50), num("arx_search.na.1", "na to", 10, 0, 50), num("arx_search.nb.0", "nb from", 1, 1, 50), num("arx_search.nb.1", "nb to", 10, 1, 50), num("arx_search.nk.0", "nk from", 1, 0, 50), num("arx_search.nk.1", "nk to", 10, 0, 50)), n4sidLabel, h("div.grid", num("n4sid_orders.0", "order from", 1, 1, 99), num("n4sid_orders.1", "order to", 10, 1, 99), num("horizon", "horizon s (0: default)", 0, 0, 100))),
-      h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values) · link (the flexible link's physics: outputs θ, α; detrend none, every sample); separate with ;"), this.modelsMsg),
+      h("div.field", h("label", { for: `${pre}-models` }, "Models"), this.models, h("small.hint", "arx:na,nb,nk · armax:na,nb,nc,nk · oe:nb,nf,nk · n4sid:order[,horizon] (n4sid alone: order chosen from the singular values) · link (the flexible link's physics: outputs θ, α; detrend none or the plant's rest, every sample); separate with ;"), this.modelsMsg),
       h("div.actions", h("button.primary", { type: "submit" }, "Identify"), this.progress, this.stage),
       this.msg,
     );
@@ -129,7 +131,7 @@ export class IdentAnalysis {
     return {
       ...records,
       ...(records.validation ? {} : { split: v.get("split")! }),
-      detrend: this.detrend.value as "mean" | "linear" | "none",
+      detrend: this.detrend.value as "mean" | "linear" | "none" | "operating_point",
       correlation: this.checks.correlation.checked,
       spectral: this.checks.spectral.checked,
       arx_search: this.checks.arx.checked ? { na: span("arx_search.na"), nb: span("arx_search.nb"), nk: span("arx_search.nk") } : null,

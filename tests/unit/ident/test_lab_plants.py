@@ -11,12 +11,14 @@ ARX companion matrix by repeated squaring lost the free response to round-off)."
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import control as ct
 import numpy as np
 import pytest
 
+from elab.errors import InvalidInput
 from elab.ident import iddata
 from elab.ident.modeladvice import Physics
 from elab.ident.models import LinearModel
@@ -271,3 +273,32 @@ def test_the_double_pendulums_poles_by_subspace_from_its_operating_point() -> No
         assert np.min(np.abs(model.poles - z)) <= 1e-6 * abs(z), (z, model.poles)
     mean_off = n4sid(iddata(y, s.u, s.Ts).detrend(), 6, horizon=20, stable=False)
     assert max(np.min(np.abs(mean_off.poles - z)) / abs(z) for z in true) > 1e-5
+
+
+def test_the_operating_point_detrend_takes_off_the_plants_rest_and_nothing_else() -> None:
+    """``detrend="operating_point"`` takes the plant's rest off every channel: the
+    pendulum's analysed record is its recording less (0, 0, π) on the outputs and 0 on u,
+    sample for sample; without the rest given (a file), it is refused by name."""
+    p = get_plant("double_pendulum")
+    u = np.random.default_rng(1).standard_normal(600)
+    y = np.column_stack([np.cumsum(u) * 1e-3, 1e-3 * u, np.pi + 1e-3 * np.roll(u, 2)])
+    names = tuple(o.name for o in p.outputs)
+    data = iddata(y, u, p.Ts, output_names=names, input_names=("u",))
+    rest = (p.rest_values(names), p.rest_values(("u",)))
+    assert rest == ((0.0, 0.0, math.pi), (0.0,))
+    plan = Plan(
+        models=(parse_model("arx:2,2,1"),),
+        detrend="operating_point",
+        operating_point=rest,
+        correlation=False,
+        spectral=False,
+    )
+    result = run(data, plan)
+    np.testing.assert_array_equal(result.data.z.y, y - np.array(rest[0]))
+    np.testing.assert_array_equal(result.data.z.u[:, 0], u)
+    assert any(n.startswith("the plant's rest taken off every sample") for n in result.notes)
+    with pytest.raises(InvalidInput) as refused:
+        run(data, replace(plan, operating_point=None))
+    assert refused.value.field == "detrend"
+    with pytest.raises(InvalidInput, match="channels of the run's plant"):
+        p.rest_values(("gamma",))

@@ -130,7 +130,14 @@ class IdentRequest(Model):
         description="a separate validation record (the same channels and sample time); "
         "with detrend 'mean', the estimation record's means are removed from both",
     )
-    detrend: Literal["mean", "linear", "none"] = "mean"
+    detrend: Literal["mean", "linear", "none", "operating_point"] = Field(
+        "mean",
+        description="'mean' and 'linear' take each part's own trend off; 'none' keeps the "
+        "data as recorded; 'operating_point' takes the run's plant's rest off every "
+        "channel (a run's data only: a file's rest is not known), which keeps an "
+        "integrating plant's record as it is and takes off offsets like the upright "
+        "pendulum's π",
+    )
     split: Finite = Field(0.5, gt=0, lt=1, description="not used with a validation record")
     correlation: bool = True
     max_lag: int = Field(30, ge=1, le=500)
