@@ -221,8 +221,15 @@ def _rest(
     ``detrend: "operating_point"``; None for a file (the workflow then refuses it)."""
     if req.detrend != "operating_point" or ran is None:
         return None
-    plant = get_plant(ran.plant)
-    return plant.rest_values(data.output_names), plant.rest_values(data.input_names)
+    rest = get_plant(ran.plant).rest
+    for name in (*data.output_names, *data.input_names):
+        if name not in rest:  # a rig run's latency, say: not a signal of the plant
+            raise InvalidInput(
+                "detrend",
+                f"operating_point with the channel {name!r}",
+                f"another detrend, or channels the plant rests at: {', '.join(rest)}",
+            )
+    return tuple(rest[n] for n in data.output_names), tuple(rest[n] for n in data.input_names)
 
 
 def _plan(

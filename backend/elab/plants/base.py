@@ -12,7 +12,6 @@ from importlib import resources
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.errors import InvalidInput
 from elab.laws import ControlLaw
 from elab.lti import StateSpaceShape
 
@@ -125,24 +124,18 @@ class Plant(StateSpaceShape):
     identification: IdentDefaults = IdentDefaults()
     lesson: tuple[LessonStep, ...] = ()
 
-    def rest_values(self, names: tuple[str, ...]) -> tuple[float, ...]:
-        """The recorded channels ``names`` at the plant's rest: an output's value at the
-        operating point, the reference's (that of the output it is for), a state's
-        (``x_`` and its name), the input's 0 (every plant rests at u = 0)."""
+    @property
+    def rest(self) -> dict[str, float]:
+        """Every recorded channel's value at the plant's rest: an output's at the
+        operating point, the reference's (that of the output it is for), a state's (``x_``
+        and its name), the input's 0 (every plant rests at u = 0)."""
         y_op = np.asarray(self.C, dtype=np.float64) @ np.asarray(self.operating_point)
-        known = {c.name: float(y_op[i]) for i, c in enumerate(self.outputs)}
+        values = {c.name: float(y_op[i]) for i, c in enumerate(self.outputs)}
         states = zip(self.states, self.operating_point, strict=True)
-        known |= {f"x_{c.name}": float(v) for c, v in states}
-        known |= {c.name: 0.0 for c in self.inputs}
-        known["r"] = float(y_op[self.reference_output])
-        for name in names:
-            if name not in known:
-                raise InvalidInput(
-                    "detrend",
-                    f"operating_point with the channel {name!r}",
-                    f"channels of the run's plant: {', '.join(known)}",
-                )
-        return tuple(known[name] for name in names)
+        values |= {f"x_{c.name}": float(v) for c, v in states}
+        values |= {c.name: 0.0 for c in self.inputs}
+        values["r"] = float(y_op[self.reference_output])
+        return values
 
     @property
     def output_ranges(self) -> tuple[tuple[int, float, float], ...]:

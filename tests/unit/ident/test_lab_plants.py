@@ -284,8 +284,9 @@ def test_the_operating_point_detrend_takes_off_the_plants_rest_and_nothing_else(
     y = np.column_stack([np.cumsum(u) * 1e-3, 1e-3 * u, np.pi + 1e-3 * np.roll(u, 2)])
     names = tuple(o.name for o in p.outputs)
     data = iddata(y, u, p.Ts, output_names=names, input_names=("u",))
-    rest = (p.rest_values(names), p.rest_values(("u",)))
+    rest = (tuple(p.rest[n] for n in names), (p.rest["u"],))
     assert rest == ((0.0, 0.0, math.pi), (0.0,))
+    assert p.rest["r"] == 0.0 and p.rest["x_beta2"] == math.pi and p.rest["x_beta2_dot"] == 0
     plan = Plan(
         models=(parse_model("arx:2,2,1"),),
         detrend="operating_point",
@@ -300,5 +301,22 @@ def test_the_operating_point_detrend_takes_off_the_plants_rest_and_nothing_else(
     with pytest.raises(InvalidInput) as refused:
         run(data, replace(plan, operating_point=None))
     assert refused.value.field == "detrend"
-    with pytest.raises(InvalidInput, match="channels of the run's plant"):
-        p.rest_values(("gamma",))
+
+
+def test_a_channel_with_no_rest_is_refused_by_name() -> None:
+    """A rig run records its loop's latency beside the plant's signals: it has no value
+    at the plant's rest, so ``operating_point`` on it is refused naming ``detrend``."""
+    from elab.api.convert import Requested
+    from elab.api.ident import _rest
+    from elab.api.schemas import IdentRequest
+
+    ran = Requested(None, None, None, False, None, True, "flexible_link", True)
+    req = IdentRequest.model_validate(
+        {"data": {"source": "run", "run": "r-1"}, "detrend": "operating_point"}
+    )
+    data = iddata(np.arange(4.0), np.ones(4), 0.001, output_names=("theta",), input_names=("u",))
+    assert _rest(req, data, ran) == ((0.0,), (0.0,))
+    late = iddata(np.arange(4.0), np.ones(4), 0.001, output_names=("latency",), input_names=("u",))
+    with pytest.raises(InvalidInput) as refused:
+        _rest(req, late, ran)
+    assert refused.value.field == "detrend" and "'latency'" in str(refused.value)
