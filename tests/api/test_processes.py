@@ -318,3 +318,31 @@ def test_a_run_asked_for_while_the_engine_starts_waits_briefly_then_is_told_to_r
         for pid in stopped:
             os.kill(pid, signal.SIGCONT)
         srv.stop()
+
+
+def test_a_change_racing_a_stop_is_answered_as_the_runs_record_says(
+    server: Server, long_run: str
+) -> None:
+    """Parameter changes sent with a stop: each is applied (200) or refused because the
+    run has ended (409 naming its status), and a run refused as ended reads as ended at
+    once (under two CPU hogs a change that reached the engine after the stop had got
+    the engine's bare refusal while the run still read "running")."""
+    base = f"{server.url}/api/v1/runs/{long_run}"
+    gains = {"controller": {"kind": "pid", "Kp": 2.0, "Ki": 0.5}}
+
+    def change(i: int) -> httpx.Response:
+        if i == 3:
+            return httpx.post(f"{base}/stop", timeout=30, cookies=server.cookies, verify=TLS)
+        return httpx.post(
+            f"{base}/params", json=gains, timeout=30, cookies=server.cookies, verify=TLS
+        )
+
+    with ThreadPoolExecutor(8) as ex:
+        replies = list(ex.map(change, range(8)))
+    assert replies[3].status_code == 200, replies[3].text
+    for r in replies:
+        assert r.status_code in (200, 409), r.text
+        if r.status_code == 409:
+            assert "has ended (stopped)" in r.json()["error"]["message"], r.text
+    with server.client() as c:
+        assert c.get(f"/runs/{long_run}").json()["status"] == "stopped"

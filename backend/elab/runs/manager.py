@@ -308,15 +308,19 @@ class RunManager(RunFollower):
         try:
             await self._engine_of(run_id).control(run_id, action, reason)
         except Conflict:
-            run = self._runs.get(run_id)
-            if run is not None and run.ending:
-                await self._settle(run)
-            if run is None or not run.state.live:  # it ended meanwhile
-                record = await self.get(run_id)
-                raise Conflict(
-                    f"run {run_id} has ended ({record.status}): it cannot {action}"
-                ) from None
+            await self._ended_meanwhile(run_id, action)
             raise
+
+    async def _ended_meanwhile(self, run_id: str, what: str) -> None:
+        """After the engine refused a command: if the run ended meanwhile, wait until its
+        end is stored (so the run's record says so when the answer does) and refuse with
+        its status."""
+        run = self._runs.get(run_id)
+        if run is not None and run.ending:
+            await self._settle(run)
+        if run is None or not run.state.live:
+            record = await self.get(run_id)
+            raise Conflict(f"run {run_id} has ended ({record.status}): it cannot {what}")
 
     async def set_params(self, run_id: str, change: Change, who: Identity) -> Applied:
         """Apply the parts of ``change`` that alter what the run uses, from the next sample,
@@ -333,7 +337,11 @@ class RunManager(RunFollower):
                 raise _no_longer_steps(run_id, record.status)
             return Applied(record.n_stored)
         await self._require_live(run_id)
-        k = await self._engine_of(run_id).replace(run_id, decision.new)
+        try:
+            k = await self._engine_of(run_id).replace(run_id, decision.new)
+        except Conflict:  # it ended after the check: answered as its record will say
+            await self._ended_meanwhile(run_id, "change")
+            raise
         run.params = run.params.after(decision.new)
         return Applied(k, decision.changed)
 
