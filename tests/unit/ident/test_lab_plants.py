@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import Any
 
 import control as ct
 import numpy as np
@@ -26,7 +27,7 @@ from elab.ident.polynomial import arx
 from elab.ident.validation import compare
 from elab.ident.workflow import Plan, parse_model, run
 from elab.laws import OpenLoop, StateFeedback
-from elab.plants import get_plant
+from elab.plants import Plant, get_plant
 from elab.sim import PRBS, RunSpec
 from elab.sim.engine import simulate
 
@@ -49,6 +50,22 @@ def record(pid: str, seconds: float, closed: bool) -> tuple[np.ndarray, np.ndarr
         x = d.A @ x + d.B[:, 0] * u[k]
     order = int(np.linalg.matrix_rank(ct.obsv(A, C[:1]) @ ct.ctrb(A, B)))  # Hankel rank
     return u, y, order, p.Ts
+
+
+def prbs_run(p: Plant, **over: Any) -> RunSpec:
+    """A run as the lab records one for identification: the predefined controller, the
+    reference at 0, a 1 V PRBS at the input for 20 s (``over``: other settings)."""
+    from elab.sim import Step
+
+    return RunSpec(
+        p,
+        p.predefined,
+        Step(0.0),
+        duration=20.0,
+        excitation=PRBS(1.0, order=10, band=0.05),
+        excitation_at="input",
+        **over,
+    )
 
 
 # Not here (issue 26): the double pendulum, whose six poles crowd z = 1 at 1 kHz: an ARX
@@ -79,18 +96,9 @@ def test_a_noise_free_closed_loop_run_gives_the_true_discrete_poles(pid: str) ->
     controller: the link's state feedback, the belt's PI; a PRBS at the input, ideal
     sensors): ARX of the plant's order has the plant's discrete poles within 1e-6
     (relative) and fits the validation part from its fitted state above 99.9 %."""
-    from elab.sim import Step
 
     p = get_plant(pid)
-    spec = RunSpec(
-        p,
-        p.predefined,
-        Step(0.0),
-        duration=20.0,
-        excitation=PRBS(1.0, order=10, band=0.05),
-        excitation_at="input",
-    )
-    s = simulate(spec)
+    s = simulate(prbs_run(p))
     A, B, C = (np.asarray(m, dtype=float) for m in (p.A, p.B, p.C))
     j = p.reference_output
     n = int(np.linalg.matrix_rank(ct.obsv(A, C[j : j + 1]) @ ct.ctrb(A, B)))
@@ -252,19 +260,9 @@ def test_the_double_pendulums_poles_by_subspace_from_its_operating_point() -> No
     them by 1.6e-4 (the arm integrates: a mean taken off u adds a ramp), and keeping π
     in β₂ by 6.4e-3: the offset, not the estimator, was what failed here."""
     from elab.ident.subspace import n4sid
-    from elab.sim import Step
 
     p = get_plant("double_pendulum")
-    spec = RunSpec(
-        p,
-        p.predefined,
-        Step(0.0),
-        duration=20.0,
-        excitation=PRBS(1.0, order=10, band=0.05),
-        excitation_at="input",
-        quantize=False,
-    )
-    s = simulate(spec)
+    s = simulate(prbs_run(p, quantize=False))
     A, B, C = (np.asarray(m, dtype=float) for m in (p.A, p.B, p.C))
     true = np.linalg.eigvals(ct.c2d(ct.ss(A, B, C, 0), s.Ts).A)
     y = s.y - C @ np.asarray(p.operating_point, dtype=float)
