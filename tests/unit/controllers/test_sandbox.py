@@ -30,13 +30,17 @@ class Controller:
 
 
 def test_a_controller_steps_with_its_state_inside_and_its_times_recorded() -> None:
-    # a generous deadline: this is about the arithmetic and the state, not the timing
-    with Sandboxed(GOOD, ny=2, params={"K": [2.0, -1.0]}, deadline=0.05) as c:
+    # about the arithmetic and the state, not the timing: every answer waited for, as a
+    # simulation does (the rig's hold returns the last u for an answer later than the
+    # deadline: a machine busy past 50 ms once made step 30 answer with step 29's u)
+    with Sandboxed(
+        GOOD, ny=2, params={"K": [2.0, -1.0]}, deadline=0.05, hold=False, patience=30.0
+    ) as c:
         us = [c.step(k * 1e-3, [0.1 * k, 0.5], 1.0) for k in range(200)]
         summary = c.times.summary()
     want = [2.0 * (1.0 - 0.1 * k) - 1.0 * (0.0 - 0.5) for k in range(200)]
     assert us == pytest.approx(want, rel=0, abs=0)  # the same float64 arithmetic
-    assert summary["steps"] == 200 and summary["misses"] == 0
+    assert summary["steps"] == 200
     assert 0 < summary["median_us"] < 5_000
 
 
