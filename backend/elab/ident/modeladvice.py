@@ -35,12 +35,19 @@ def on_model(
     residuals: Residuals | None,
     detrend: str,
     order_top: bool,
+    plant_unstable: float | None = None,
 ) -> tuple[Verdict, ...]:
     """A model with ``poles`` whose headline validation ``fit`` (%, the worst output;
     simulated ``fit_from`` a zero or an estimated state), residual analysis (``None``: not
     made), fitted to data detrended by ``detrend``; ``order_top``: its order was chosen at
-    the top of its search range."""
-    out = [_stability(poles), *_integrator(poles, detrend), _fit(fit, fit_from)]
+    the top of its search range. ``plant_unstable``: the plant's own largest pole |z| at
+    the data's sample time where its physics is unstable (a simulation of a right model
+    then grows too, and its fit says nothing)."""
+    if plant_unstable is not None:
+        out = [_stability_of_unstable(poles, plant_unstable), _fit_unstable(fit, fit_from)]
+    else:
+        out = [_stability(poles), _fit(fit, fit_from)]
+    out[1:1] = _integrator(poles, detrend)
     out += _residuals(residuals)
     if order_top:
         out.append(
@@ -75,6 +82,44 @@ def _stability(poles: Poles) -> Verdict:
             "try a lower order, n4sid with the model kept stable, or check for feedback",
         )
     return Verdict("stability", "good", f"stable (the largest pole at |z| = {top:.4g})")
+
+
+def _stability_of_unstable(poles: Poles, plant: float) -> Verdict:
+    """An unstable plant's model: unstable like the plant is right, stable is not."""
+    top = float(np.max(np.abs(poles))) if poles.size else 0.0
+    if top <= 1.0 + 1e-9:
+        return Verdict(
+            "stability",
+            "poor",
+            f"stable (the largest pole at |z| = {top:.4g}), but the plant is unstable (its "
+            f"physics has a pole at |z| = {plant:.4g} at this sample time): the model misses "
+            "the mode a controller must catch",
+            "try the plant's number of states, and data from a loop that moves every output",
+        )
+    return Verdict(
+        "stability",
+        "good",
+        f"unstable like the plant (the largest pole at |z| = {top:.4g}; the physics' "
+        f"{plant:.4g}): kept so, not reflected",
+    )
+
+
+def _fit_unstable(fit: float, start: str) -> Verdict:
+    """The simulated fit of an unstable plant's model: no measure of it."""
+    how = f"simulated from {'a zero' if start == 'zero' else 'the estimated'} initial state"
+    shown = (
+        f"{fit:.1f} %"
+        if math.isfinite(fit) and fit >= FIT_ABSURD
+        else ("below −100 %" if math.isfinite(fit) else "none (the simulation overflowed)")
+    )
+    return Verdict(
+        "fit",
+        "caution",
+        f"validation fit {shown} ({how}): the plant is unstable, so a simulation of a right "
+        "model grows with the unstable mode as the recording, held by its controller, does "
+        "not; the fit does not judge this model",
+        "judge it by its residuals and by the physics verdict",
+    )
 
 
 def _integrator(poles: Poles, detrend: str) -> list[Verdict]:
@@ -163,6 +208,13 @@ class Physics:
     #: s: the input was held this long per sample (the recording's Ts; 0: not held), a
     #: lag of half a sample that the model rightly has and the continuous physics not
     hold: float = 0.0
+
+
+def unstable_pole(physics: Physics, Ts: float) -> float | None:
+    """The physics' largest pole |z| at sample time ``Ts`` where the plant is unstable
+    (a continuous pole right of the imaginary axis), else None."""
+    right = float(np.max(np.linalg.eigvals(physics.A).real)) if physics.A.size else 0.0
+    return math.exp(right * Ts) if right > 1e-9 else None
 
 
 def physics_of(

@@ -31,7 +31,7 @@ from elab.ident.pem import armax, oe
 from elab.ident.physical import link
 from elab.ident.polynomial import arx, arxstruc, selstruc, struc
 from elab.ident.results import AnalysedData, Analyses, ArxOrderSearch, ModelResult, Result
-from elab.ident.subspace import OrderChoice, Subspace, choose_order, decompose, n4sid
+from elab.ident.subspace import OrderChoice, Stable, Subspace, choose_order, decompose, n4sid
 
 Array = NDArray[np.float64]
 Progress = Callable[[str, float], None]
@@ -152,6 +152,9 @@ def run(
     z = _joined(data, ze, zv)
     if plan.detrend == "operating_point":
         resampled.append(_rest_note(plan, data))
+    unstable = _unstable_note(plan, ze.Ts)
+    if unstable is not None:
+        resampled.append(unstable)
     notes = suspicious(as_recorded)  # as given: detrending moves the edges
     if validation is not None:
         notes += [f"validation record: {n}" for n in suspicious(validation)]
@@ -479,7 +482,11 @@ def _order_table(
         return None, None
     report("subspace: the singular values of the data", 0.5)
     sub = decompose(ze, plan.horizon)
-    choice = choose_order(sub, plan.n4sid_orders or range(1, min(10, sub.max_order) + 1))
+    choice = choose_order(
+        sub,
+        plan.n4sid_orders or range(1, min(10, sub.max_order) + 1),
+        stable=_stable_policy(plan, ze.Ts),
+    )
     report("subspace", 0.6)
     return sub, choice
 
@@ -510,7 +517,16 @@ def _models(
         # said before each model, which may take seconds (ARMAX and OE: several starts)
         report(f"estimating {request.name}, model {i + 1} of {n}", 0.6 + 0.4 * i / n)
         source = ze if fit_on is None else fit_on
-        model = _estimate(source, request, sub, best, plan.horizon, i, plan.decimate > 1)
+        model = _estimate(
+            source,
+            request,
+            sub,
+            best,
+            plan.horizon,
+            i,
+            plan.decimate > 1,
+            _stable_policy(plan, source.Ts),
+        )
         name = _name(request, model)
         if plan.indirect is not None:
             model, name = plant_from_loop(model, plan.indirect), f"{name} (indirect)"
@@ -526,6 +542,7 @@ def _models(
             result.residuals,
             plan.detrend,
             top,
+            _unstable_plant(plan, model.Ts),
         )
         if plan.physics is not None and model.nu == 1:
             verdicts += tuple(
@@ -615,6 +632,7 @@ def _estimate(
     horizon: int | None,
     i: int,
     decimated: bool = False,
+    stable: Stable = "auto",
 ) -> LinearModel:
     o = r.orders
     if r.kind == "link" and decimated:
@@ -650,13 +668,38 @@ def _estimate(
                 own = o.get("horizon") or None
                 if sub is None or (own is not None and own != sub.horizon):
                     sub = decompose(ze, own or horizon)
-                return n4sid(ze, o.get("order") or best, sub=sub)
+                return n4sid(ze, o.get("order") or best, sub=sub, stable=stable)
             case "link":
                 return link(ze)
             case _:
                 assert_never(r.kind)
     except InvalidInput as exc:
         raise InvalidInput(f"models[{i}].{exc.field}", exc.value, exc.allowed) from None
+
+
+def _unstable_plant(plan: Plan, Ts: float) -> float | None:
+    """The plant's largest pole |z| at ``Ts`` where its physics (a lab run's) is unstable."""
+    return None if plan.physics is None else modeladvice.unstable_pole(plan.physics, Ts)
+
+
+def _stable_policy(plan: Plan, Ts: float) -> Stable:
+    """Subspace's policy for poles outside the unit circle: kept where the plant's own
+    physics is unstable (the default judges an estimate against its reflection by a
+    simulation, in which the true unstable mode grows e⁵² over the pendulum's 10 s: the
+    reflection always won), else "auto" (:func:`~elab.ident.subspace.n4sid`)."""
+    return False if _unstable_plant(plan, Ts) is not None else "auto"
+
+
+def _unstable_note(plan: Plan, Ts: float) -> str | None:
+    pole = _unstable_plant(plan, Ts)
+    if pole is None or not any(m.kind == "n4sid" for m in plan.models):
+        return None
+    return (
+        f"the plant is unstable (its physics has a pole at |z| = {pole:.6g} at this sample "
+        "time): subspace models keep their poles outside the unit circle rather than "
+        "reflecting them; simulated fits, and an order chosen by them, grow with the "
+        "unstable mode and do not judge a model here: give n4sid its order"
+    )
 
 
 def _output(z: IdData, i: int) -> IdData:

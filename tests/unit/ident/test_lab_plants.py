@@ -318,3 +318,42 @@ def test_a_channel_with_no_rest_is_refused_by_name() -> None:
     with pytest.raises(InvalidInput) as refused:
         _rest(req, late, ran)
     assert refused.value.field == "detrend" and "'latency'" in str(refused.value)
+
+
+def test_an_unstable_plants_subspace_model_keeps_its_unstable_pole_and_says_why() -> None:
+    """The double pendulum, noise-free as in the test above, through the workflow as the
+    lab runs it (its physics known, its rest taken off): n4sid 6 keeps the plant's
+    unstable pole (z = 1.0052) instead of reflecting it, the stability verdict calls
+    that right, the simulated fit is not taken as a judgement (it grows with the mode),
+    and a note says so. The same data as a file (no physics) keep the default, which
+    judges the estimate against its reflection by simulation and reflects the pole."""
+    from elab.ident.modeladvice import physics_of
+
+    p = get_plant("double_pendulum")
+    s = simulate(prbs_run(p, quantize=False))
+    names = tuple(o.name for o in p.outputs)
+    z = iddata(s.y, s.u, s.Ts, output_names=names, input_names=("u",))
+    A, B, C = (np.asarray(m, dtype=float) for m in (p.A, p.B, p.C))
+    true = np.linalg.eigvals(ct.c2d(ct.ss(A, B, C, 0), s.Ts).A)
+    unstable = true[np.abs(true) > 1][0]
+    plan = Plan(
+        models=(parse_model("n4sid:6"),),
+        detrend="operating_point",
+        operating_point=(tuple(p.rest[n] for n in names), (0.0,)),
+        horizon=20,
+        closed_loop=True,
+        correlation=False,
+        spectral=False,
+        physics=physics_of(p, names, s.Ts, False),
+    )
+    result = run(z, plan)
+    m = result.models[0]
+    assert np.min(np.abs(m.model.poles - unstable)) <= 1e-6 * abs(unstable), m.model.poles
+    said = {v.topic: v for v in m.verdicts}
+    assert (
+        said["stability"].level == "good" and "unstable like the plant" in said["stability"].finding
+    )
+    assert said["fit"].level == "caution" and "does not judge" in said["fit"].finding
+    assert any(n.startswith("the plant is unstable") for n in result.notes), result.notes
+    as_file = run(z, replace(plan, physics=None)).models[0]
+    assert np.max(np.abs(as_file.model.poles)) <= 1.0  # reflected by the simulation's choice
