@@ -85,13 +85,16 @@ def _stability(poles: Poles) -> Verdict:
 
 
 def _stability_of_unstable(poles: Poles, plant: float) -> Verdict:
-    """An unstable plant's model: unstable like the plant is right, stable is not."""
+    """An unstable plant's model: unstable like the plant is right; stable, or outside
+    the unit circle by less than half the plant's margin (an integrator estimated a hair
+    unstable, say), misses the plant's unstable mode."""
     top = float(np.max(np.abs(poles))) if poles.size else 0.0
-    if top <= 1.0 + 1e-9:
+    if top < 1.0 + (plant - 1.0) / 2:
+        what = "stable" if top <= 1.0 else "hardly unstable"
         return Verdict(
             "stability",
             "poor",
-            f"stable (the largest pole at |z| = {top:.4g}), but the plant is unstable (its "
+            f"{what} (the largest pole at |z| = {top:.4g}), but the plant is unstable (its "
             f"physics has a pole at |z| = {plant:.4g} at this sample time): the model misses "
             "the mode a controller must catch",
             "try the plant's number of states, and data from a loop that moves every output",

@@ -245,3 +245,30 @@ def test_the_datas_verdicts_read_a_bounded_window_of_a_long_record(
     monkeypatch.setattr(advice, "ADVICE_ROWS", N)
     assert feedback(both) == feedback(open_loop) < FEEDBACK_SHARE
     assert snr_db(both) == snr_db(open_loop)
+
+
+@pytest.mark.parametrize(
+    ("poles", "level"),
+    [
+        ([1.0052, 0.99, 0.5], "good"),  # the plant's unstable mode, kept
+        ([1.004, 0.99], "good"),  # near it (more than half its margin outside)
+        ([1.00001, 0.99], "poor"),  # an integrator a hair outside: the mode is missing
+        ([0.999, 0.5], "poor"),  # stable: the mode reflected or lost
+    ],
+)
+def test_an_unstable_plants_model_must_be_unstable_like_it(poles: list[float], level: str) -> None:
+    """With the plant's unstable pole at |z| = 1.0052 (the pendulum's at 1 kHz), a model is
+    right to be unstable like it and wrong to be stable or barely outside the unit circle;
+    its simulated fit is a caution whatever its value, since a right model's simulation
+    grows with the mode."""
+    from elab.ident.modeladvice import on_model
+
+    verdicts = on_model(
+        np.array(poles, dtype=complex), -1e6, "estimated", None, "none", False, 1.0052
+    )
+    said = {v.topic: v for v in verdicts}
+    assert said["stability"].level == level, said["stability"]
+    assert said["fit"].level == "caution" and "below −100 %" in said["fit"].finding
+    # a file's model (no physics): its fit judges it as ever
+    plain = on_model(np.array(poles, dtype=complex), 95.0, "zero", None, "none", False)
+    assert {v.topic: v for v in plain}["fit"].level == "good"
