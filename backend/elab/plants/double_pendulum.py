@@ -95,10 +95,11 @@ PLANT = Plant(
         why="Six states, one of them unstable (pendulum 1 upright): subspace with its order "
         "given, and its unstable pole kept (an order chosen automatically, and the choice to "
         "reflect the pole, are judged by simulations, which grow with the unstable mode). "
-        "Choose all outputs: pendulum 1's angle carries the unstable mode. Under the "
-        "predefined LQR the pendulums move only a few encoder counts with the realistic "
-        "sensors, and the verdicts say so; with ideal sensors the six poles come out "
-        "exactly.",
+        "Choose all outputs where they move: pendulum 1's angle carries the unstable mode. "
+        "Under the predefined LQR with the realistic sensors the pendulums move a few "
+        "encoder counts at most (β₂ may not move one, and is then refused by name) and the "
+        "verdicts call the data and the model poor; with ideal sensors and all three "
+        "outputs the six poles come out exactly.",
     ),
     notes=(
         "There is no hardware for this plant, only its linearised model: identification "
