@@ -1,6 +1,18 @@
-import { describe, expect, it } from "vitest";
+import { describe, expect, it, vi } from "vitest";
 import type { HelpPage } from "../protocol.gen";
-import { inApp, search, slug } from "./help";
+import { helpPage, inApp, search, slug } from "./help";
+
+// the server, held until a test lets it answer
+const held = vi.hoisted(() => ({ release: (): void => undefined }));
+vi.mock("../api", () => ({
+  api: {
+    help: () =>
+      new Promise((resolve) => {
+        held.release = () => resolve({ pages: [{ name: "glossary", summary: "the terms" }] });
+      }),
+    helpPage: (name: string) => Promise.resolve({ name, title: "Glossary", markdown: "# Glossary\n\n**PRBS.** An input that switches." }),
+  },
+}));
 
 const page = (name: string, markdown: string): HelpPage => ({ name, title: markdown.split("\n")[0].slice(2), markdown });
 
@@ -32,5 +44,16 @@ describe("help", () => {
     expect(root.textContent).toContain("shot"); // its text stays
     expect(root.querySelector("h2")?.id).toBe("python-controllers");
     expect(slug("Run against the model's prediction")).toBe("run-against-the-models-prediction");
+  });
+
+  it("searches what was typed while the index loaded, once it has", async () => {
+    const root = document.createElement("div");
+    const shown = helpPage(root, {});
+    const input = root.querySelector<HTMLInputElement>("#help-search")!;
+    input.value = "prbs";
+    input.dispatchEvent(new Event("input"));
+    held.release(); // the index comes after the typing (it had been lost)
+    await shown;
+    await vi.waitFor(() => expect(root.querySelector("[data-testid=help-results] a")?.textContent).toBe("Glossary › Glossary"));
   });
 });

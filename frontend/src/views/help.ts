@@ -98,19 +98,18 @@ async function helpIndex(root: HTMLElement): Promise<void> {
     h("div.panel", h("label", { for: "help-search" }, "Search "), input, results),
     h("section.panel", { "aria-labelledby": "help-pages-h" }, h("h2#help-pages-h", "Pages"), list),
   );
-  let entries: HelpEntry[] = [];
-  let pages: HelpPage[] | null = null;
-  try {
-    entries = (await api.help()).pages;
-    fill(list, ...entries.map((e) => h("li", link(`/help/${e.name}`, e.name === "glossary" ? "Glossary" : e.name[0].toUpperCase() + e.name.slice(1)), ": ", e.summary)));
-  } catch (err) {
-    fill(list, failure(err));
-  }
+  // the search listens from the start: what is typed while the index loads is searched
+  // once it has (it had listened only after, and a query typed meanwhile was lost)
+  const index: Promise<HelpEntry[]> = api.help().then((r) => r.pages);
+  let pages: Promise<HelpPage[]> | null = null;
   const run = async () => {
     const query = input.value.trim();
     if (!query) return void fill(results);
-    pages ??= await Promise.all(entries.map((e) => api.helpPage(e.name))).catch(() => []);
-    const hits = search(pages, query);
+    const entries = await index.catch((): HelpEntry[] => []);
+    pages ??= Promise.all(entries.map((e) => api.helpPage(e.name))).catch(() => []);
+    const found = await pages;
+    if (input.value.trim() !== query) return; // a later query answers instead
+    const hits = search(found, query);
     fill(
       results,
       hits.length
@@ -119,4 +118,10 @@ async function helpIndex(root: HTMLElement): Promise<void> {
     );
   };
   input.addEventListener("input", () => void run());
+  try {
+    const entries = await index;
+    fill(list, ...entries.map((e) => h("li", link(`/help/${e.name}`, e.name === "glossary" ? "Glossary" : e.name[0].toUpperCase() + e.name.slice(1)), ": ", e.summary)));
+  } catch (err) {
+    fill(list, failure(err));
+  }
 }
