@@ -45,7 +45,6 @@ class Heard:
     def __init__(self) -> None:
         self.changes: list[Changed] = []
         self.ends: dict[str, Ended] = {}
-        self.rows = 0
         self.rows_of: dict[str, int] = {}
         self.cond = threading.Condition()
 
@@ -53,10 +52,13 @@ class Heard:
         pass
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
-        self.rows += sum(b.data.shape[1] for b in blocks)
         for b in blocks:
             for run_id in b.run_ids:
                 self.rows_of[run_id] = self.rows_of.get(run_id, 0) + b.data.shape[1]
+
+    @property
+    def rows(self) -> int:
+        return sum(self.rows_of.values())
 
     def changed(self, engine: str, change: Changed) -> None:
         with self.cond:
@@ -169,16 +171,24 @@ def _order(run_id: str, spec: RunSpec) -> RunOrder:
     return RunOrder(run_id, spec, "realtime", "rig", "design", {"plant": "flexible_link"})
 
 
-def _finished(engine: RigEngine, heard: Heard, run_id: str, spec: RunSpec) -> tuple[str, Ended]:
-    """Run ``spec`` on the rig until it finishes: this loop runs in the test process, not
-    real-time, and a machine that starves it for a tenth of a second fails a run as a
-    real rig would (the rig's watchdog, late answers that let the link swing past a
-    trip). Such a run is tried again, up to three times; every failure is in the message
-    when none finishes."""
+def _finished(
+    engine: RigEngine,
+    heard: Heard,
+    run_id: str,
+    spec: RunSpec,
+    during: Callable[[str], None] | None = None,
+) -> tuple[str, Ended]:
+    """Run ``spec`` on the rig until it finishes (``during``: what the test does to the
+    run once it is taken): this loop runs in the test process, not real-time, and a
+    machine that starves it for a tenth of a second fails a run as a real rig would (the
+    rig's watchdog, late answers that let the link swing past a trip). Such a run is
+    tried again, up to three times; every failure is in the message when none finishes."""
     failures: list[str] = []
     for attempt in range(3):
         rid = run_id if attempt == 0 else f"{run_id}-again-{attempt}"
         _drive(engine, _order(rid, spec))
+        if during is not None:
+            during(rid)
         ended = heard.wait_ended(rid)
         if ended.state is not RunState.FAILED:
             return rid, ended
@@ -476,27 +486,19 @@ def test_samples_the_rig_skipped_keep_their_place_on_its_clock(
     heard = Heard()
     engine = _engine(tmp_path, rig, heard)
     try:
-        # tried up to three times, as _finished: a machine that starves this process fails
-        # a run before or after the stop as a real rig would (its watchdog, a trip)
-        failures: list[str] = []
-        for attempt in range(3):
-            rid = f"r-gap-{attempt}"
-            _drive(engine, _order(rid, SQUARE))
 
-            def going(rid: str = rid) -> bool:
-                return engine.store.get_run(rid).n_stored > 500 or rid in heard.ends
-
-            _until(going, "the run goes")
-            if rid not in heard.ends:
+        def stop_the_rig_for_60_ms(rid: str) -> None:
+            _until(
+                lambda: engine.store.get_run(rid).n_stored > 500 or rid in heard.ends,
+                "the run goes",
+            )
+            if rid not in heard.ends:  # (a starved run may have failed already: tried again)
                 os.kill(rig.proc.pid, signal.SIGSTOP)
                 time.sleep(0.06)
                 os.kill(rig.proc.pid, signal.SIGCONT)
-            ended = heard.wait_ended(rid)
-            if ended.state is not RunState.FAILED:
-                break
-            failures.append(f"{rid} failed at sample {ended.n}: {ended.error}")
-            _until(lambda: engine.settle is None, "the rig settles after a failed run")
-        assert (ended.state, ended.n) == (RunState.FINISHED, 2000), (ended, failures)
+
+        rid, ended = _finished(engine, heard, "r-gap", SQUARE, stop_the_rig_for_60_ms)
+        assert (ended.state, ended.n) == (RunState.FINISHED, 2000), ended
         data = engine.store.read(rid, 0, 2000)
         lost = np.flatnonzero(np.isnan(data[:, 2]))
         assert 40 <= lost.size <= 200, lost.size  # about 60 (a loaded machine adds some)
