@@ -50,9 +50,10 @@ def subspace_bd(sub: Subspace, A: Array, C: Array) -> tuple[Array, Array]:
     A, C = A * root[:, None] / root[None, :], C / root[None, :]  # into SLICOT's basis
     G = sub.U1[:, :n]
     Yf = L[b:, :a]  # only the U_f columns of Z_i, Z_{i+1} and Y_{i|i} matter
-    P = np.vstack([np.linalg.pinv(G[:-ny]) @ Yf[ny:], Yf[:ny]]) - np.vstack([A, C]) @ (G.T @ Yf)
+    Gi = np.asarray(np.linalg.pinv(G[:-ny]), dtype=np.float64)  # Γ_{s−1}⁺, for both uses
+    P = np.vstack([Gi @ Yf[ny:], Yf[:ny]]) - np.vstack([A, C]) @ (G.T @ Yf)
     blocks = G[:-ny].reshape(s - 1, ny, n)  # Γ_k, k = 1 … s−1
-    T = _bd_regressors(G, A, C, blocks, L[:a, :a], nu)
+    T = _bd_regressors(G, Gi, A, C, blocks, L[:a, :a], nu)
     tol = T.shape[0] * T.shape[1] * np.finfo(float).eps  # DGELSY's, as IB01PX sets it
     theta = np.asarray(
         scipy.linalg.lstsq(T, P.ravel(), cond=tol, lapack_driver="gelsy", check_finite=False)[0],
@@ -63,9 +64,11 @@ def subspace_bd(sub: Subspace, A: Array, C: Array) -> tuple[Array, Array]:
     return B, D
 
 
-def _bd_regressors(G: Array, A: Array, C: Array, blocks: Array, Uf: Array, nu: int) -> Array:
+def _bd_regressors(
+    G: Array, Gi: Array, A: Array, C: Array, blocks: Array, Uf: Array, nu: int
+) -> Array:
     """The columns of 𝒦(B, D) U_f (flattened), one per unknown of θ = [vec D; vec B]
-    (𝒦 is linear in θ: all unit θ at once, as a batch)."""
+    (𝒦 is linear in θ: all unit θ at once, as a batch); ``Gi``: Γ_{s−1}⁺."""
     sny, n = G.shape
     ny = C.shape[0]
     s = sny // ny
@@ -79,7 +82,7 @@ def _bd_regressors(G: Array, A: Array, C: Array, blocks: Array, Uf: Array, nu: i
     GH = G.T @ H  # Γ_s⁺ H_s (Γ orthonormal)
     top, bottom = -A @ GH, -C @ GH
     top[:, :, :nu] += B
-    top[:, :, nu:] += np.linalg.pinv(G[:-ny]) @ H[:, ny:, nu:]
+    top[:, :, nu:] += Gi @ H[:, ny:, nu:]
     bottom[:, :, :nu] += D
     return np.asarray((np.concatenate([top, bottom], axis=1) @ Uf).reshape(d, -1).T)
 

@@ -26,6 +26,7 @@ and the Kalman gain K solves the filter Riccati equation for them.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from typing import Literal
@@ -92,27 +93,55 @@ def decompose(data: IdData, horizon: int | None = None) -> Subspace:
             horizon,
             f"an integer in 2 … {min(s_cap, MAX_HORIZON)} for {N} samples ((N+1) / (2 (nu+ny+1)))",
         )
-    try:
-        require_exciting(data.u, 2 * s)
-    except InvalidInput:
-        top = _exciting_horizon(data, s)
-        if top is None:
-            raise  # not even horizon 2: the input's own error says why
-        if horizon is not None:
-            raise InvalidInput(
-                "horizon",
-                horizon,
-                f"an integer in 2 … {top} for this input: it is persistently exciting of "
-                f"order {2 * top} but not {2 * s} (a horizon s needs order 2s)",
-            ) from None
-        s = top  # the default: the largest horizon the input supports
-    L = _lq_factor(data, s)
+    w = np.hstack([data.u, data.y])
+    R = _correlation(w, s)
+    if not _excites(R, nu):  # not clearly: the input's own check decides, and says why
+        try:
+            require_exciting(data.u, 2 * s)
+        except InvalidInput:
+            top = _exciting_horizon(data, s)
+            if top is None:
+                raise  # not even horizon 2: the input's own error says why
+            if horizon is not None:
+                raise InvalidInput(
+                    "horizon",
+                    horizon,
+                    f"an integer in 2 … {top} for this input: it is persistently exciting of "
+                    f"order {2 * top} but not {2 * s} (a horizon s needs order 2s)",
+                ) from None
+            s = top  # the default: the largest horizon the input supports
+            R = _correlation(w, s)
+    L, cholesky = _lq_factor(data, s, R)
     a, b = s * nu, s * (nu + ny) + s * nu
     L22, L32 = L[a:b, a:b], L[b:, a:b]
     U1, sv, _ = np.linalg.svd(L32)
-    return Subspace(data, s, sv, U1, L, U1.T @ L32 @ np.linalg.pinv(L22))
+    seen = U1.T @ L32
+    if cholesky:  # L₂₂ triangular and well-conditioned: its inverse is its pseudo-inverse
+        import scipy.linalg  # here: the web process imports this module, not scipy
+
+        states_map = scipy.linalg.solve_triangular(L22, seen.T, trans="T", lower=True).T
+    else:
+        states_map = seen @ np.linalg.pinv(L22)
+    return Subspace(data, s, sv, U1, L, states_map)
 
 
+#: an input whose lag matrix's eigenvalues span less than this is exciting without doubt;
+#: closer to :func:`~elab.ident.data.require_exciting`'s 1e-13, that check decides
+CLEARLY_EXCITING = 1e-11
+
+
+def _excites(R: Array, nu: int) -> bool:
+    """Whether each input is clearly persistently exciting of order 2s, judged on the
+    correlation matrix already at hand (its blocks of an input's lags are the ΦᵀΦ that
+    :func:`~elab.ident.data.require_exciting` forms, over the same samples)."""
+    for c in range(nu):
+        lam = np.linalg.eigvalsh(R[:, :, c, c])
+        if not lam[-1] > 0 or not lam[0] > CLEARLY_EXCITING * lam[-1]:
+            return False
+    return True
+
+
+@functools.lru_cache(maxsize=16)
 def _rows(s: int, nu: int, ny: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """The lag and the channel (of w = [u, y]) of each row of [U_f; U_p; Y_p; Y_f]."""
     lag, channel = [], []
@@ -121,30 +150,45 @@ def _rows(s: int, nu: int, ny: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]
         channel += [c for _ in range(s) for c in chans]
     lag += [s + i for i in range(s) for _ in range(ny)]
     channel += [c for _ in range(s) for c in range(nu, nu + ny)]
-    return np.array(lag), np.array(channel)
+    return _readonly(np.array(lag)), _readonly(np.array(channel))
 
 
 def _correlation(w: Array, s: int) -> Array:
     """R[ℓ, m] = Σ_{t<j} w(t+ℓ) w(t+m)ᵀ for ℓ, m < 2s (j = N − 2s + 1), by the Hankel
     structure (as SLICOT's IB01MD): R[ℓ+1, m+1] = R[ℓ, m] + w(ℓ+j) w(m+j)ᵀ − w(ℓ) w(m)ᵀ,
-    so only R[ℓ, 0] needs a pass over the data."""
+    so only R[ℓ, 0] needs a pass over the data. The recurrence runs down every diagonal
+    at once, as one cumulative sum (numpy's adds in order: the same numbers as a loop)."""
     N, p = w.shape
     k = 2 * s
     j = N - k + 1
-    R = np.empty((k, k, p, p))
     lags = np.lib.stride_tricks.sliding_window_view(w, (j, p))[:, 0]  # (k, j, p)
-    R[:, 0] = np.matmul(lags.transpose(0, 2, 1), w[:j])  # (einsum's path search: 0.1 ms)
-    end, start = w[j:], w[: k - 1]  # w(ℓ + j) and w(ℓ), ℓ < 2s − 1
-
-    def outer(a: Array) -> Array:  # [ℓ, m, p, q] = a(ℓ)_p a(m)_q
-        return a[:, None, :, None] * a[None, :, None, :]
-
-    step = outer(end) - outer(start)
-    for m in range(k - 1):
-        R[m + 1 :, m + 1] = R[m:-1, m] + step[m:, m]
+    end, start = w[j:].reshape(-1), w[: k - 1].reshape(-1)  # w(ℓ + j) and w(ℓ), ℓ < 2s − 1
+    # step[ℓ, m, p, q] = w(ℓ+j)_p w(m+j)_q − w(ℓ)_p w(m)_q
+    step = (np.outer(end, end) - np.outer(start, start)).reshape(k - 1, p, k - 1, p)
+    d, m, ds, i = _diagonals(k)
+    X = np.zeros((k, k, p, p))  # X[d, 0] = R[d, 0]; X[d, i + 1] = step[d + i, i]
+    X[:, 0] = np.matmul(lags.transpose(0, 2, 1), w[:j])  # (einsum's path search: 0.1 ms)
+    X[ds, i + 1] = step[ds + i, :, i]
+    along = np.cumsum(X, axis=1)  # along[d, m] = R[d + m, m]
+    R = np.empty((k, k, p, p))
+    R[d + m, m] = along[d, m]
     upper = np.triu_indices(k, 1)
     R[upper] = R[upper[1], upper[0]].transpose(0, 2, 1)
     return R
+
+
+@functools.lru_cache(maxsize=16)
+def _diagonals(k: int) -> tuple[NDArray[np.intp], ...]:
+    """For :func:`_correlation`: the (d, m) with d + m < k (R[d + m, m]) and the (d, i)
+    with d + i < k − 1 (the steps down diagonal d)."""
+    total = np.add.outer(np.arange(k), np.arange(k))
+    return tuple(_readonly(a) for a in (*np.nonzero(total <= k - 1), *np.nonzero(total <= k - 2)))
+
+
+def _readonly(a: NDArray[np.intp]) -> NDArray[np.intp]:
+    """A cached index array, safe to share."""
+    a.flags.writeable = False
+    return a
 
 
 def _hankel(data: IdData, s: int) -> Array:
@@ -169,25 +213,25 @@ def _past(data: IdData, s: int) -> Array:
     return np.vstack([block(data.u), block(data.y)])
 
 
-def _lq_factor(data: IdData, s: int) -> Array:
+def _lq_factor(data: IdData, s: int, R: Array) -> tuple[Array, bool]:
     """L of H = L Q, H = [U_f; U_p; Y_p; Y_f]: the Cholesky factor of H Hᵀ (SLICOT's
     default, the "Cholesky algorithm applied to the correlation matrix", H Hᵀ from the
-    Hankel structure), or of a QR step when H Hᵀ is too ill-conditioned for it."""
+    Hankel structure: ``R``, :func:`_correlation`), or of a QR step when H Hᵀ is too
+    ill-conditioned for it; and whether it is the well-conditioned Cholesky factor."""
     import scipy.linalg  # here: the web process imports this module, not scipy
 
     lag, ch = _rows(s, data.nu, data.ny)
-    R = _correlation(np.hstack([data.u, data.y]), s)
     try:
         HHt = R[lag[:, None], lag[None, :], ch[:, None], ch[None, :]]
         L = scipy.linalg.cholesky(HHt, lower=True, check_finite=False)
         d = np.abs(np.diag(L))
         if d.min() > 1e-6 * d.max():
-            return np.asarray(L, dtype=np.float64)
+            return np.asarray(L, dtype=np.float64), True
     except np.linalg.LinAlgError:
         pass
     H = _hankel(data, s)
     Rq = scipy.linalg.qr(H.T, mode="r", check_finite=False)[0]
-    return np.asarray(Rq[: H.shape[0]].T, dtype=np.float64)
+    return np.asarray(Rq[: H.shape[0]].T, dtype=np.float64), False
 
 
 def n4sid(
@@ -498,23 +542,29 @@ def filter_dare(A: Array, C: Array, Q: Array, R: Array, S: Array) -> Array | Non
     does not converge (then scipy's QZ solver decides). It is plain small-matrix
     arithmetic, a few doublings: 0.5–0.75 ms against scipy's 0.9–2.2 ms for 1 to 10 states
     on a slow host, a quarter of a small subspace identification."""
+    from scipy.linalg import lapack  # LAPACK's solver as numpy's, without its checks
+
     try:
         Ri = np.linalg.inv(R)
         F = A - S @ Ri @ C
         H = Q - S @ Ri @ S.T  # Q̄ ≥ 0: the Schur complement of a covariance
         G = C.T @ Ri @ C
         Ak = F.T
-        eye = np.eye(A.shape[0])
+        n = A.shape[0]
+        eye = np.eye(n)
         with np.errstate(all="ignore"):
             for _ in range(DARE_STEPS):
-                W = np.linalg.solve(eye + G @ H, np.hstack([Ak, G]))
-                WA, WG = W[:, : Ak.shape[1]], W[:, Ak.shape[1] :]
+                W, info = lapack.dgesv(eye + G @ H, np.hstack([Ak, G]))[2:]
+                if info != 0:
+                    return None  # a singular step
+                WA, WG = W[:, :n], W[:, n:]
                 H_next = H + Ak.T @ H @ WA
                 G = G + Ak @ WG @ Ak.T
                 Ak = Ak @ WA
-                if not np.all(np.isfinite(H_next)):
+                size = float(np.abs(H_next).sum(axis=0).max())  # the 1-norm
+                if not math.isfinite(size):
                     return None
-                if np.linalg.norm(H_next - H, 1) <= DARE_TOL * np.linalg.norm(H_next, 1):
+                if float(np.abs(H_next - H).sum(axis=0).max()) <= DARE_TOL * size:
                     P = (H_next + H_next.T) / 2
                     return P if _dare_residual(A, C, Q, R, S, P) <= DARE_RESIDUAL else None
                 H = H_next
