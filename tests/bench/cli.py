@@ -2,7 +2,9 @@
 hair dryer, the whole process timed from outside, against GNU Octave doing the same in
 its own process (load the control package and the data, split, detrend, ``n4sid``, print
 the fit); and the imports of ``elab.cli`` alone and of that command
-(``python -X importtime``)."""
+(``python -X importtime``). ``elab simulate`` (issue 28) against a plain python-control
+script that runs the same closed loop (the link under its LQR through the velocity
+filters, 10 s at 1 kHz): its ``c2d`` and a numpy loop."""
 
 from __future__ import annotations
 
@@ -20,6 +22,29 @@ DRYER = ROOT / "tests" / "reference" / "ident" / "dryer.dat"
 IDENTIFY = ["identify", str(DRYER), "--input", "c1", "--output", "c2", "--Ts", "0.08"]
 N4SID = [*IDENTIFY, "--model", "n4sid:4"]
 REPEAT = 5
+SIMULATE = ["simulate", "flexible_link", "--duration", "10"]
+# the peer of `elab simulate`: python-control discretises the plant and the controller as
+# the lab realises them, and a numpy loop steps 10,000 samples (no noise, no saturation)
+PEER_SIMULATE = """
+import control as ct
+import numpy as np
+from elab.design.realise import realise
+from elab.plants import PLANTS
+plant = PLANTS["flexible_link"]
+real = realise(plant, plant.predefined, all_pid_states=True)
+P = ct.c2d(ct.ss(plant.A, plant.B, plant.C, plant.D), plant.Ts)
+K = ct.c2d(real.ss(), plant.Ts, method="tustin")
+Ad, Bd, C = np.asarray(P.A), np.asarray(P.B)[:, 0], np.asarray(plant.C)
+Ac, Bc, Cc, Dc = (np.asarray(m) for m in (K.A, K.B, K.C, K.D))
+x, xi, theta = np.zeros(plant.nx), np.zeros(Ac.shape[0]), np.empty(10_000)
+for k in range(10_000):
+    w = np.concatenate([[1.0], C @ x])
+    u = (Cc @ xi + Dc @ w)[0]
+    xi = Ac @ xi + Bc @ w
+    x = Ad @ x + Bd * u
+    theta[k] = x[0]
+print(f"theta max {theta.max():.4g}")
+"""
 # MATLAB's standard experiment, as `elab identify` runs it: samples 1…500 estimate,
 # 501…1000 validate, each detrended by its own mean; the fit simulated from x₀ = 0.
 OCTAVE_SCRIPT = """pkg load control
@@ -86,6 +111,9 @@ def bench_cli() -> str:
     exe = shutil.which("elab", path=str(Path(sys.executable).parent))
     elab = [exe] if exe else [sys.executable, "-m", "elab.cli"]
     ours, out = _wall([*elab, *N4SID])
+    sim, _ = _wall([*elab, *SIMULATE])
+    peer_sim, _ = _wall([sys.executable, "-c", PEER_SIMULATE])
+    sim_imports = _imports(["-m", "elab.cli", *SIMULATE])
     bare, _ = _wall([sys.executable, "-c", "pass"])
     cli_imports = _imports(["-c", "import elab.cli"])
     n4sid_imports = _imports(["-m", "elab.cli", *N4SID])
@@ -118,10 +146,23 @@ and the data and prints the same fit (`tests/bench/cli.py`). Median wall time of
 | validation fit it prints (simulation from x₀ = 0) | {_fit(out)} | {_fit(octave_out)} | |
 | peer: the Python interpreter alone (`python -c pass`) | {bare:.3f} s | | |
 
+### `elab simulate flexible_link --duration 10` against a python-control script
+
+The link under its predefined LQR (velocity filters), 10 s at 1 kHz, each a whole process
+timed from outside (median of {REPEAT} after a warm-up). The peer imports python-control,
+discretises the plant (ZOH) and the same controller (Tustin) with its `c2d` and steps a
+plain numpy loop (no noise, quantisation or saturation: less work than the lab's run).
+
+| measure | `elab simulate` | peer: python-control script | goal |
+|---|---|---|---|
+| the whole command | {sim:.3f} s | {peer_sim:.3f} s | ≤ 0.4 s |
+| **ratio** | **{sim / peer_sim:.2f}×** | 1 | |
+
 ### Imports (`python -X importtime`, sum of the top-level modules, median of {REPEAT})
 
 | imports of | time | goal |
 |---|---|---|
 | `import elab.cli` | {cli_imports:.3f} s | |
+| `elab simulate flexible_link --duration 10` (numpy, scipy.linalg, numba; no python-control, scipy.signal or matplotlib) | {sim_imports:.3f} s | |
 | `elab identify … --model n4sid:4` (numpy, scipy.linalg, elab.ident; no python-control, scipy.signal or numba) | {n4sid_imports:.3f} s | < 0.5 s |
 """

@@ -79,3 +79,25 @@ def test_the_web_app_loads_no_scipy_python_control_or_numba() -> None:
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "elab.api.app" in names and "elab.ident.workflow" in names  # the log is read right
     assert not {n for n in names if n.split(".")[0] in {"scipy", "control", "numba"}}
+
+
+def test_a_simulation_of_a_state_feedback_loads_neither_python_control_nor_scipy_signal() -> None:
+    """``elab simulate`` with the plant's predefined LQR (velocity filters) and with a PID:
+    the zero-order hold and Tustin of :mod:`elab.lti`, not python-control's ``c2d``
+    (its imports: matplotlib and scipy.signal, over a second; issue 28). numba is what
+    steps the run."""
+    for controller in ("predefined", "pid:2,0.5,0.1"):
+        names, proc = imported(
+            "-m",
+            "elab.cli",
+            "simulate",
+            "flexible_link",
+            "--duration",
+            "2",
+            "--controller",
+            controller,
+        )
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        assert "elab.sim.kernel" in names and "numba" in names  # the log is read right
+        assert not names & {"control", "scipy.signal", "matplotlib"}, controller
+        assert "2000 samples" in proc.stdout

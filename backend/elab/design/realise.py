@@ -18,9 +18,8 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import assert_never
+from typing import TYPE_CHECKING, assert_never
 
-import control as ct
 import numpy as np
 
 from elab.design import _polynomials
@@ -29,6 +28,12 @@ from elab.errors import DimensionError, InvalidInput
 from elab.laws import PID, CodeController, ControlLaw, LTIController, OpenLoop, StateFeedback
 from elab.plants import Plant
 from elab.validate import finite_array, finite_float
+
+# python-control is imported where a law needs it (a transfer function, an observer's
+# poles, a system for analysis): a run of a state feedback or a PID is compiled without
+# it (its imports bring matplotlib and scipy.signal: a second, docs/architecture.md)
+if TYPE_CHECKING:
+    import control as ct
 
 
 @dataclass(frozen=True)
@@ -47,6 +52,8 @@ class Realisation:
 
     def ss(self) -> ct.StateSpace:
         """The controller as one system from :math:`[r, m]` to :math:`u`."""
+        import control as ct
+
         n, n_m = self.A.shape[0], self.D_m.shape[1]
         return ct.ss(
             self.A,
@@ -80,6 +87,8 @@ def pid_tf(law: PID) -> ct.TransferFunction:
     ----------
     K. J. Åström and T. Hägglund, *Advanced PID Control*, 2006, §3.2.
     """
+    import control as ct
+
     Kp, Ki, Kd, Tf = _pid_parameters(law)
     C = ct.tf([Kp], [1.0])
     if Ki != 0.0:
@@ -218,6 +227,8 @@ def observer_gain(plant: Plant, law: StateFeedback) -> Matrix:
         raise InvalidInput(
             "controller.observer_poles", law.observer_poles, "poles in the left half-plane"
         )
+    import control as ct
+
     try:
         return np.asarray(ct.place(plant.A.T, plant.C.T, poles), dtype=np.float64).T
     except (ValueError, np.linalg.LinAlgError) as exc:
@@ -345,6 +356,8 @@ def feedforward_ss(law: LTIController) -> ct.StateSpace | None:
 
 def lti_ss(law: LTIController) -> ct.StateSpace:
     """The LTI law as python-control state space (continuous, or discrete with ``law.dt``)."""
+    import control as ct
+
     given_tf = law.num is not None and law.den is not None
     given_ss = all(m is not None for m in (law.A, law.B, law.C, law.D))
     if given_tf == given_ss:
@@ -368,6 +381,8 @@ def _proper(
     num_name: str, num_given: object, den_name: str, den_given: object, dt: float
 ) -> ct.StateSpace:
     """The transfer function ``num/den`` in state space, if it is proper."""
+    import control as ct
+
     num = _polynomials.clean(finite_array(f"controller.{num_name}", num_given, (None,)), 0.0)
     den = _polynomials.clean(finite_array(f"controller.{den_name}", den_given, (None,)), 0.0)
     if den[0] == 0.0 or num.size > den.size:

@@ -10,16 +10,17 @@ its anti-windup gain:
     v_k = C_c \\xi_k + D_c w_k
 
 with :math:`v` the commanded and :math:`u` the applied (saturated) input.
-Discrete LTI laws are taken as they are.
+Discrete LTI laws are taken as they are. The Tustin step is :func:`elab.lti.tustin`
+(scipy's, as python-control's ``c2d`` calls it): python-control is imported only for a
+law given as a transfer function or a discrete system.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal, assert_never
+from typing import TYPE_CHECKING, Literal, assert_never
 
-import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
@@ -39,8 +40,12 @@ from elab.laws import (
     OpenLoop,
     StateFeedback,
 )
+from elab.lti import tustin
 from elab.plants.base import Plant
 from elab.validate import finite_float
+
+if TYPE_CHECKING:
+    import control as ct
 
 Array = NDArray[np.float64]
 
@@ -99,14 +104,14 @@ def _tustin(
     """A continuous law by Tustin, with its anti-windup gain."""
     real = realise(plant, law, all_pid_states=True)
     feedback: Literal["state", "output"] = "state" if real.measures_state else "output"
-    sys = real.ss()
-    if sys.nstates == 0:
-        D = np.asarray(sys.D, dtype=np.float64)[0]
+    n = real.A.shape[0]
+    B, D = np.hstack([real.B_r, real.B_m]), np.hstack([real.D_r, real.D_m])  # w = [r, m]
+    if n == 0:
         return DiscreteController(
-            np.zeros((0, 0)), np.zeros((0, D.size)), np.zeros(0), D, np.zeros(0), feedback
+            np.zeros((0, 0)), np.zeros((0, D.shape[1])), np.zeros(0), D[0], np.zeros(0), feedback
         )
-    d = ct.c2d(sys, Ts, method="tustin")
-    Lw = np.zeros(sys.nstates)
+    Ad, Bd, Cd, Dd = tustin(real.A, B.reshape(n, -1), real.C.reshape(1, n), D, Ts)
+    Lw = np.zeros(n)
     match law:
         case PID() if real.integrator is not None and law.Ki != 0:
             Lw[real.integrator] = Ts / (law.Ki * pid_tracking_time(law))
@@ -115,7 +120,7 @@ def _tustin(
             Lw = Ts * (plant.B - real.B_m @ plant.D)[:, 0]
         case _:
             pass  # no integrator to unwind
-    return DiscreteController(*_arrays(d), Lw, feedback)
+    return DiscreteController(Ad, Bd, Cd.reshape(-1), Dd[0], Lw, feedback)
 
 
 def _arrays(d: ct.StateSpace) -> tuple[Array, Array, Array, Array]:
@@ -129,6 +134,8 @@ def _arrays(d: ct.StateSpace) -> tuple[Array, Array, Array, Array]:
 
 
 def _discrete_lti(law: LTIController, plant: Plant, Ts: float) -> DiscreteController:
+    import control as ct  # here: only a discrete law needs python-control to step
+
     dt = finite_float("controller.dt", law.dt, 0.0, lo_open=True)
     if not math.isclose(dt, Ts, rel_tol=1e-9):
         raise InvalidInput("controller.dt", dt, f"the run's sample time {Ts:g} s")

@@ -93,9 +93,8 @@ class CompiledRun:
 def compile_run(spec: RunSpec) -> CompiledRun:
     """Validate ``spec`` and discretise it; errors name the field and allowed values."""
     # here, not at the top: a process that only describes runs (the web process) need not
-    # import python-control (seconds of imports, docs/architecture.md)
-    import control as ct
-
+    # import scipy (docs/architecture.md)
+    from elab.lti import zoh
     from elab.sim.controllers import discretise
 
     plant = spec.plant
@@ -121,15 +120,15 @@ def compile_run(spec: RunSpec) -> CompiledRun:
             controller = discretise(spec.law, plant, Ts)
             c = controller
             finite_result("controller", spec.law, allowed, c.Ac, c.Bc, c.Cc, c.Dc, c.Lw)
-        d = ct.c2d(ct.ss(plant.A, plant.B, plant.C, plant.D), Ts, method="zoh")
+        Ad, Bd = zoh(plant.A, plant.B, Ts)
         done = _DISCRETE.put(
             plant,
             spec.law,
             Ts,
             _Discrete(
                 _readonly(controller),
-                _frozen(np.asarray(d.A, dtype=np.float64)),
-                _frozen(np.asarray(d.B, dtype=np.float64)[:, 0]),
+                _frozen(Ad),
+                _frozen(Bd[:, 0]),
             ),
         )
     saturate = plant.saturate if spec.saturate is None else spec.saturate
