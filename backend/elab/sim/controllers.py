@@ -110,7 +110,7 @@ def _tustin(
         return DiscreteController(
             np.zeros((0, 0)), np.zeros((0, D.shape[1])), np.zeros(0), D[0], np.zeros(0), feedback
         )
-    Ad, Bd, Cd, Dd = tustin(real.A, B.reshape(n, -1), real.C.reshape(1, n), D, Ts)
+    Ad, Bd, Cd, Dd = tustin(real.A, B, real.C, D, Ts)
     Lw = np.zeros(n)
     match law:
         case PID() if real.integrator is not None and law.Ki != 0:
