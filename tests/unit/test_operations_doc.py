@@ -5,7 +5,10 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 from elab.api.settings import REALTIME, Settings
+from elab.errors import InvalidInput
 from elab.runs.limits import Limits
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -66,3 +69,10 @@ def test_documented_defaults_are_the_code_defaults() -> None:
     assert num("ELAB_MAX_CODE_RUNS") == s.engine.max_code_runs
     assert num("ELAB_CODE_DEADLINE") == s.engine.code_deadline
     assert num("ELAB_CODE_MISSES") == s.engine.code_misses
+
+
+def test_the_run_sample_limit_cannot_exceed_what_the_loop_steps() -> None:
+    assert Settings.from_env({"ELAB_MAX_RUN_SAMPLES": "36000000"}).limits.max_samples == 36_000_000
+    with pytest.raises(InvalidInput) as err:
+        Settings.from_env({"ELAB_MAX_RUN_SAMPLES": "36000001"})
+    assert err.value.field == "ELAB_MAX_RUN_SAMPLES" and "36000000]" in str(err.value)

@@ -15,6 +15,7 @@ from elab.engines.settings import EngineSettings
 from elab.errors import InvalidInput
 from elab.rig_queue import QueuePolicy
 from elab.runs.limits import Limits
+from elab.sim.spec import MAX_SAMPLES
 
 #: the stepping thread's SCHED_FIFO priority by default (1..99; the kernel's threads: 50)
 REALTIME = 10
@@ -132,7 +133,7 @@ class Settings:
             owner_grace=_float(env, "ELAB_OWNER_GRACE", d.owner_grace),
             owner_gone=_float(env, "ELAB_OWNER_GONE", d.owner_gone),
             max_duration=_float(env, "ELAB_MAX_DURATION", d.max_duration),
-            max_samples=_int(env, "ELAB_MAX_RUN_SAMPLES", d.max_samples),
+            max_samples=_int(env, "ELAB_MAX_RUN_SAMPLES", d.max_samples, hi=MAX_SAMPLES),
             max_recording=_int(env, "ELAB_MAX_RECORDING", d.max_recording),
             ts_ratio=_float(env, "ELAB_TS_RATIO", d.ts_ratio),
         )

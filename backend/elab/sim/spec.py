@@ -31,6 +31,10 @@ Array = NDArray[np.float64]
 MAX_POLE_TS = 0.5  # largest allowed |λ|·Ts: at least 2π/0.5 ≈ 13 samples per radian period
 MAX_DURATION = 3600.0  # s
 MIN_SAMPLES = 10  # the shortest run: fewer samples show no response
+#: the longest run the loop steps (an hour at 10 kHz): its block is allocated whole, and a
+#: sample time of 1e-300 s asked for more than memory holds (the server's own limit,
+#: ELAB_MAX_RUN_SAMPLES, is lower and may not be set above this)
+MAX_SAMPLES = 36_000_000
 MIN_PERIOD_SAMPLES = 4  # samples per period of a periodic signal (2 is Nyquist's bare minimum)
 
 
@@ -100,6 +104,13 @@ def compile_run(spec: RunSpec) -> CompiledRun:
     plant = spec.plant
     Ts = plant.Ts if spec.Ts is None else finite_float("Ts", spec.Ts, 0.0, lo_open=True)
     duration = finite_float("duration", spec.duration, 0.0, MAX_DURATION, lo_open=True)
+    if not duration / Ts <= MAX_SAMPLES:  # also inf, for a subnormal Ts
+        raise InvalidInput(
+            "Ts",
+            Ts,
+            f"a sample time ≥ {duration / MAX_SAMPLES:g} s for a {duration:g} s run: at most "
+            f"{MAX_SAMPLES:,} samples (duration / Ts)",
+        )
     n_samples = round(duration / Ts)
     if n_samples < MIN_SAMPLES:
         raise InvalidInput(

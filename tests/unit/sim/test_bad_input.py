@@ -30,6 +30,11 @@ PEND = get_plant("double_pendulum")
         (RunSpec(FLEX, StateFeedback((1.0, float("nan"), 0, 0))), "controller.K", "finite"),
         (RunSpec(FLEX, FLEX.predefined, duration=0.0), "duration", "(0, 3600]"),
         (RunSpec(FLEX, FLEX.predefined, duration=1e9), "duration", "(0, 3600]"),
+        # a sample time so small that the run would not fit in memory, or its sample count
+        # in a float (1e-300 raised numpy's "maximum allowed dimension", 5e-324 OverflowError)
+        (RunSpec(FLEX, FLEX.predefined, Ts=1e-300), "Ts", "≥ 2.77778e-07 s for a 10 s run"),
+        (RunSpec(FLEX, FLEX.predefined, Ts=5e-324), "Ts", "at most 36,000,000 samples"),
+        (RunSpec(FLEX, FLEX.predefined, duration=3600, Ts=9e-5), "Ts", "≥ 0.0001 s"),
         # issue 15: 1e-9 s ran 1 sample; a period shorter than a few samples aliases
         (RunSpec(FLEX, FLEX.predefined, duration=1e-9), "duration", "≥ 0.01 s at Ts = 0.001"),
         (RunSpec(FLEX, FLEX.predefined, duration=0.02, Ts=0.0025), "duration", "≥ 0.025 s"),
