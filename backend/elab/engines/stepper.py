@@ -44,8 +44,8 @@ from elab.engines.timetable import Timetable
 from elab.errors import Conflict
 from elab.lifecycle import RunState, transition
 from elab.sim.batch import Batch, SignalFault
-from elab.sim.engine import DIVERGENCE_LIMIT, diverged, first_divergence
-from elab.sim.spec import CompiledRun
+from elab.sim.engine import diverged, first_divergence
+from elab.sim.spec import DIVERGENCE_LIMIT, CompiledRun
 
 log = logging.getLogger(__name__)
 

@@ -9,7 +9,7 @@ from elab.laws import ControlLaw
 from elab.sim.batch import Batch
 from elab.sim.result import Samples
 from elab.sim.signals import Signal
-from elab.sim.spec import CompiledRun, RunSpec, compile_run
+from elab.sim.spec import DIVERGENCE_LIMIT, CompiledRun, RunSpec, compile_run
 
 
 class Simulation:
@@ -95,9 +95,6 @@ def simulate(spec: RunSpec) -> Samples:
     # are strided views): no divergence; else the exact first sample of u or x
     bad = None if first_divergence(rows[:, 1:]) is None else divergence_index(samples)
     return samples if bad is None else samples.head(bad)
-
-
-DIVERGENCE_LIMIT = 1e9  # |state| or |input| beyond this (SI units) means the loop diverged
 
 
 def first_divergence(rows: NDArray[np.float64]) -> int | None:

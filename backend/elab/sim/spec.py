@@ -21,6 +21,7 @@ from elab.laws import ControlLaw
 from elab.plants.base import Plant
 from elab.sim.noise import sensor_noise
 from elab.sim.signals import Chirp, Signal, Sine, Square, Step
+from elab.sim.signals import Samples as UserSamples
 from elab.validate import computable, finite_array, finite_float, finite_result
 
 if TYPE_CHECKING:
@@ -35,6 +36,10 @@ MIN_SAMPLES = 10  # the shortest run: fewer samples show no response
 #: sample time of 1e-300 s asked for more than memory holds (the server's own limit,
 #: ELAB_MAX_RUN_SAMPLES, is lower and may not be set above this)
 MAX_SAMPLES = 36_000_000
+DIVERGENCE_LIMIT = 1e9  # |state| or |input| beyond this (SI units) means the loop diverged
+#: the largest value a signal may take (SI units): a larger reference would fail its run
+#: as diverged ("unstable") at its first sample
+MAX_SIGNAL = DIVERGENCE_LIMIT
 MIN_PERIOD_SAMPLES = 4  # samples per period of a periodic signal (2 is Nyquist's bare minimum)
 
 
@@ -120,6 +125,13 @@ def compile_run(spec: RunSpec) -> CompiledRun:
         )
     _check_periods("signal", spec.reference, Ts)
     _check_periods("excitation", spec.excitation, Ts)
+    _check_size("signal", spec.reference)
+    _check_size("excitation", spec.excitation)
+    seed = spec.noise_seed
+    if seed is not None and (
+        not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed <= 2**63 - 1
+    ):
+        raise InvalidInput("noise_seed", seed, "an integer in [0, 2^63 − 1]")
     allowed = (
         "a controller whose numbers keep its arithmetic finite: no gain, coefficient or "
         "time constant so large or so small that it overflows or divides by zero"
@@ -256,6 +268,26 @@ def _check_periods(name: str, signal: Signal | None, Ts: float) -> None:
         for f, value in (("f0", signal.f0), ("f1", signal.f1)):
             if value > fastest:
                 raise InvalidInput(f"{name}.{f}", value, f"a frequency ≤ {fastest:g} Hz ({at})")
+
+
+def _check_size(name: str, signal: Signal | None) -> None:
+    """A signal's values stay within :data:`MAX_SIGNAL` (its offset ± its amplitude, or
+    its samples)."""
+    if signal is None:
+        return
+    if isinstance(signal, UserSamples):
+        peak = float(np.max(np.abs(signal.values))) if signal.values else 0.0
+        field, value = f"{name}.values", peak
+    else:
+        peak = abs(signal.offset) + abs(signal.amplitude)
+        field, value = f"{name}.amplitude", signal.amplitude
+    if not peak <= MAX_SIGNAL:
+        raise InvalidInput(
+            field,
+            value,
+            f"values within ±{MAX_SIGNAL:g} (offset ± amplitude, in SI units): a state or "
+            f"input beyond it counts as diverged",
+        )
 
 
 def _check_sample_time(law: ControlLaw, plant: Plant, Ts: float) -> None:

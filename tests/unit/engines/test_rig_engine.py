@@ -368,7 +368,9 @@ def test_a_reference_that_overflows_the_law_ends_the_run_at_0_v(
     heard = Heard()
     engine = _engine(tmp_path, rig, heard)
     try:
-        spec = RunSpec(PLANT, PLANT.predefined, Step(1e308), duration=3.0)
+        # gains of 1e300 on a reference of 1e9 (the largest a signal may be): K r overflows
+        huge = StateFeedback(tuple(1e300 for _ in PLANT.states), "velocity_filters")
+        spec = RunSpec(PLANT, huge, Step(1e9), duration=3.0)
         _drive(engine, _order("r-10", spec))
         ended = heard.wait_ended("r-10")
         assert ended.state is RunState.FAILED, ended

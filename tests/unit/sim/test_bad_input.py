@@ -9,7 +9,7 @@ import pytest
 from elab.errors import DimensionError, InvalidInput
 from elab.laws import PID, LTIController, StateFeedback
 from elab.plants import get_plant
-from elab.sim import Chirp, RunSpec, Sine, Square, Step, compile_run
+from elab.sim import Chirp, RunSpec, Sine, Square, Step, UserSamples, compile_run
 
 FLEX = get_plant("flexible_link")
 PEND = get_plant("double_pendulum")
@@ -35,6 +35,17 @@ PEND = get_plant("double_pendulum")
         (RunSpec(FLEX, FLEX.predefined, Ts=1e-300), "Ts", "≥ 2.77778e-07 s for a 10 s run"),
         (RunSpec(FLEX, FLEX.predefined, Ts=5e-324), "Ts", "at most 36,000,000 samples"),
         (RunSpec(FLEX, FLEX.predefined, duration=3600, Ts=9e-5), "Ts", "≥ 0.0001 s"),
+        # a reference of 1e308 failed its run as "diverged: the closed loop is unstable"
+        (RunSpec(FLEX, FLEX.predefined, Step(1e308)), "signal.amplitude", "within ±1e+09"),
+        (RunSpec(FLEX, FLEX.predefined, Step(6e8, offset=6e8)), "signal.amplitude", "±1e+09"),
+        (
+            RunSpec(FLEX, FLEX.predefined, excitation=UserSamples((0.0, -2e9))),
+            "excitation.values",
+            "offset ± amplitude",
+        ),
+        # a negative seed raised numpy's SeedSequence error from inside the stepping loop
+        (RunSpec(FLEX, FLEX.predefined, noise_seed=-1), "noise_seed", "[0, 2^63 − 1]"),
+        (RunSpec(FLEX, FLEX.predefined, noise_seed=2**63), "noise_seed", "[0, 2^63 − 1]"),
         # issue 15: 1e-9 s ran 1 sample; a period shorter than a few samples aliases
         (RunSpec(FLEX, FLEX.predefined, duration=1e-9), "duration", "≥ 0.01 s at Ts = 0.001"),
         (RunSpec(FLEX, FLEX.predefined, duration=0.02, Ts=0.0025), "duration", "≥ 0.025 s"),

@@ -11,7 +11,8 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from elab.sim.engine import DIVERGENCE_LIMIT, first_divergence
+from elab.sim.engine import first_divergence
+from elab.sim.spec import DIVERGENCE_LIMIT
 
 L = DIVERGENCE_LIMIT
 
