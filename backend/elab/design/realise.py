@@ -50,17 +50,17 @@ class Realisation:
     states: tuple[str, ...]
     integrator: int | None = None  # index of the PID's integral state, for anti-windup
 
+    def on_w(self) -> tuple[Matrix, Matrix]:
+        """B and D on the one input :math:`w = [r, m]`."""
+        n, n_m = self.A.shape[0], self.D_m.shape[1]
+        return np.hstack([self.B_r, self.B_m]).reshape(n, 1 + n_m), np.hstack([self.D_r, self.D_m])
+
     def ss(self) -> ct.StateSpace:
         """The controller as one system from :math:`[r, m]` to :math:`u`."""
         import control as ct
 
-        n, n_m = self.A.shape[0], self.D_m.shape[1]
-        return ct.ss(
-            self.A,
-            np.hstack([self.B_r, self.B_m]).reshape(n, 1 + n_m),
-            self.C.reshape(1, n),
-            np.hstack([self.D_r, self.D_m]),
-        )
+        B, D = self.on_w()
+        return ct.ss(self.A, B, self.C.reshape(1, self.A.shape[0]), D)
 
     @classmethod
     def static(cls, D_r: Matrix, D_m: Matrix, measures_state: bool) -> Realisation:

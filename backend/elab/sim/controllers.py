@@ -105,7 +105,7 @@ def _tustin(
     real = realise(plant, law, all_pid_states=True)
     feedback: Literal["state", "output"] = "state" if real.measures_state else "output"
     n = real.A.shape[0]
-    B, D = np.hstack([real.B_r, real.B_m]), np.hstack([real.D_r, real.D_m])  # w = [r, m]
+    B, D = real.on_w()
     if n == 0:
         return DiscreteController(
             np.zeros((0, 0)), np.zeros((0, D.shape[1])), np.zeros(0), D[0], np.zeros(0), feedback
