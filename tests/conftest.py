@@ -25,7 +25,29 @@ from collections.abc import Iterator
 
 import pytest
 
+from tests.api import server as servers
 from tests.api.server import Server
+from tests.postgres import PostgresServer
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--store",
+        choices=("sqlite", "postgres"),
+        default=os.environ.get("ELAB_TEST_STORE", "sqlite"),
+        help="where the test servers keep their records: the embedded SQLite file, or "
+        "PostgreSQL (a server of each worker's own, a fresh database schema per test server; "
+        "`make test-postgres`)",
+    )
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _servers_store(request: pytest.FixtureRequest) -> None:
+    """With ``--store postgres``, every test server (``Server``) gets a database of its own
+    on this worker's PostgreSQL server (``ELAB_DATABASE_URL``)."""
+    if request.config.getoption("--store") == "postgres":
+        pg: PostgresServer = request.getfixturevalue("postgres")
+        servers.DATABASES = pg.schema
 
 
 @pytest.fixture(scope="session")
@@ -76,7 +98,21 @@ LONGEST_FIRST = (
 )
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     rank = {path: i for i, path in enumerate(LONGEST_FIRST)}
     # a stable sort: within a module, and among the others, the order stays as collected
     items.sort(key=lambda item: rank.get(item.nodeid.split("::", 1)[0], len(rank)))
+    if config.getoption("--store") == "postgres":
+        for item in items:
+            if (mark := item.get_closest_marker("sqlite_only")) is not None:
+                item.add_marker(pytest.mark.skip(reason=f"the SQLite file itself: {mark.args[0]}"))
+
+
+@pytest.fixture(scope="session")
+def postgres() -> Iterator[PostgresServer]:
+    """A PostgreSQL server of this test worker's own (tests/postgres.py), started on first
+    use."""
+    pg = PostgresServer()
+    pg.start()
+    yield pg
+    pg.stop()

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from elab.errors import Conflict, NotFound
-from elab.store import ParamChange, Pin, SQLiteStore, Token
+from elab.store import ParamChange, Pin, SQLiteStore, Store, Token
 from elab.store._db import SCHEMA_VERSION
 from tests.unit.store.test_sqlite import NCH, record
 from tests.unit.store.test_versions_and_faults import restored
@@ -38,12 +38,7 @@ def test_a_version_2_file_opens_upgraded_and_its_runs_have_no_owner(tmp_path: Pa
     conn.close()
 
 
-@pytest.fixture
-def store(tmp_path: Path) -> SQLiteStore:
-    return SQLiteStore(tmp_path / "s.sqlite3")
-
-
-def test_lists_by_owner_hide_private_runs_from_others(store: SQLiteStore) -> None:
+def test_lists_by_owner_hide_private_runs_from_others(store: Store) -> None:
     store.create_run(record("r-a", owner="a-1", created_at=1))
     store.create_run(record("r-b", owner="a-2", private=True, created_at=2))
     store.create_run(record("r-c", owner="a-2", created_at=3))
@@ -61,7 +56,7 @@ def test_lists_by_owner_hide_private_runs_from_others(store: SQLiteStore) -> Non
 
 
 def test_a_deleted_run_is_gone_with_its_samples_and_a_live_one_cannot_be(
-    store: SQLiteStore,
+    store: Store,
 ) -> None:
     store.create_run(record("r-1", owner="a-1"))
     store.append("r-1", 0, np.ones((10, NCH)))
@@ -83,7 +78,7 @@ def test_a_deleted_run_is_gone_with_its_samples_and_a_live_one_cannot_be(
 
 
 def test_retention_picks_ended_runs_finished_before_a_time_and_spares_pinned_ones(
-    store: SQLiteStore,
+    store: Store,
 ) -> None:
     for i, status in enumerate(["finished", "stopped", "running", "failed"]):
         store.create_run(record(f"r-{i}", owner="a-1", created_at=i))
@@ -94,7 +89,7 @@ def test_retention_picks_ended_runs_finished_before_a_time_and_spares_pinned_one
     assert store.ended_before(104.0) == ["r-0", "r-3"]
 
 
-def test_tokens_are_kept_by_digest_per_owner(store: SQLiteStore) -> None:
+def test_tokens_are_kept_by_digest_per_owner(store: Store) -> None:
     t = Token("t-1", "a-1", "grader", 10.0)
     store.add_token(t, "d" * 64)
     assert store.token_by_digest("d" * 64) == t
@@ -108,7 +103,7 @@ def test_tokens_are_kept_by_digest_per_owner(store: SQLiteStore) -> None:
     assert store.token_by_digest("d" * 64) is None
 
 
-def test_a_pin_names_an_existing_run(store: SQLiteStore) -> None:
+def test_a_pin_names_an_existing_run(store: Store) -> None:
     with pytest.raises(NotFound):
         store.set_pin(Pin("demo", "r-none", "i-prof", 1.0))
     store.create_run(record("r-1"))

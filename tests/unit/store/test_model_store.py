@@ -5,13 +5,12 @@ controllers intact, taking models."""
 from __future__ import annotations
 
 import sqlite3
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from elab.errors import Conflict, InvalidInput, NotFound
-from elab.store import SQLiteStore, StoredModel
+from elab.store import SQLiteStore, Store, StoredModel
 from elab.store._db import SCHEMA_VERSION
 from tests.unit.store.test_versions_and_faults import restored
 
@@ -35,13 +34,7 @@ def model(
     return StoredModel(id_, owner, plant, f"arx {id_}", DOC, at)
 
 
-@pytest.fixture
-def store(tmp_path: Path) -> Iterator[SQLiteStore]:
-    with SQLiteStore(tmp_path / "s.sqlite3") as s:
-        yield s
-
-
-def test_a_model_is_kept_listed_by_owner_and_plant_and_deleted(store: SQLiteStore) -> None:
+def test_a_model_is_kept_listed_by_owner_and_plant_and_deleted(store: Store) -> None:
     store.add_model(model("m-1", at=1.0))
     store.add_model(model("m-2", at=2.0, plant="belt_conveyor"))
     store.add_model(model("m-3", owner="a-2", at=3.0))
@@ -63,7 +56,7 @@ def test_a_model_is_kept_listed_by_owner_and_plant_and_deleted(store: SQLiteStor
     assert store.count_models("a-1") == 1
 
 
-def test_a_model_id_is_unique_and_its_document_json(store: SQLiteStore) -> None:
+def test_a_model_id_is_unique_and_its_document_json(store: Store) -> None:
     store.add_model(model("m-1"))
     with pytest.raises(Conflict):
         store.add_model(model("m-1"))

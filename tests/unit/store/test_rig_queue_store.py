@@ -14,7 +14,7 @@ import pytest
 
 from elab.errors import Conflict
 from elab.rig_queue import Arm, Join, Phase, QueuePolicy, RigQueue, SetService, Start, Tick
-from elab.store import SQLiteStore
+from elab.store import SQLiteStore, open_store
 from elab.store._db import SCHEMA_VERSION
 from tests.unit.store import rig_race
 from tests.unit.store.test_versions_and_faults import restored
@@ -96,10 +96,10 @@ def test_the_tables_refuse_a_second_driver_and_a_driver_not_at_the_head(tmp_path
 ROUNDS = 100
 
 
-def check_race(results: list[tuple[int, str, str | None, int | None]], path: Path) -> None:
+def check_race(results: list[tuple[int, str, str | None, int | None]], target: str) -> None:
     """Per round: both joins answered, one driver, whom both saw; the loser at place 2."""
     assert len(results) == 2 * ROUNDS
-    with SQLiteStore(path) as store:
+    with open_store(target) as store:
         for k in range(ROUNDS):
             seen = sorted(r for r in results if r[0] == k)
             assert len(seen) == 2
@@ -111,29 +111,25 @@ def check_race(results: list[tuple[int, str, str | None, int | None]], path: Pat
             assert sorted(place for *_, place in seen) == [1, 2]
 
 
-def test_two_users_asking_at_once_from_threads_never_both_drive(tmp_path: Path) -> None:
-    path = tmp_path / "s.sqlite3"
-    SQLiteStore(path).close()
+def test_two_users_asking_at_once_from_threads_never_both_drive(target: str) -> None:
     barrier = threading.Barrier(2)
     out: queue.Queue[tuple[int, str, str | None, int | None]] = queue.Queue()
     threads = [
-        threading.Thread(target=rig_race.contend, args=(str(path), u, ROUNDS, barrier, out))
+        threading.Thread(target=rig_race.contend, args=(target, u, ROUNDS, barrier, out))
         for u in ("x", "y")
     ]
     for t in threads:
         t.start()
     for t in threads:
         t.join(timeout=60)
-    check_race([out.get() for _ in range(2 * ROUNDS)], path)
+    check_race([out.get() for _ in range(2 * ROUNDS)], target)
 
 
-def test_two_users_asking_at_once_from_processes_never_both_drive(tmp_path: Path) -> None:
-    path = tmp_path / "s.sqlite3"
-    SQLiteStore(path).close()
+def test_two_users_asking_at_once_from_processes_never_both_drive(target: str) -> None:
     ctx = multiprocessing.get_context("spawn")
     barrier, out = ctx.Barrier(2), ctx.Queue()
     procs = [
-        ctx.Process(target=rig_race.contend, args=(str(path), u, ROUNDS, barrier, out))
+        ctx.Process(target=rig_race.contend, args=(target, u, ROUNDS, barrier, out))
         for u in ("x", "y")
     ]
     for p in procs:
@@ -142,7 +138,7 @@ def test_two_users_asking_at_once_from_processes_never_both_drive(tmp_path: Path
     for p in procs:
         p.join(timeout=30)
         assert p.exitcode == 0
-    check_race(results, path)
-    # and a join after the rounds still sees the file as every process left it
-    with SQLiteStore(path) as store:
+    check_race(results, target)
+    # and a join after the rounds still sees the store as every process left it
+    with open_store(target) as store:
         assert store.apply_rig("race-0", Tick(), P, 0.0).queue.users in (("x", "y"), ("y", "x"))

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from elab.errors import Conflict, DimensionError, ElabError, InvalidInput, NotFound
-from elab.store import ParamChange, RunRecord, SQLiteStore
+from elab.store import ParamChange, RunRecord, SQLiteStore, Store
 
 CHANNELS = (("r", "rad"), ("u", "V"), ("theta", "rad"), ("alpha", "rad"), ("x_theta", "rad"))
 NCH = len(CHANNELS)
@@ -58,7 +58,7 @@ def chunks(seed: int, sizes: tuple[int, int] = (20, 400)) -> Iterator[np.ndarray
         yield rng.standard_normal((int(rng.integers(*sizes)), NCH)) * 10.0 ** rng.integers(-5, 5)
 
 
-def fill(store: SQLiteStore, run_id: str, parts: list[np.ndarray]) -> np.ndarray:
+def fill(store: Store, run_id: str, parts: list[np.ndarray]) -> np.ndarray:
     k = 0
     for data in parts:
         store.append(run_id, k, data)
@@ -66,20 +66,14 @@ def fill(store: SQLiteStore, run_id: str, parts: list[np.ndarray]) -> np.ndarray
     return np.concatenate(parts)
 
 
-@pytest.fixture
-def store(tmp_path: Path) -> Iterator[SQLiteStore]:
-    with SQLiteStore(tmp_path / "db" / "runs.sqlite") as s:
-        yield s
-
-
 # -- runs ----------------------------------------------------------------------
-def test_a_created_run_reads_back_equal(store: SQLiteStore) -> None:
+def test_a_created_run_reads_back_equal(store: Store) -> None:
     rec = record("r-3f2a9c1b", started_at=1.7e9 + 0.5)
     store.create_run(rec)
     assert store.get_run("r-3f2a9c1b") == rec
 
 
-def test_a_run_id_is_used_once(store: SQLiteStore) -> None:
+def test_a_run_id_is_used_once(store: Store) -> None:
     store.create_run(record("r-1"))
     with pytest.raises(Conflict, match="r-1"):
         store.create_run(record("r-1", plant="belt_conveyor"))
@@ -96,19 +90,19 @@ def test_a_run_id_is_used_once(store: SQLiteStore) -> None:
         lambda s: s.param_changes("r-nope"),
     ],
 )
-def test_an_unknown_run_is_not_found(store: SQLiteStore, call: Any) -> None:
+def test_an_unknown_run_is_not_found(store: Store, call: Any) -> None:
     store.create_run(record("r-1"))
     with pytest.raises(NotFound, match="unknown run 'r-nope'"):
         call(store)
 
 
-def test_status_must_be_a_run_state(store: SQLiteStore) -> None:
+def test_status_must_be_a_run_state(store: Store) -> None:
     with pytest.raises(InvalidInput, match="finished") as err:
         store.create_run(record("r-1", status="done"))
     assert err.value.field == "status"
 
 
-def test_set_status_updates_only_the_given_fields(store: SQLiteStore) -> None:
+def test_set_status_updates_only_the_given_fields(store: Store) -> None:
     store.create_run(record("r-1", status="created"))
     store.set_status("r-1", "running", started_at=10.0)
     assert (store.get_run("r-1").started_at, store.get_run("r-1").finished_at) == (10.0, None)
@@ -122,7 +116,7 @@ def test_set_status_updates_only_the_given_fields(store: SQLiteStore) -> None:
     )
 
 
-def test_runs_are_listed_newest_first_in_pages(store: SQLiteStore) -> None:
+def test_runs_are_listed_newest_first_in_pages(store: Store) -> None:
     created = [5.0, 1.0, 3.0, 7.0, 2.0, 6.0, 4.0]
     for i, t in enumerate(created):
         plant = "belt_conveyor" if i % 3 == 0 else "flexible_link"
@@ -141,13 +135,13 @@ def test_runs_are_listed_newest_first_in_pages(store: SQLiteStore) -> None:
 
 
 @pytest.mark.parametrize(("kw", "field"), [({"limit": -1}, "limit"), ({"offset": -2}, "offset")])
-def test_bad_paging_is_refused(store: SQLiteStore, kw: dict[str, int], field: str) -> None:
+def test_bad_paging_is_refused(store: Store, kw: dict[str, int], field: str) -> None:
     with pytest.raises(InvalidInput) as err:
         store.list_runs(**kw)
     assert err.value.field == field
 
 
-def test_mark_interrupted_ends_every_live_run_of_that_engine_only(store: SQLiteStore) -> None:
+def test_mark_interrupted_ends_every_live_run_of_that_engine_only(store: Store) -> None:
     for i, status in enumerate(["created", "running", "paused", "finished", "failed"]):
         store.create_run(record(f"r-{status}", status=status, created_at=float(i)))
     store.create_run(record("r-other", engine="sim-1", created_at=9.0))
@@ -163,7 +157,7 @@ def test_mark_interrupted_ends_every_live_run_of_that_engine_only(store: SQLiteS
 
 
 # -- parameter changes ---------------------------------------------------------
-def test_parameter_changes_come_back_ordered_by_k(store: SQLiteStore) -> None:
+def test_parameter_changes_come_back_ordered_by_k(store: Store) -> None:
     store.create_run(record("r-1"))
     changes = [
         ParamChange(4000, {"controller": {"K": [1.0, 2.5]}}, 3.0),
@@ -175,7 +169,7 @@ def test_parameter_changes_come_back_ordered_by_k(store: SQLiteStore) -> None:
     assert store.param_changes("r-1") == [changes[1], changes[2], changes[0]]
 
 
-def test_parameters_must_be_json(store: SQLiteStore) -> None:
+def test_parameters_must_be_json(store: Store) -> None:
     store.create_run(record("r-1"))
     with pytest.raises(InvalidInput) as err:
         store.add_param_change("r-1", ParamChange(3, {"K": float("nan")}, 0.0))
@@ -189,7 +183,7 @@ N = BOUNDS[-1]
 
 
 @pytest.fixture
-def filled(store: SQLiteStore) -> tuple[SQLiteStore, np.ndarray]:
+def filled(store: Store) -> tuple[Store, np.ndarray]:
     rng = np.random.default_rng(12)
     store.create_run(record("r-1"))
     return store, fill(store, "r-1", [rng.standard_normal((n, NCH)) for n in SIZES])
@@ -214,7 +208,7 @@ def filled(store: SQLiteStore) -> tuple[SQLiteStore, np.ndarray]:
     ],
 )
 def test_any_range_reads_back_exactly(
-    filled: tuple[SQLiteStore, np.ndarray], k0: int, k1: int | None
+    filled: tuple[Store, np.ndarray], k0: int, k1: int | None
 ) -> None:
     store, source = filled
     got = store.read("r-1", k0, k1)
@@ -222,7 +216,7 @@ def test_any_range_reads_back_exactly(
     assert np.array_equal(got, source[k0:k1][: max(0, (k1 if k1 is not None else N) - k0)])
 
 
-def test_a_few_rows_of_a_long_chunk_read_back_exactly_in_any_part(store: SQLiteStore) -> None:
+def test_a_few_rows_of_a_long_chunk_read_back_exactly_in_any_part(store: Store) -> None:
     """A fast run writes chunks of 200,000 rows; a download reads a few thousand at a
     time, from inside one (only those rows' bytes are read from the blob)."""
     rng = np.random.default_rng(13)
@@ -233,29 +227,34 @@ def test_a_few_rows_of_a_long_chunk_read_back_exactly_in_any_part(store: SQLiteS
 
 
 def test_a_chunk_shorter_than_its_rows_is_a_damaged_file_not_wrong_numbers(
-    store: SQLiteStore,
+    store: Store,
 ) -> None:
     store.create_run(record("r-1"))
     fill(store, "r-1", [np.ones((10, NCH)), np.ones((10, NCH))])
-    with sqlite3.connect(store.path) as db:  # (what a damaged disk could leave)
-        db.execute("UPDATE chunks SET data = substr(data, 1, 8) WHERE k0 = 10")
+    cut = "UPDATE chunks SET data = substr(data, 1, 8) WHERE k0 = 10"  # (a damaged disk)
+    if isinstance(store, SQLiteStore):
+        with sqlite3.connect(store.path) as db:
+            db.execute(cut)
+    else:
+        with store._transaction() as conn:  # type: ignore[attr-defined]
+            conn.execute(cut)
     with pytest.raises(ElabError, match=r"chunk at 10 holds 8 bytes.*damaged"):
         store.read("r-1", 12, 15)
 
 
-def test_n_stored_counts_the_appended_samples(filled: tuple[SQLiteStore, np.ndarray]) -> None:
+def test_n_stored_counts_the_appended_samples(filled: tuple[Store, np.ndarray]) -> None:
     store, _ = filled
     assert store.get_run("r-1").n_stored == N
 
 
-def test_a_run_without_samples_reads_as_an_empty_array(store: SQLiteStore) -> None:
+def test_a_run_without_samples_reads_as_an_empty_array(store: Store) -> None:
     store.create_run(record("r-1"))
     store.append("r-1", 0, np.zeros((0, NCH)))
     assert store.read("r-1").shape == (0, NCH) and store.get_run("r-1").n_stored == 0
 
 
 @pytest.mark.parametrize("k0", [0, 5, 11])
-def test_a_chunk_must_start_where_the_stored_samples_end(store: SQLiteStore, k0: int) -> None:
+def test_a_chunk_must_start_where_the_stored_samples_end(store: Store, k0: int) -> None:
     store.create_run(record("r-1"))
     store.append("r-1", 0, np.ones((10, NCH)))
     with pytest.raises(ValueError, match=rf"k0: got {k0}; allowed: 10.*expected 10"):
@@ -263,19 +262,19 @@ def test_a_chunk_must_start_where_the_stored_samples_end(store: SQLiteStore, k0:
     assert store.get_run("r-1").n_stored == 10
 
 
-def test_a_chunk_has_one_column_per_channel(store: SQLiteStore) -> None:
+def test_a_chunk_has_one_column_per_channel(store: Store) -> None:
     store.create_run(record("r-1"))
     with pytest.raises(DimensionError, match=f"shape \\(n, {NCH}\\)"):
         store.append("r-1", 0, np.ones((4, NCH + 1)))
 
 
-def test_read_refuses_a_negative_start(filled: tuple[SQLiteStore, np.ndarray]) -> None:
+def test_read_refuses_a_negative_start(filled: tuple[Store, np.ndarray]) -> None:
     with pytest.raises(InvalidInput) as err:
         filled[0].read("r-1", -1)
     assert err.value.field == "k0"
 
 
-def test_append_many_stores_chunks_of_several_runs_in_one_call(store: SQLiteStore) -> None:
+def test_append_many_stores_chunks_of_several_runs_in_one_call(store: Store) -> None:
     rng = np.random.default_rng(13)
     for rid in ("r-a", "r-b", "r-c"):
         store.create_run(record(rid))
@@ -295,7 +294,7 @@ def test_append_many_stores_chunks_of_several_runs_in_one_call(store: SQLiteStor
     assert store.read("r-c").shape == (0, NCH)
 
 
-def test_append_many_stores_all_chunks_or_none(store: SQLiteStore) -> None:
+def test_append_many_stores_all_chunks_or_none(store: Store) -> None:
     store.create_run(record("r-a"))
     store.create_run(record("r-b"))
     with pytest.raises(ValueError, match="r-b"):
@@ -387,7 +386,7 @@ def test_committed_chunks_survive_a_killed_process(tmp_path: Path) -> None:
 
 
 # -- threads -------------------------------------------------------------------
-def test_reads_during_appends_see_a_consistent_prefix(store: SQLiteStore) -> None:
+def test_reads_during_appends_see_a_consistent_prefix(store: Store) -> None:
     parts = list(islice(chunks(41, sizes=(20, 300)), 200))
     source = np.concatenate(parts)
     bounds = {0, *accumulate(p.shape[0] for p in parts)}

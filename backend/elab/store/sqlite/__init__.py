@@ -1,12 +1,10 @@
 """The embedded store (:class:`~elab.store.base.RunStore` and the other protocols of
 :mod:`elab.store.base`): one SQLite file.
 
-One class per group of tables, all on :class:`~elab.store.sqlite.connections.SQLiteConnections`
-(the connections, transactions and faults): :mod:`~elab.store.sqlite.runs` (runs,
-parameter changes, samples), :mod:`~elab.store.sqlite.library` (uploaded controllers,
-identified models), :mod:`~elab.store.sqlite.access` (tokens, ended sessions, pins),
-:mod:`~elab.store.sqlite.rig` (the rig queue);
-:class:`SQLiteStore` is all of them.
+The tables' operations (:mod:`elab.store.sql`: runs, parameter changes and samples;
+uploaded controllers and identified models; tokens, ended sessions and pins; the rig queue)
+on :class:`~elab.store.sqlite.connections.SQLiteConnections` (the file's connections,
+transactions and faults); the schema and its migrations in :mod:`elab.store._db`.
 
 Durability: WAL journal, ``synchronous = NORMAL``. Every committed transaction
 survives a crash of the process (``kill -9``); a power cut may lose the last
@@ -25,12 +23,13 @@ damaged file) is not.
 
 from __future__ import annotations
 
-from elab.store.sqlite.access import SQLiteAccess
-from elab.store.sqlite.library import SQLiteLibrary
-from elab.store.sqlite.rig import SQLiteRigQueue
-from elab.store.sqlite.runs import SQLiteRuns
+from elab.store.sql.access import Access
+from elab.store.sql.library import Library
+from elab.store.sql.rig import RigQueues
+from elab.store.sql.runs import Runs
+from elab.store.sqlite.connections import SQLiteConnections
 
 
-class SQLiteStore(SQLiteRuns, SQLiteLibrary, SQLiteAccess, SQLiteRigQueue):
+class SQLiteStore(Runs, Library, Access, RigQueues, SQLiteConnections):
     """Runs, parameter changes and samples, uploaded controllers, identified models,
     tokens, pins and the rig queue in one SQLite file (WAL mode)."""

@@ -1,12 +1,10 @@
-"""Runs, their parameter changes and their samples in SQLite (the
-:class:`~elab.store.base.RunStore` part of :class:`~elab.store.sqlite.SQLiteStore`): each
-chunk of a recording is one row of ``chunks`` holding the raw little-endian float64 bytes
-of its rows (C order)."""
+"""Runs, their parameter changes and their samples (the :class:`~elab.store.base.RunStore`
+part of either store): each chunk of a recording is one row of ``chunks`` holding the raw
+little-endian float64 bytes of its rows (C order)."""
 
 from __future__ import annotations
 
 import json
-import sqlite3
 import time
 from typing import Any
 
@@ -15,7 +13,7 @@ import numpy as np
 from elab.errors import Conflict, DimensionError, ElabError, InvalidInput, NotFound
 from elab.lifecycle import RunState
 from elab.store.base import Array, ParamChange, RunRecord, RunSummary, Usage
-from elab.store.sqlite.connections import NEWEST_FIRST, SQLiteConnections, json_column
+from elab.store.sql.tables import NEWEST_FIRST, Conn, Tables, json_column
 
 _SUMMARY = (
     "id, plant, mode, experiment, status, Ts, channels, n_planned, n_stored, "
@@ -24,7 +22,7 @@ _SUMMARY = (
 _COLUMNS = _SUMMARY + ", spec"
 # the chunk holding ``start`` and every later one starting before ``stop`` (their rows:
 # the bytes wanted are read from the blob, not the whole blob)
-_OVERLAPPING = """SELECT rowid, k0, n FROM chunks
+_OVERLAPPING = """SELECT rowid, run_id, k0, n FROM chunks
     WHERE run_id = :id AND k0 < :stop AND k0 >= coalesce(
         (SELECT k0 FROM chunks WHERE run_id = :id AND k0 <= :start ORDER BY k0 DESC LIMIT 1),
         0)
@@ -32,7 +30,7 @@ _OVERLAPPING = """SELECT rowid, k0, n FROM chunks
 _LIVE = tuple(s.value for s in RunState if s.live)
 
 
-class SQLiteRuns(SQLiteConnections):
+class Runs(Tables):
     """Runs, parameter changes and samples."""
 
     # -- runs ------------------------------------------------------------------
@@ -65,7 +63,7 @@ class SQLiteRuns(SQLiteConnections):
         with self._transaction() as conn:
             try:
                 conn.execute(f"INSERT INTO runs ({_COLUMNS}) VALUES ({', '.join('?' * 19)})", row)
-            except sqlite3.IntegrityError:
+            except self.Duplicate:
                 raise Conflict(f"run {record.id!r} already exists; choose another id") from None
 
     def set_status(
@@ -134,7 +132,9 @@ class SQLiteRuns(SQLiteConnections):
 
     def delete_run(self, run_id: str) -> None:
         with self._transaction() as conn:
-            row = conn.execute("SELECT status FROM runs WHERE id = ?", (run_id,)).fetchone()
+            row = conn.execute(
+                f"SELECT status FROM runs WHERE id = ?{self.LOCK_ROWS}", (run_id,)
+            ).fetchone()
             if row is None:
                 raise NotFound("run", run_id)
             if row[0] in _LIVE:
@@ -146,7 +146,7 @@ class SQLiteRuns(SQLiteConnections):
     def usage(self, owner: str) -> Usage:
         with self._snapshot() as conn:
             runs, values = conn.execute(
-                "SELECT count(*), coalesce(sum(n_stored * json_array_length(channels)), 0) "
+                f"SELECT count(*), coalesce(sum(n_stored * {self.CHANNEL_COUNT}), 0) "
                 "FROM runs WHERE owner = ?",
                 (owner,),
             ).fetchone()
@@ -231,7 +231,7 @@ class SQLiteRuns(SQLiteConnections):
                 [(n, run_id) for run_id, (n, _) in sizes.items()],
             )
 
-    def _sizes(self, conn: sqlite3.Connection, run_ids: list[str]) -> dict[str, tuple[int, int]]:
+    def _sizes(self, conn: Conn, run_ids: list[str]) -> dict[str, tuple[int, int]]:
         """``run id → (n_stored, channels)``, in one query per 500 runs; a run's channels
         never change, so they are parsed once."""
         out: dict[str, tuple[int, int]] = {}
@@ -240,7 +240,8 @@ class SQLiteRuns(SQLiteConnections):
             part = wanted[i : i + 500]
             marks = ",".join("?" * len(part))
             for run_id, n_stored, channels in conn.execute(
-                f"SELECT id, n_stored, channels FROM runs WHERE id IN ({marks})", part
+                f"SELECT id, n_stored, channels FROM runs WHERE id IN ({marks}){self.LOCK_ROWS}",
+                part,
             ):
                 nch = self._channel_counts.get(run_id)
                 if nch is None:
@@ -262,31 +263,32 @@ class SQLiteRuns(SQLiteConnections):
             filled = 0
             if stop > start:
                 width = 8 * nch  # bytes per row
-                for rowid, c0, n in conn.execute(
+                for rowid, _, c0, n in conn.execute(
                     _OVERLAPPING, {"id": run_id, "start": start, "stop": stop}
                 ):
                     lo, hi = max(start, c0), min(stop, c0 + n)
                     # only rows lo..hi of the chunk: a fast run's chunk holds 200,000 rows
                     # (14 MiB), a download reads 8,192 at a time
-                    with conn.blobopen("chunks", "data", rowid, readonly=True) as blob:
-                        if len(blob) != n * width:
-                            raise ElabError(
-                                f"{self.path}: run {run_id!r}'s chunk at {c0} holds "
-                                f"{len(blob)} bytes, not {n} rows of {nch}; the file is damaged"
-                            )
-                        blob.seek((lo - c0) * width)
-                        rows = np.frombuffer(blob.read((hi - lo) * width), dtype="<f8")
+                    whole, part = self._chunk_part(
+                        conn, (rowid, run_id, c0), (lo - c0) * width, (hi - lo) * width
+                    )
+                    if whole != n * width:
+                        raise ElabError(
+                            f"{self.where}: run {run_id!r}'s chunk at {c0} holds "
+                            f"{whole} bytes, not {n} rows of {nch}; the store is damaged"
+                        )
+                    rows = np.frombuffer(part, dtype="<f8")
                     out[lo - start : hi - start] = rows.reshape(hi - lo, nch)
                     filled += hi - lo
         if filled != stop - start:
             raise ElabError(
-                f"{self.path}: run {run_id!r} has {stop - start - filled} of samples "
-                f"[{start}, {stop}) missing; the file is damaged"
+                f"{self.where}: run {run_id!r} has {stop - start - filled} of samples "
+                f"[{start}, {stop}) missing; the store is damaged"
             )
         return out
 
 
-def run_size(conn: sqlite3.Connection, run_id: str) -> tuple[int, int]:
+def run_size(conn: Conn, run_id: str) -> tuple[int, int]:
     """``(n_stored, number of channels)`` of a run."""
     row = conn.execute("SELECT n_stored, channels FROM runs WHERE id = ?", (run_id,)).fetchone()
     if row is None:

@@ -1,5 +1,5 @@
-"""Tokens, ended sessions and pins in SQLite (the :class:`~elab.store.base.AccessStore`
-part of :class:`~elab.store.sqlite.SQLiteStore`)."""
+"""Tokens, ended sessions and pins (the :class:`~elab.store.base.AccessStore` part of
+either store)."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ import time
 
 from elab.errors import NotFound
 from elab.store.base import Pin, Token
-from elab.store.sqlite.connections import SQLiteConnections
-from elab.store.sqlite.runs import run_size
+from elab.store.sql.runs import run_size
+from elab.store.sql.tables import Tables
 
 
-class SQLiteAccess(SQLiteConnections):
+class Access(Tables):
     """Tokens, ended sessions and pins."""
 
     # -- tokens and pins (AccessStore) -------------------------------------------
@@ -54,7 +54,9 @@ class SQLiteAccess(SQLiteConnections):
         with self._transaction() as conn:
             conn.execute("DELETE FROM ended_sessions WHERE until < ?", (time.time(),))
             conn.execute(
-                "INSERT OR REPLACE INTO ended_sessions (sid, until) VALUES (?, ?)", (sid, until)
+                "INSERT INTO ended_sessions (sid, until) VALUES (?, ?) "
+                "ON CONFLICT (sid) DO UPDATE SET until = excluded.until",
+                (sid, until),
             )
 
     def ended_sessions(self, now: float) -> set[str]:
@@ -66,7 +68,9 @@ class SQLiteAccess(SQLiteConnections):
         with self._transaction() as conn:
             run_size(conn, pin.run_id)  # NotFound for an unknown run
             conn.execute(
-                "INSERT OR REPLACE INTO pins (name, run_id, owner, at) VALUES (?, ?, ?, ?)",
+                "INSERT INTO pins (name, run_id, owner, at) VALUES (?, ?, ?, ?) "
+                "ON CONFLICT (name) DO UPDATE SET run_id = excluded.run_id, "
+                "owner = excluded.owner, at = excluded.at",
                 (pin.name, pin.run_id, pin.owner, pin.at),
             )
 

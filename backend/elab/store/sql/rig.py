@@ -1,23 +1,21 @@
-"""The rig queue in SQLite (the :class:`~elab.store.base.RigQueueStore` part of
-:class:`~elab.store.sqlite.SQLiteStore`).
+"""The rig queue (the :class:`~elab.store.base.RigQueueStore` part of either store).
 
-An operation is one ``BEGIN IMMEDIATE`` transaction: it takes SQLite's write lock before
-reading, so no other thread or process can read the queue between this one's read and its
-write; the pure rule (:func:`elab.rig_queue.apply`) decides in between. The tables say
-the same again (migration 8): one seat row per rig, and that row must be the user at
+An operation is one transaction serialised on its rig before it reads (SQLite: its
+``BEGIN IMMEDIATE`` write lock; PostgreSQL: an advisory lock on the rig's name), so no
+other thread, process or host can read the queue between this one's read and its write;
+the pure rule (:func:`elab.rig_queue.apply`) decides in between. The tables say the same
+again (migration 8): one seat row per rig, and that row must be the user at
 place 1 of the queue (a deferred foreign key), so even a faulty writer cannot store two
 drivers.
 """
 
 from __future__ import annotations
 
-import sqlite3
-
 from elab.rig_queue import Phase, QueueChange, QueueOp, QueuePolicy, RigQueue, Seat, Tick, apply
-from elab.store.sqlite.connections import SQLiteConnections
+from elab.store.sql.tables import Conn, Tables
 
 
-class SQLiteRigQueue(SQLiteConnections):
+class RigQueues(Tables):
     """The queue, the seat and the service state of each rig."""
 
     def rig_queue(self, rig: str, policy: QueuePolicy, now: float) -> RigQueue:
@@ -29,6 +27,7 @@ class SQLiteRigQueue(SQLiteConnections):
 
     def apply_rig(self, rig: str, op: QueueOp, policy: QueuePolicy, now: float) -> QueueChange:
         with self._transaction() as conn:
+            self._serialise(conn, f"rig {rig}")
             stored = read_queue(conn, rig)
             change = apply(stored, op, policy, now)  # Conflict: rolled back, nothing written
             if change.queue != stored:
@@ -36,7 +35,7 @@ class SQLiteRigQueue(SQLiteConnections):
         return change
 
 
-def read_queue(conn: sqlite3.Connection, rig: str) -> RigQueue:
+def read_queue(conn: Conn, rig: str) -> RigQueue:
     state = conn.execute(
         "SELECT settling, out_of_service FROM rigs WHERE rig = ?", (rig,)
     ).fetchone()
@@ -56,11 +55,12 @@ def read_queue(conn: sqlite3.Connection, rig: str) -> RigQueue:
     return RigQueue(tuple(u for (u,) in users), seat, bool(state[0]), state[1])
 
 
-def write_queue(conn: sqlite3.Connection, rig: str, q: RigQueue, now: float) -> None:
+def write_queue(conn: Conn, rig: str, q: RigQueue, now: float) -> None:
     """Replace what the store holds of ``rig`` by ``q`` (inside the caller's transaction)."""
     conn.execute(
-        "INSERT OR REPLACE INTO rigs (rig, settling, out_of_service, updated_at) "
-        "VALUES (?, ?, ?, ?)",
+        "INSERT INTO rigs (rig, settling, out_of_service, updated_at) VALUES (?, ?, ?, ?) "
+        "ON CONFLICT (rig) DO UPDATE SET settling = excluded.settling, "
+        "out_of_service = excluded.out_of_service, updated_at = excluded.updated_at",
         (rig, int(q.settling), q.out_of_service, now),
     )
     conn.execute("DELETE FROM rig_seat WHERE rig = ?", (rig,))

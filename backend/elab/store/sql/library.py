@@ -1,22 +1,20 @@
-"""Uploaded controllers and identified models in SQLite (the
-:class:`~elab.store.base.ControllerStore` and :class:`~elab.store.base.ModelStore` parts
-of :class:`~elab.store.sqlite.SQLiteStore`)."""
+"""Uploaded controllers and identified models (the :class:`~elab.store.base.ControllerStore`
+and :class:`~elab.store.base.ModelStore` parts of either store)."""
 
 from __future__ import annotations
 
 import json
-import sqlite3
 from typing import Any
 
 from elab.errors import Conflict, NotFound
 from elab.store.base import StoredController, StoredModel
-from elab.store.sqlite.connections import NEWEST_FIRST, SQLiteConnections, json_column
+from elab.store.sql.tables import NEWEST_FIRST, Tables, json_column
 
 _CONTROLLER = "id, owner, plant, name, format, law, report, created_at"
 _MODEL = "id, owner, plant, name, model, created_at"
 
 
-class SQLiteLibrary(SQLiteConnections):
+class Library(Tables):
     """Uploaded controllers and identified models."""
 
     # -- uploaded controllers (ControllerStore) ------------------------------------
@@ -66,7 +64,7 @@ class SQLiteLibrary(SQLiteConnections):
         with self._transaction() as conn:
             try:
                 conn.execute(f"INSERT INTO models ({_MODEL}) VALUES (?, ?, ?, ?, ?, ?)", row)
-            except sqlite3.IntegrityError:
+            except self.Duplicate:
                 raise Conflict(f"model {m.id!r} already exists; choose another id") from None
 
     def get_model(self, model_id: str) -> StoredModel:

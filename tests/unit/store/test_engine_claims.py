@@ -1,0 +1,58 @@
+"""An engine's name is held in its store while its process lives: a second server on the
+same file or database cannot start an engine of the same name (it would mark the first's
+live runs interrupted), and a process that dies, even by ``kill -9``, lets go at once.
+On both back-ends (the ``target`` fixture)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from elab.errors import ElabError
+from elab.store import open_store
+
+HOLDER = """
+import sys, time
+from elab.store import open_store
+store = open_store(sys.argv[1], migrate=False)
+store.claim("sim-0")
+print("claimed", flush=True)
+time.sleep(600)
+"""
+
+
+def test_a_second_claim_of_an_engine_waits_then_fails_by_name(target: str) -> None:
+    first, second = open_store(target), open_store(target)
+    try:
+        first.claim("sim-0")
+        second.claim("rig-0", wait=0.0)  # another engine's name is free
+        t0 = time.monotonic()
+        with pytest.raises(ElabError, match=r"'sim-0' is already running on this store"):
+            second.claim("sim-0", wait=0.5)
+        assert time.monotonic() - t0 >= 0.5  # it waited for a restarting engine
+        first.close()
+        second.claim("sim-0", wait=5.0)  # closed: free
+    finally:
+        for s in (first, second):
+            s.close()
+
+
+def test_a_killed_holder_lets_go_of_its_engine(target: str) -> None:
+    with subprocess.Popen(
+        [sys.executable, "-c", HOLDER, target], stdout=subprocess.PIPE, text=True
+    ) as holder:
+        try:
+            assert holder.stdout is not None and holder.stdout.readline().strip() == "claimed"
+            with open_store(target) as store:
+                with pytest.raises(ElabError):
+                    store.claim("sim-0", wait=0.2)
+                os.kill(holder.pid, signal.SIGKILL)
+                holder.wait(30)
+                store.claim("sim-0", wait=30.0)  # at once, within a generous cap
+        finally:
+            holder.kill()
