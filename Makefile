@@ -9,7 +9,7 @@ APP    := backend/elab/api/static/index.html
 APP_SRC := $(shell find frontend/src frontend/index.html frontend/vite.config.ts \
                         frontend/tsconfig.json -type f 2>/dev/null)
 
-.PHONY: install run test ci lint typecheck unit frontend-test chromium test-debs bench docs protocol \
+.PHONY: install run test test-postgres ci lint typecheck unit frontend-test chromium test-debs bench docs protocol \
         screenshots clean
 
 install: $(STAMP) $(NODE_STAMP) $(APP)
@@ -34,9 +34,10 @@ $(APP): $(NODE_STAMP) $(APP_SRC)
 	cd frontend && npm run build --silent
 
 # Debian packages the tests use: Chromium (end-to-end tests), GNU Octave's control
-# package (an independent identification cross-check) and bubblewrap (the controller
-# sandbox). Installed once, if missing.
-TEST_DEBS := chromium octave octave-control bubblewrap
+# package (an independent identification cross-check), bubblewrap (the controller
+# sandbox) and PostgreSQL (the store's second back-end; the tests start a server of their
+# own as the unprivileged `postgres` user). Installed once, if missing.
+TEST_DEBS := chromium octave octave-control bubblewrap postgresql
 test-debs:
 	@missing=$$(for p in $(TEST_DEBS); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then apt-get update -qq && DEBIAN_FRONTEND=noninteractive \
@@ -78,12 +79,19 @@ frontend-test: install
 test: install test-debs $(LINT_STAMP)
 	scripts/test.sh
 
+# The API and browser tests again with every test server's records in PostgreSQL (a
+# database of its own on a server the tests start on loopback; docs/operations.md).
+test-postgres: install test-debs
+	$(PY) -m compileall -q backend/elab >/dev/null
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -n 3 --dist loadscope \
+	  --no-loadscope-reorder tests/api tests/e2e --store postgres
+
 # What CI does, as a newcomer would: a clean clone of the last commit in build/ci, its own
 # virtualenv and node_modules installed from nothing, then make test there.
 ci:
 	rm -rf build/ci
 	git clone --quiet --no-hardlinks . build/ci
-	$(MAKE) -C build/ci test
+	$(MAKE) -C build/ci test test-postgres
 
 bench: install chromium
 	$(PY) tests/bench/run.py

@@ -11,7 +11,8 @@ import ssl
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
@@ -19,6 +20,7 @@ from typing import Any, TypeVar
 import httpx
 import msgpack
 import numpy as np
+import psycopg
 from websockets.asyncio.client import ClientConnection, connect
 
 ELAB = str(Path(sys.executable).parent / "elab")
@@ -37,6 +39,10 @@ TLS = ssl.create_default_context()
 START_CAP = 180
 #: put first on every test server's path: records heavy imports on its event loop
 LOOP_AUDIT = str(Path(__file__).parent / "loopaudit")
+
+
+#: set by tests/conftest.py for ``--store postgres``: a new database URL for each server
+DATABASES: Callable[[], str] | None = None
 
 
 def free_port() -> int:
@@ -64,6 +70,8 @@ class Server:
             "ELAB_TEST_LOOP_IMPORTS": str(self.loop_imports_path),
             **env,
         }
+        if DATABASES is not None and "ELAB_DATABASE_URL" not in env:
+            self.env["ELAB_DATABASE_URL"] = DATABASES()
         self.log_from = 0  # where this view's part of the log starts (see visitor())
         # the identity of client(): one browser's, given by the server on first contact
         self.cookies = httpx.Cookies()
@@ -182,6 +190,32 @@ class Server:
         return httpx.Client(
             base_url=self.url + "/api/v1", timeout=30, limits=KEEP_ALIVE, verify=TLS
         )
+
+    @contextmanager
+    def store_locked(self) -> Iterator[Callable[[], None]]:
+        """Another process holding this server's store so that nobody writes to it (reads
+        go on) until the function this yields is called, or the block ends: SQLite, an
+        exclusive lock on the file; PostgreSQL, a session holding the tables the engine
+        writes in EXCLUSIVE mode."""
+        url = self.env.get("ELAB_DATABASE_URL")
+        if url is None:
+            from tests.unit.store.test_versions_and_faults import locked
+
+            with locked(self.data / "elab.sqlite3") as release:
+                yield release
+            return
+        conn = psycopg.connect(url)
+        conn.execute("LOCK TABLE runs, chunks, param_changes, probe IN EXCLUSIVE MODE")
+
+        def release() -> None:
+            if not conn.closed:
+                conn.rollback()
+                conn.close()
+
+        try:
+            yield release
+        finally:
+            release()
 
     def status(self) -> dict[str, Any]:
         """``GET /api/v1/server``."""

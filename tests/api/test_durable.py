@@ -18,7 +18,6 @@ from elab.plants import get_plant
 from elab.sim import RunSpec, Square, simulate
 from tests.api.server import KEEP_ALIVE, TLS, Server, Watcher, until
 from tests.api.test_live_runs import NAMES, downloads
-from tests.unit.store.test_versions_and_faults import locked
 
 FLEX = get_plant("flexible_link")
 SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
@@ -126,7 +125,7 @@ def test_a_run_that_ends_in_a_long_store_stall_fails_with_what_the_recording_hol
                 await asyncio.to_thread(
                     until, lambda: c.get(f"/runs/{rid}").json()["n_samples"] > 1000
                 )
-                with locked(srv.data / "elab.sqlite3"):
+                with srv.store_locked():
                     # the run's last sample is stepped; the store holds what came before
                     await asyncio.to_thread(
                         until, lambda: c.get(f"/runs/{rid}").json()["n_samples"] == 4000, 30

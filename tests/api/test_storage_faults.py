@@ -1,7 +1,7 @@
 """Storage faults injected for real under a running server: the database locked by another
-process past the busy timeout, a full file system, the file made immutable. In each no run
-stays live, nothing committed is lost, /server and /health say what happened, and once the
-fault clears new runs work."""
+process past the busy timeout, a full file system, the file made immutable, a second server
+started on the same store. In each no run stays live, nothing committed is lost, /server and
+/health say what happened, and once the fault clears new runs work."""
 
 from __future__ import annotations
 
@@ -15,9 +15,9 @@ import pytest
 
 from elab.plants import get_plant
 from elab.sim import RunSpec, Square, simulate
-from tests.api.server import Server, until
+from tests.api.server import ELAB, START_CAP, Server, until
 from tests.api.test_live_runs import downloads
-from tests.unit.store.test_versions_and_faults import _chattr, locked
+from tests.unit.store.test_versions_and_faults import _chattr
 
 FLEX = get_plant("flexible_link")
 SQUARE = {"kind": "square", "amplitude": math.radians(30), "period": 2.0}
@@ -67,8 +67,8 @@ def test_a_store_locked_by_another_process_is_retried_and_loses_nothing(tmp_path
     srv = Server(tmp_path / "data").start()
     try:
         rid = start_run(srv, 12.0)
-        with locked(srv.data / "elab.sqlite3") as release:
-            # past the 5 s busy timeout: the engine retries and says so
+        with srv.store_locked() as release:
+            # past the 5 s busy (lock) timeout: the engine retries and says so
             store = until(lambda: (s := srv.status()["store"])["transient"] and s, 30)
             assert "locked" in store["error"] and store["pending_bytes"] > 0
             with srv.client() as c:
@@ -81,6 +81,31 @@ def test_a_store_locked_by_another_process_is_retried_and_loses_nothing(tmp_path
             np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(12.0))  # complete
             assert srv.status()["store"]["ok"]
         assert_recovered(srv)
+    finally:
+        srv.stop()
+
+
+def test_a_second_server_on_the_same_store_stops_and_the_first_goes_on(tmp_path: Path) -> None:
+    """Its engine would have marked the first one's live runs interrupted (both call theirs
+    sim-0); it says why it stops, and the first one's run ends whole."""
+    srv = Server(tmp_path / "data").start()
+    try:
+        rid = start_run(srv, 8.0)
+        second = Server(srv.data, **{k: srv.env[k] for k in ("ELAB_DATABASE_URL",) if k in srv.env})
+        ended = subprocess.run(
+            [ELAB, "serve", "--port", str(second.port)],
+            env=second.env,
+            capture_output=True,
+            text=True,
+            timeout=START_CAP,
+            check=False,
+        )
+        assert ended.returncode != 0
+        assert "'web' is already running on this store" in ended.stdout + ended.stderr
+        with srv.client() as c:
+            assert c.get(f"/runs/{rid}").json()["status"] == "running"
+            until(lambda: c.get(f"/runs/{rid}").json()["status"] == "finished")
+            np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(8.0))
     finally:
         srv.stop()
 
@@ -104,6 +129,7 @@ def small_fs(tmp_path: Path) -> Iterator[Path]:
         subprocess.run(["umount", "-l", str(mnt)], check=False)
 
 
+@pytest.mark.sqlite_only("the data directory's file system filling up")
 def test_a_full_file_system_fails_the_runs_keeps_their_data_and_recovers(small_fs: Path) -> None:
     srv = Server(small_fs / "data").start()
     try:
@@ -123,6 +149,7 @@ def test_a_full_file_system_fails_the_runs_keeps_their_data_and_recovers(small_f
         srv.stop()
 
 
+@pytest.mark.sqlite_only("the database file made immutable")
 def test_a_store_made_immutable_fails_the_runs_keeps_their_data_and_recovers(
     tmp_path: Path,
 ) -> None:

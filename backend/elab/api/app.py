@@ -61,7 +61,7 @@ from elab.rig.estop import estop_address
 from elab.runs.manager import RunManager
 from elab.runs.prediction import Predictions
 from elab.runs.rigdesk import RigDesk
-from elab.store.sqlite import SQLiteStore
+from elab.store import open_store
 
 log = logging.getLogger(__name__)
 
@@ -86,10 +86,18 @@ def create_app(settings: Settings | None = None) -> Starlette:
 
     @asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
-        store = SQLiteStore(settings.database)  # migrated here, before the engine opens it
+        # migrated here, before the engine opens it
+        store = await asyncio.to_thread(open_store, settings.store)
+        # one server per store: a second one stops here, before its engine could mark this
+        # one's live runs interrupted (its predecessor on a restart has 5 s to let go)
+        try:
+            await asyncio.to_thread(store.claim, "web", 5.0)
+        except BaseException:
+            store.close()
+            raise
         engine = ProcessEngine(
             "sim-0",
-            settings.database,
+            settings.store,
             settings.engine,
             nice=settings.engine_nice,
             max_queue=settings.engine_queue,
@@ -116,7 +124,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
                 keeping = asyncio.get_running_loop().create_task(emulator.keep())
             engines["rig"] = ProcessEngine(
                 "rig-0",
-                settings.database,
+                settings.store,
                 RigSettings(
                     address=address,
                     # ahead of the simulation's stepping thread (at ELAB_ENGINE_REALTIME),

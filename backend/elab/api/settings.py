@@ -16,6 +16,7 @@ from elab.errors import InvalidInput
 from elab.rig_queue import QueuePolicy
 from elab.runs.limits import Limits
 from elab.sim.spec import MAX_SAMPLES
+from elab.store import POSTGRES_SCHEMES
 
 #: the stepping thread's SCHED_FIFO priority by default (1..99; the kernel's threads: 50)
 REALTIME = 10
@@ -25,7 +26,10 @@ LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
 @dataclass(frozen=True)
 class Settings:
-    """``ELAB_DATA`` (default ``./data``): where the SQLite file lives. Limits: ``limits`` (runs;
+    """``ELAB_DATA`` (default ``./data``): where the SQLite file lives (and the secret, the
+    rig's emergency-stop socket); ``database_url``: ``ELAB_DATABASE_URL``, a
+    ``postgresql://user:password@host:port/db`` whose database holds the records instead of
+    the file (docs/operations.md, *PostgreSQL*). Limits: ``limits`` (runs;
     see :class:`~elab.runs.limits.Limits`), ``max_body`` bytes of a request (``ELAB_MAX_BODY``,
     1 MiB), ``max_upload`` bytes of identification data (``ELAB_MAX_UPLOAD``, 16 MiB),
     ``max_uploads`` large bodies read at once (``ELAB_MAX_UPLOADS``, 4), websocket streams one
@@ -78,6 +82,7 @@ class Settings:
     (``ELAB_RIG_GRACE``, 60 s)."""
 
     data_dir: Path = Path("data")
+    database_url: str | None = None
     limits: Limits = field(default_factory=Limits)
     max_body: int = 1 << 20
     max_head: int = 256 << 10
@@ -117,7 +122,13 @@ class Settings:
 
     @property
     def database(self) -> Path:
+        """The embedded store's file (used unless ``database_url`` is given)."""
         return self.data_dir / "elab.sqlite3"
+
+    @property
+    def store(self) -> str:
+        """Where the records are: the PostgreSQL URL if given, else the SQLite file."""
+        return self.database_url or str(self.database)
 
     @classmethod
     def from_env(cls, env: Mapping[str, str] = os.environ) -> Settings:
@@ -152,6 +163,7 @@ class Settings:
         )
         return cls(
             data_dir=Path(env.get("ELAB_DATA", "data")),
+            database_url=_database_url(env),
             limits=limits,
             max_body=_int(env, "ELAB_MAX_BODY", 1 << 20),
             max_head=_int(env, "ELAB_MAX_HEAD", 256 << 10),
@@ -192,6 +204,22 @@ class Settings:
                 grace=_float(env, "ELAB_RIG_GRACE", QueuePolicy.grace),
             ),
         )
+
+
+def _database_url(env: Mapping[str, str]) -> str | None:
+    url = env.get("ELAB_DATABASE_URL", "").strip()
+    if not url:
+        return None
+    if not url.startswith(POSTGRES_SCHEMES):
+        scheme, _, rest = url.partition("://")
+        shown = f"{scheme}://…@{rest.rsplit('@', 1)[-1]}" if "@" in rest else url  # no password
+        raise InvalidInput(
+            "ELAB_DATABASE_URL",
+            shown,
+            "a PostgreSQL URL, postgresql://user:password@host:port/database "
+            "(unset: the SQLite file in ELAB_DATA)",
+        )
+    return url
 
 
 def _int(env: Mapping[str, str], name: str, default: int, lo: int = 1, hi: int = 1 << 62) -> int:

@@ -53,6 +53,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--data", help="data directory (default: $ELAB_DATA or ./data)")
     p.set_defaults(run="elab.cli.server:cmd_serve")
     p = sub.add_parser(
+        "migrate", help="bring the store ($ELAB_DATABASE_URL or the data file) to this schema"
+    )
+    p.add_argument("--data", help="data directory (default: $ELAB_DATA or ./data)")
+    p.set_defaults(run="elab.cli.server:cmd_migrate")
+    p = sub.add_parser(
         "check", help="read a controller file and print its report on a plant's model"
     )
     p.add_argument("file", help="a .toml, .json, .mat, .npz or .py controller (elab template)")

@@ -28,7 +28,6 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from pathlib import Path
 from typing import assert_never
 
 from elab.engines import wire
@@ -39,8 +38,8 @@ from elab.engines.simulation import SimulationEngine
 from elab.errors import ElabError
 from elab.rig.driver import TcpDriver
 from elab.runtime import return_memory
+from elab.store import Store, open_store
 from elab.store.base import ParamChange, RunRecord
-from elab.store.sqlite import SQLiteStore
 
 log = logging.getLogger("elab.engine")
 
@@ -160,7 +159,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     sys.setswitchinterval(0.001)
     sock = socket.socket(fileno=args.fd)
     outbox = Outbox(sock, max_queue, backlog_bytes=min(4 << 20, max_queue // 4))
-    store = SQLiteStore(Path(args.database), migrate=False)
+    store = open_store(args.database, migrate=False)
+    store.claim(args.engine)  # before it marks "its" live runs interrupted
     engine = _build(args.kind, args.engine, store, WireEvents(outbox), settings, outbox)
     interrupted = engine.start()
     # what is loaded by now (numpy, scipy, control, numba, the compiled loop: ~160,000
@@ -199,7 +199,7 @@ def forked(sock: socket.socket, argv: Sequence[str]) -> None:
 def _build(
     kind: str,
     engine_id: str,
-    store: SQLiteStore,
+    store: Store,
     events: EngineEvents,
     settings: EngineSettings | RigSettings,
     outbox: Outbox,
@@ -329,7 +329,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--fd", type=int, required=True, help="the socket to the web process")
     p.add_argument("--engine", required=True, help="this engine's id (its runs in the store)")
     p.add_argument("--kind", default="simulation", choices=["simulation", "rig"])
-    p.add_argument("--database", required=True, help="the SQLite store")
+    p.add_argument("--database", required=True, help="the store: a SQLite file or a URL")
     p.add_argument("--settings", default="{}", help="EngineSettings as JSON, plus nice, max_queue")
     return p
 

@@ -27,7 +27,6 @@ import socket
 import time
 from collections.abc import Callable
 from dataclasses import asdict
-from pathlib import Path
 from typing import Any, assert_never
 
 from elab.engines import wire
@@ -57,7 +56,7 @@ class ProcessEngine:
     def __init__(
         self,
         engine_id: str,
-        database: Path,
+        database: str,
         settings: EngineSettings | RigSettings,
         *,
         nice: int = 0,
@@ -214,8 +213,8 @@ class ProcessEngine:
             self.id,
             "--kind",
             self.kind,
-            "--database",
-            str(self.database),
+            "--database",  # a file, or a URL (forked: its password on no command line)
+            self.database,
             "--settings",
             json.dumps(options),
         ]
