@@ -56,6 +56,12 @@ def build_parser() -> argparse.ArgumentParser:
         "migrate", help="bring the store ($ELAB_DATABASE_URL or the data file) to this schema"
     )
     p.add_argument("--data", help="data directory (default: $ELAB_DATA or ./data)")
+    p.add_argument(
+        "--from",
+        dest="source",
+        metavar="FILE",
+        help="then copy an embedded lab's records from this elab.sqlite3 (into an empty store)",
+    )
     p.set_defaults(run="elab.cli.server:cmd_migrate")
     p = sub.add_parser(
         "check", help="read a controller file and print its report on a plant's model"

@@ -78,24 +78,44 @@ def cmd_serve(args: argparse.Namespace) -> str:
 
 def cmd_migrate(args: argparse.Namespace) -> str:
     """Bring the store (``ELAB_DATABASE_URL``, else the file in ``--data``/``ELAB_DATA``) to
-    this version's schema; safe beside web nodes doing the same (they take the same lock)."""
+    this version's schema; safe beside web nodes doing the same (they take the same lock).
+    ``--from FILE``: then copy an embedded lab's records from that SQLite file into it."""
     import os
+    from pathlib import Path
 
     from elab.api.settings import Settings
-    from elab.store import open_store
+    from elab.store import SQLiteStore, open_store
     from elab.store._db import SCHEMA_VERSION
 
     if args.data:
         os.environ["ELAB_DATA"] = args.data
     settings = Settings.from_env()
+    source = Path(args.source) if args.source else None
+    if source is not None:
+        if not source.is_file():
+            raise InvalidInput("--from", str(source), "an E-Lab SQLite file (elab.sqlite3)")
+        if settings.database_url is None and source.resolve() == settings.database.resolve():
+            raise InvalidInput("--from", str(source), "another store than the one migrated")
     store = open_store(settings.store)
     try:
         found = store.migrated_from
+        said = f"{_where(settings)}: schema version " + (
+            f"{SCHEMA_VERSION}, current"
+            if found == SCHEMA_VERSION
+            else f"{found} -> {SCHEMA_VERSION}"
+        )
+        if source is None:
+            return said
+        from elab.store.copy import copy_records
+        from elab.store.sql.tables import Tables
+
+        assert isinstance(store, Tables)
+        with SQLiteStore(source) as old:  # upgraded first if an older E-Lab wrote it
+            copied = copy_records(old, store)
     finally:
         store.close()
-    if found == SCHEMA_VERSION:
-        return f"{_where(settings)}: schema version {SCHEMA_VERSION}, current"
-    return f"{_where(settings)}: schema version {found} -> {SCHEMA_VERSION}"
+    rows = ", ".join(f"{n} {table}" for table, n in copied.items() if n) or "nothing"
+    return f"{said}\ncopied from {source}: {rows}"
 
 
 def _where(settings: Settings) -> str:
