@@ -4,8 +4,9 @@ tests run as root, as PostgreSQL requires), listening on a free loopback port, a
 schema per test (``schema()``: a URL whose ``search_path`` is that schema alone, so every
 test starts from an empty database without the cost of creating one).
 
-Durability settings are off (``fsync``, ``synchronous_commit``): the tests check what the
-store keeps across connections and processes, not across power cuts."""
+For the tests durability is off (``fsync``, ``synchronous_commit``): they check what the
+store keeps across connections and processes, not across power cuts. ``durable=True`` (the
+benchmark) keeps ``fsync`` and full-page writes on, with ``synchronous_commit = off``."""
 
 from __future__ import annotations
 
@@ -30,13 +31,14 @@ class PostgresServer:
     """``start()``, then ``url`` (the database ``elab``), ``schema()`` for a fresh one;
     ``stop()`` removes the cluster."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, durable: bool = False) -> None:
         if not _BIN:
             raise RuntimeError("PostgreSQL is not installed: `make test-debs` installs it")
         self.bin = _BIN[-1]
         self.root = Path(tempfile.mkdtemp(prefix="elab-pg-"))
         self.port = _free_port()
         self.url = f"postgresql://postgres@127.0.0.1:{self.port}/elab"
+        self.durable = durable
 
     def _as_owner(self, *cmd: str) -> list[str]:
         return ["runuser", "-u", "postgres", "--", *cmd] if os.geteuid() == 0 else list(cmd)
@@ -49,13 +51,14 @@ class PostgresServer:
         subprocess.run(
             self._as_owner(
                 str(self.bin / "initdb"), "-D", str(data), "-U", "postgres", "--auth=trust",
-                "--encoding=UTF8", "--no-sync",
+                "--encoding=UTF8", *([] if self.durable else ["--no-sync"]),
             ),
             **run,
         )  # fmt: skip
+        unsafe = "" if self.durable else "-c fsync=off -c full_page_writes=off "
         options = (
-            f"-p {self.port} -k {self.root} -c listen_addresses=127.0.0.1 -c fsync=off "
-            "-c synchronous_commit=off -c full_page_writes=off -c max_connections=300"
+            f"-p {self.port} -k {self.root} -c listen_addresses=127.0.0.1 {unsafe}"
+            "-c synchronous_commit=off -c max_connections=300"
         )
         subprocess.run(
             self._as_owner(

@@ -197,6 +197,12 @@ def cli_section() -> str:
     return bench_cli()
 
 
+def store_section() -> str:
+    from tests.bench.store import bench_store
+
+    return bench_store()
+
+
 #: name → function returning the section's markdown, in document order
 SECTIONS: dict[str, Callable[[], str]] = {
     "engine": engine_section,
@@ -211,6 +217,7 @@ SECTIONS: dict[str, Callable[[], str]] = {
     "controllers": controllers_section,
     "cli": cli_section,
     "rig": rig_section,
+    "store": store_section,
 }
 OUT = ROOT / "docs" / "benchmarks.md"
 
