@@ -17,6 +17,7 @@ from elab.plants import get_plant
 from elab.sim import RunSpec, Square, simulate
 from tests.api.server import ELAB, START_CAP, Server, until
 from tests.api.test_live_runs import downloads
+from tests.postgres import PostgresServer
 from tests.unit.store.test_versions_and_faults import _chattr
 
 FLEX = get_plant("flexible_link")
@@ -108,6 +109,37 @@ def test_a_second_server_on_the_same_store_stops_and_the_first_goes_on(tmp_path:
             np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(8.0))
     finally:
         srv.stop()
+
+
+def test_postgres_restarting_under_a_run_loses_nothing(tmp_path: Path) -> None:
+    """The database restarts (every session ended) while a run records: the engine's
+    writes fail transiently and are retried on new connections, the run ends whole,
+    requests meanwhile get at most a 503 that says to retry, and the service returns."""
+    pg = PostgresServer()
+    pg.start()
+    srv = Server(tmp_path / "data", ELAB_DATABASE_URL=pg.schema()).start()
+    try:
+        rid = start_run(srv, 10.0)
+        pg.restart()
+        with srv.client() as c:
+            seen: set[int] = set()
+
+            def finished() -> bool:
+                r = c.get(f"/runs/{rid}")
+                seen.add(r.status_code)
+                return r.status_code == 200 and r.json()["status"] == "finished"
+
+            until(finished, 120)
+            assert seen <= {200, 503}, seen
+            info = c.get(f"/runs/{rid}").json()
+            assert (info["n_samples"], info["error"]) == (10_000, None)
+            np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(10.0))
+            until(lambda: c.get("/health").json()["status"] == "ok", 60)
+            r = c.post("/runs", json={"plant": "belt_conveyor", "duration": 1.0, "pace": "fast"})
+            assert r.status_code == 201, r.text
+    finally:
+        srv.stop()
+        pg.stop()
 
 
 @pytest.fixture
