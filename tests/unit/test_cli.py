@@ -200,3 +200,23 @@ def test_identify_names_a_bad_analyses_value(
         f"error: --analyses: got {value!r}; allowed: correlation, spectral (comma-separated), "
         "all or none\n"
     )
+
+
+def test_migrate_says_what_it_did_and_refuses_a_file_that_is_no_store(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv("ELAB_DATABASE_URL", raising=False)
+    data = str(tmp_path / "data")
+    code, out, _ = run(capsys, "migrate", "--data", data)
+    assert code == 0 and out.strip().endswith("elab.sqlite3: schema version 0 -> 9")
+    code, out, _ = run(capsys, "migrate", "--data", data)
+    assert code == 0 and out.strip().endswith("schema version 9, current")
+    empty, text = tmp_path / "empty", tmp_path / "notes.txt"
+    empty.touch()
+    text.write_text("not a database\n" * 100)
+    for bad, why in ((empty, "has no E-Lab schema"), (text, "this is not one")):
+        code, _, err = run(capsys, "migrate", "--data", str(tmp_path / "d2"), "--from", str(bad))
+        assert code == 2 and "--from" in err and why in err, err
+    assert empty.stat().st_size == 0 and not (tmp_path / "d2").exists()  # nothing written
+    code, _, err = run(capsys, "migrate", "--data", data, "--from", data + "/elab.sqlite3")
+    assert code == 2 and "another store than the one migrated" in err

@@ -5,8 +5,10 @@ instructor account."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from dataclasses import replace
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from elab.errors import InvalidInput
@@ -81,19 +83,15 @@ def cmd_migrate(args: argparse.Namespace) -> str:
     this version's schema; safe beside web nodes doing the same (they take the same lock).
     ``--from FILE``: then copy an embedded lab's records from that SQLite file into it."""
     import os
-    from pathlib import Path
 
     from elab.api.settings import Settings
     from elab.store import SQLiteStore, open_store
     from elab.store._db import SCHEMA_VERSION
 
-    if args.data:
-        os.environ["ELAB_DATA"] = args.data
-    settings = Settings.from_env()
+    settings = Settings.from_env({**os.environ, **({"ELAB_DATA": args.data} if args.data else {})})
     source = Path(args.source) if args.source else None
     if source is not None:
-        if not source.is_file():
-            raise InvalidInput("--from", str(source), "an E-Lab SQLite file (elab.sqlite3)")
+        _check_store_file(source)
         if settings.database_url is None and source.resolve() == settings.database.resolve():
             raise InvalidInput("--from", str(source), "another store than the one migrated")
     store = open_store(settings.store)
@@ -116,6 +114,23 @@ def cmd_migrate(args: argparse.Namespace) -> str:
         store.close()
     rows = ", ".join(f"{n} {table}" for table, n in copied.items() if n) or "nothing"
     return f"{said}\ncopied from {source}: {rows}"
+
+
+def _check_store_file(path: Path) -> None:
+    """``--from`` names an E-Lab store, read without writing to it: a SQLite file with a
+    schema version (an empty or foreign file is refused, not turned into a store)."""
+    import sqlite3
+
+    allowed = "an E-Lab store file (elab.sqlite3 in a data directory)"
+    if not path.is_file():
+        raise InvalidInput("--from", str(path), allowed)
+    try:
+        with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as db:
+            version = int(db.execute("PRAGMA user_version").fetchone()[0])
+    except sqlite3.Error as e:
+        raise InvalidInput("--from", str(path), f"{allowed}; this is not one ({e})") from None
+    if version == 0:
+        raise InvalidInput("--from", str(path), f"{allowed}; this one has no E-Lab schema")
 
 
 def _where(settings: Settings) -> str:
