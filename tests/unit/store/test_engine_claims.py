@@ -15,10 +15,12 @@ import pytest
 
 from elab.errors import ElabError
 from elab.store import open_store
+from tests.postgres import PostgresServer
 
 HOLDER = """
 import sys, time
 from elab.store import open_store
+from tests.postgres import PostgresServer
 store = open_store(sys.argv[1], migrate=False)
 store.claim("sim-0")
 print("claimed", flush=True)
@@ -56,3 +58,11 @@ def test_a_killed_holder_lets_go_of_its_engine(target: str) -> None:
                 store.claim("sim-0", wait=30.0)  # at once, within a generous cap
         finally:
             holder.kill()
+
+
+def test_stores_in_two_schemas_of_one_database_claim_apart(postgres: PostgresServer) -> None:
+    """A store is its tables in the connection's schema: two schemas of one database (as
+    the tests give each server) are two stores, though advisory locks are the database's."""
+    with open_store(postgres.schema()) as a, open_store(postgres.schema()) as b:
+        a.claim("web")
+        b.claim("web", wait=0.0)

@@ -80,7 +80,8 @@ class PostgresConnections(Tables):
         with _faults(self.where):
             conn = psycopg.connect(self._url, autocommit=True)
             deadline = time.monotonic() + wait
-            query = "SELECT pg_try_advisory_lock(hashtext(%s))"
+            # advisory locks are the database's; the store is its tables in this schema
+            query = "SELECT pg_try_advisory_lock(hashtext(current_schema() || ' ' || %s))"
             while not (conn.execute(query, (f"elab {name}",)).fetchone() or (False,))[0]:
                 if time.monotonic() >= deadline:
                     conn.close()
@@ -105,7 +106,7 @@ class PostgresConnections(Tables):
             yield _Adapted(raw)
 
     def _serialise(self, conn: Conn, key: str) -> None:
-        conn.execute("SELECT pg_advisory_xact_lock(hashtext(?))", (key,))
+        conn.execute("SELECT pg_advisory_xact_lock(hashtext(current_schema() || ' ' || ?))", (key,))
 
     def _chunk_part(
         self, conn: Conn, chunk: tuple[Any, ...], at: int, size: int
