@@ -129,17 +129,30 @@ def _configure(conn: psycopg.Connection[Any], *, lock_timeout: float) -> None:
 
 
 class _Adapted:
-    """A psycopg connection taking the tables' ``?`` and ``:name`` parameters."""
+    """A psycopg connection taking the tables' ``?`` and ``:name`` parameters, and text
+    parameters holding NUL, which PostgreSQL's text cannot (it refuses the statement), as
+    NULL: no stored text holds NUL (the tables refuse names with one and write it out in
+    messages, on both back-ends), so such a key matches nothing — NULL equals nothing —,
+    which is what SQLite answers too (a run ``a\\x00b`` is not found, on either)."""
 
     def __init__(self, raw: psycopg.Connection[Any]) -> None:
         self.raw = raw
 
     def execute(self, sql: str, parameters: Any = (), /) -> Rows:
-        return self.raw.execute(_psycopg_sql(sql), parameters)
+        return self.raw.execute(_psycopg_sql(sql), _without_nul(parameters))
 
     def executemany(self, sql: str, parameters: Sequence[Any], /) -> None:
         with self.raw.cursor() as cur:
-            cur.executemany(_psycopg_sql(sql), parameters)
+            cur.executemany(_psycopg_sql(sql), [_without_nul(p) for p in parameters])
+
+
+def _without_nul(parameters: Any) -> Any:
+    def ok(v: Any) -> Any:
+        return None if isinstance(v, str) and "\x00" in v else v
+
+    if isinstance(parameters, dict):
+        return {k: ok(v) for k, v in parameters.items()}
+    return [ok(v) for v in parameters]
 
 
 @lru_cache(maxsize=256)

@@ -8,7 +8,7 @@ import time
 from elab.errors import NotFound
 from elab.store.base import Pin, Token
 from elab.store.sql.runs import run_size
-from elab.store.sql.tables import Tables
+from elab.store.sql.tables import Tables, text
 
 
 class Access(Tables):
@@ -20,7 +20,14 @@ class Access(Tables):
             conn.execute(
                 "INSERT INTO tokens (id, hash, owner, name, created_at, last_used) "
                 "VALUES (?, ?, ?, ?, ?, ?)",
-                (token.id, digest, token.owner, token.name, token.created_at, token.last_used),
+                (
+                    token.id,
+                    digest,
+                    token.owner,
+                    text("name", token.name),
+                    token.created_at,
+                    token.last_used,
+                ),
             )
 
     def token_by_digest(self, digest: str) -> Token | None:
@@ -71,7 +78,7 @@ class Access(Tables):
                 "INSERT INTO pins (name, run_id, owner, at) VALUES (?, ?, ?, ?) "
                 "ON CONFLICT (name) DO UPDATE SET run_id = excluded.run_id, "
                 "owner = excluded.owner, at = excluded.at",
-                (pin.name, pin.run_id, pin.owner, pin.at),
+                (text("name", pin.name), pin.run_id, pin.owner, pin.at),
             )
 
     def pin(self, name: str) -> Pin | None:

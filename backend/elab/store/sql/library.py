@@ -8,7 +8,7 @@ from typing import Any
 
 from elab.errors import Conflict, NotFound
 from elab.store.base import StoredController, StoredModel
-from elab.store.sql.tables import NEWEST_FIRST, Tables, json_column
+from elab.store.sql.tables import NEWEST_FIRST, Tables, json_column, text
 
 _CONTROLLER = "id, owner, plant, name, format, law, report, created_at"
 _MODEL = "id, owner, plant, name, model, created_at"
@@ -28,8 +28,8 @@ class Library(Tables):
                     c.id,
                     c.owner,
                     c.plant,
-                    c.name,
-                    c.format,
+                    text("name", c.name),
+                    text("format", c.format),
                     json_column("law", c.law),
                     json_column("report", c.report),
                     c.source,
@@ -60,7 +60,14 @@ class Library(Tables):
     # -- identified models (ModelStore) -------------------------------------------
     def add_model(self, model: StoredModel) -> None:
         m = model
-        row = (m.id, m.owner, m.plant, m.name, json_column("model", m.model), m.created_at)
+        row = (
+            m.id,
+            m.owner,
+            m.plant,
+            text("name", m.name),
+            json_column("model", m.model),
+            m.created_at,
+        )
         with self._transaction() as conn:
             try:
                 conn.execute(f"INSERT INTO models ({_MODEL}) VALUES (?, ?, ?, ?, ?, ?)", row)

@@ -12,7 +12,7 @@ drivers.
 from __future__ import annotations
 
 from elab.rig_queue import Phase, QueueChange, QueueOp, QueuePolicy, RigQueue, Seat, Tick, apply
-from elab.store.sql.tables import Conn, Tables
+from elab.store.sql.tables import Conn, Tables, message
 
 
 class RigQueues(Tables):
@@ -61,7 +61,7 @@ def write_queue(conn: Conn, rig: str, q: RigQueue, now: float) -> None:
         "INSERT INTO rigs (rig, settling, out_of_service, updated_at) VALUES (?, ?, ?, ?) "
         "ON CONFLICT (rig) DO UPDATE SET settling = excluded.settling, "
         "out_of_service = excluded.out_of_service, updated_at = excluded.updated_at",
-        (rig, int(q.settling), q.out_of_service, now),
+        (rig, int(q.settling), message(q.out_of_service), now),
     )
     conn.execute("DELETE FROM rig_seat WHERE rig = ?", (rig,))
     conn.execute("DELETE FROM rig_queue WHERE rig = ?", (rig,))

@@ -13,7 +13,7 @@ import numpy as np
 from elab.errors import Conflict, DimensionError, ElabError, InvalidInput, NotFound
 from elab.lifecycle import RunState
 from elab.store.base import Array, ParamChange, RunRecord, RunSummary, Usage
-from elab.store.sql.tables import NEWEST_FIRST, Conn, Tables, json_column
+from elab.store.sql.tables import NEWEST_FIRST, Conn, Tables, json_column, message, text
 
 _SUMMARY = (
     "id, plant, mode, experiment, status, Ts, channels, n_planned, n_stored, "
@@ -40,10 +40,10 @@ class Runs(Tables):
         if not record.channels:
             raise InvalidInput("channels", record.channels, "at least one (name, unit) pair")
         row = (
-            record.id,
-            record.plant,
-            record.mode,
-            record.experiment,
+            text("id", record.id),
+            text("plant", record.plant),
+            text("mode", record.mode),
+            text("experiment", record.experiment),
             _status(record.status),
             record.Ts,
             json.dumps([list(c) for c in record.channels]),
@@ -52,9 +52,9 @@ class Runs(Tables):
             record.created_at,
             record.started_at,
             record.finished_at,
-            record.error,
-            record.engine,
-            record.owner,
+            message(record.error),
+            None if record.engine is None else text("engine", record.engine),
+            None if record.owner is None else text("owner", record.owner),
             int(record.private),
             None if record.compute is None else json_column("compute", record.compute),
             None if record.outcome is None else json_column("outcome", record.outcome),
@@ -80,7 +80,7 @@ class Runs(Tables):
         given = {
             "started_at": started_at,
             "finished_at": finished_at,
-            "error": error,
+            "error": message(error),
             "compute": None if compute is None else json_column("compute", compute),
             "outcome": None if outcome is None else json_column("outcome", outcome),
         }
@@ -174,7 +174,7 @@ class Runs(Tables):
             ]
             conn.execute(
                 f"UPDATE runs SET status = ?, finished_at = ?, error = ? WHERE {mine}",
-                (RunState.INTERRUPTED.value, time.time(), reason, engine, *_LIVE),
+                (RunState.INTERRUPTED.value, time.time(), message(reason), engine, *_LIVE),
             )
         return ids
 

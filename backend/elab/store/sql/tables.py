@@ -117,6 +117,21 @@ def taken(where: str, name: str) -> ElabError:
     )
 
 
+def text(field: str, value: str) -> str:
+    """A text column's value from a user (a name): any text but NUL, which PostgreSQL's text
+    cannot hold; refused on both back-ends alike."""
+    if "\x00" in value:
+        raise InvalidInput(field, value, "text without NUL characters (\\x00)")
+    return value
+
+
+def message(value: str | None) -> str | None:
+    """A text column's value the lab wrote (a run's error, which may quote what a user's
+    controller raised; why a rig is out of service): NUL written as ``\\x00``, on both
+    back-ends alike, so that no message can make a write fail."""
+    return None if value is None else value.replace("\x00", "\\x00")
+
+
 def json_column(field: str, value: dict[str, Any] | list[Any]) -> str:
     try:
         return json.dumps(value, allow_nan=False)
