@@ -186,6 +186,7 @@ def test_a_bad_from_seq_closes_with_4400_naming_it_and_leaks_no_watcher(server: 
     for query in ("?from_seq=²", "?from_seq=-1", "?from_seq=" + "9" * 40):
         code, reason = asyncio.run(close_reason(query))
         assert code == 4400 and reason is not None and reason.startswith("from_seq"), reason
-    until(lambda: _server_watchers(server) == before, 10)
+    # none left (an earlier test's watcher of this shared server may still be leaving)
+    until(lambda: _server_watchers(server) <= before, 30)
     with server.client() as c:
         c.post(f"/runs/{rid}/stop")

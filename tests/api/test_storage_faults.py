@@ -103,9 +103,10 @@ def test_a_second_server_on_the_same_store_stops_and_the_first_goes_on(tmp_path:
         )
         assert ended.returncode != 0
         assert "'web' is already running on this store" in ended.stdout + ended.stderr
-        with srv.client() as c:
-            assert c.get(f"/runs/{rid}").json()["status"] == "running"
+        with srv.client() as c:  # not interrupted: it ran on and ended whole
             until(lambda: c.get(f"/runs/{rid}").json()["status"] == "finished")
+            info = c.get(f"/runs/{rid}").json()
+            assert (info["n_samples"], info["error"]) == (8_000, None), info
             np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(8.0))
     finally:
         srv.stop()
