@@ -9,7 +9,7 @@ APP    := backend/elab/api/static/index.html
 APP_SRC := $(shell find frontend/src frontend/index.html frontend/vite.config.ts \
                         frontend/tsconfig.json -type f 2>/dev/null)
 
-.PHONY: install run test test-postgres ci lint typecheck unit frontend-test chromium test-debs bench docs protocol \
+.PHONY: install run test test-postgres test-cluster ci lint typecheck unit frontend-test chromium test-debs bench docs protocol \
         screenshots clean
 
 install: $(STAMP) $(NODE_STAMP) $(APP)
@@ -37,7 +37,7 @@ $(APP): $(NODE_STAMP) $(APP_SRC)
 # package (an independent identification cross-check), bubblewrap (the controller
 # sandbox) and PostgreSQL (the store's second back-end; the tests start a server of their
 # own as the unprivileged `postgres` user). Installed once, if missing.
-TEST_DEBS := chromium octave octave-control bubblewrap postgresql
+TEST_DEBS := chromium octave octave-control bubblewrap postgresql redis-server
 test-debs:
 	@missing=$$(for p in $(TEST_DEBS); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then apt-get update -qq && DEBIAN_FRONTEND=noninteractive \
@@ -86,12 +86,19 @@ test-postgres: install test-debs
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -n 3 --dist loadscope \
 	  --no-loadscope-reorder tests/api tests/e2e --store postgres
 
+# The API and browser tests against the lab as a cluster runs it: records in PostgreSQL,
+# every test server's simulation engines two processes of their own on a Redis broker.
+test-cluster: install test-debs
+	$(PY) -m compileall -q backend/elab >/dev/null
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -n 3 --dist loadscope \
+	  --no-loadscope-reorder tests/api tests/e2e --store postgres --engines broker
+
 # What CI does, as a newcomer would: a clean clone of the last commit in build/ci, its own
 # virtualenv and node_modules installed from nothing, then make test there.
 ci:
 	rm -rf build/ci
 	git clone --quiet --no-hardlinks . build/ci
-	$(MAKE) -C build/ci test test-postgres
+	$(MAKE) -C build/ci test test-cluster
 
 bench: install chromium
 	$(PY) tests/bench/run.py

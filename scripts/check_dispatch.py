@@ -81,7 +81,8 @@ UNIONS = (
         "engines/wire.py",
         "Event = (\n    Ready",
         "@dataclass(frozen=True)\nclass Dummy:\n    id: int\n\n\nEvent = (\n    Dummy | Ready",
-        frozenset({"engines/wire.py", "engines/process.py"}),
+        # handed on in one place (wire.deliver) for both links, the socket and the broker
+        frozenset({"engines/wire.py"}),
     ),
     Union(
         "identified model kinds (their parameters)",

@@ -28,6 +28,7 @@ import pytest
 from tests.api import server as servers
 from tests.api.server import Server
 from tests.postgres import PostgresServer
+from tests.redis_server import RedisServer
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -39,6 +40,14 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         "PostgreSQL (a server of each worker's own, a fresh database schema per test server; "
         "`make test-postgres`)",
     )
+    parser.addoption(
+        "--engines",
+        choices=("local", "broker"),
+        default=os.environ.get("ELAB_TEST_ENGINES", "local"),
+        help="the test servers' simulation engines: the process each server starts, or "
+        f"{servers.ENGINES} processes of their own on a Redis broker beside each server "
+        "(`make test-cluster`)",
+    )
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -48,6 +57,9 @@ def _servers_store(request: pytest.FixtureRequest) -> None:
     if request.config.getoption("--store") == "postgres":
         pg: PostgresServer = request.getfixturevalue("postgres")
         servers.DATABASES = pg.schema
+    if request.config.getoption("--engines") == "broker":
+        broker: RedisServer = request.getfixturevalue("redis_server")
+        servers.BROKERS = broker.url
 
 
 @pytest.fixture(scope="session")
@@ -106,6 +118,20 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         for item in items:
             if (mark := item.get_closest_marker("sqlite_only")) is not None:
                 item.add_marker(pytest.mark.skip(reason=f"the SQLite file itself: {mark.args[0]}"))
+    if config.getoption("--engines") == "broker":
+        for item in items:
+            if (mark := item.get_closest_marker("local_engine_only")) is not None:
+                why = f"the engine the server starts itself: {mark.args[0]}"
+                item.add_marker(pytest.mark.skip(reason=why))
+
+
+@pytest.fixture(scope="session")
+def redis_server() -> Iterator[RedisServer]:
+    """A Redis server of this test worker's own (tests/redis_server.py)."""
+    broker = RedisServer()
+    broker.start()
+    yield broker
+    broker.stop()
 
 
 @pytest.fixture(scope="session")

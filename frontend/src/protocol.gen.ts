@@ -983,6 +983,10 @@ export interface EngineInfo {
    * since it last reported (s)
    */
   heartbeat_age_s: number | null;
+  /**
+   * its live runs, as it last said
+   */
+  live_runs: number | null;
 }
 /**
  * This interface was referenced by `ElabProtocol`'s JSON-Schema

@@ -8,7 +8,7 @@ const NOW = 1_800_000_000;
 function queue(over: Partial<RigQueueInfo> = {}, you: Partial<RigQueueInfo["you"]> = {}, rig: Partial<RigQueueInfo["rig"]> = {}): RigQueueInfo {
   return {
     rig: {
-      engine: { id: "rig-0", up: true, problem: null, restarts: 0, pid: 7, heartbeat_age_s: 0.1 },
+      engine: { id: "rig-0", up: true, problem: null, restarts: 0, pid: 7, heartbeat_age_s: 0.1, live_runs: 0 },
       connected: true,
       rig_id: "emulator-1",
       firmware: "elab-rig-emulator 1",

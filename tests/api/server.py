@@ -10,6 +10,7 @@ import socket
 import ssl
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -43,6 +44,11 @@ LOOP_AUDIT = str(Path(__file__).parent / "loopaudit")
 
 #: set by tests/conftest.py for ``--store postgres``: a new database URL for each server
 DATABASES: Callable[[], str] | None = None
+#: set by tests/conftest.py for ``--engines broker``: a new broker URL for each server, whose
+#: simulation engines are then processes of their own (``elab engine``) started beside it
+BROKERS: Callable[[], str] | None = None
+#: engines a server on a broker has (its runs go to the least busy)
+ENGINES = 2
 
 
 def free_port() -> int:
@@ -72,6 +78,13 @@ class Server:
         }
         if DATABASES is not None and "ELAB_DATABASE_URL" not in env:
             self.env["ELAB_DATABASE_URL"] = DATABASES()
+        if BROKERS is not None and "ELAB_REDIS_URL" not in env:
+            self.env["ELAB_REDIS_URL"] = BROKERS()
+            # an engine killed is noticed when its heartbeats stop, not when a socket closes
+            self.env.setdefault("ELAB_ENGINE_STALL", "5")
+        self.engines: list[subprocess.Popen[bytes] | None] = []
+        self._keeping: threading.Thread | None = None
+        self._stopping = threading.Event()
         self.log_from = 0  # where this view's part of the log starts (see visitor())
         # the identity of client(): one browser's, given by the server on first contact
         self.cookies = httpx.Cookies()
@@ -122,14 +135,17 @@ class Server:
                 r = httpx.get(self.url + "/api/v1/me", timeout=1, cookies=self.cookies, verify=TLS)
                 r.raise_for_status()
                 self.cookies.update(r.cookies)
+                if self.on_broker and not self.engines:  # the store is migrated by now
+                    self._start_engines()
                 # ready: the identification workers have imported what their jobs need,
                 # and the engines have started (in the background since the web process
                 # serves at once: its health says 503 until then)
                 st = self.status()
                 engines = [st["engine"], *([st["rig"]["engine"]] if st.get("rig") else [])]
-                if st["ident"]["starting"] == 0 and all(
-                    e["up"] or e["problem"] not in (None, "starting") for e in engines
-                ):
+                started = all(e["up"] or e["problem"] not in (None, "starting") for e in engines)
+                if self.on_broker:  # and every engine of its own is up
+                    started &= sum(e["up"] for e in st["engines"]) >= ENGINES
+                if st["ident"]["starting"] == 0 and started:
                     return self
             except httpx.HTTPError:
                 pass
@@ -139,10 +155,56 @@ class Server:
         self.stop()
         raise RuntimeError(f"server did not start in {START_CAP} s: {self.log[-4000:]}")
 
+    @property
+    def on_broker(self) -> bool:
+        """Its simulation engines are processes of their own on a broker."""
+        return "ELAB_REDIS_URL" in self.env
+
+    def _start_engines(self) -> None:
+        """``ENGINES`` engines on its broker, kept running as a supervisor (systemd) would:
+        one that ends is started again after half a second, until the server stops."""
+        self._stopping.clear()
+        self.engines = [self._engine(i) for i in range(ENGINES)]
+        self._keeping = threading.Thread(target=self._keep_engines, daemon=True)
+        self._keeping.start()
+
+    def _engine(self, i: int) -> subprocess.Popen[bytes]:
+        with self.log_path.open("ab") as log:
+            return subprocess.Popen(
+                [ELAB, "engine", "--name", f"sim-{i}"],
+                env=self.env,
+                stdout=subprocess.DEVNULL,
+                stderr=log,
+            )
+
+    def _keep_engines(self) -> None:
+        while not self._stopping.wait(0.5):
+            for i, proc in enumerate(self.engines):
+                if proc is not None and proc.poll() is not None and not self._stopping.is_set():
+                    self.engines[i] = self._engine(i)
+
+    def _stop_engines(self) -> None:
+        self._stopping.set()
+        if self._keeping is not None:
+            self._keeping.join()
+        for proc in self.engines:
+            if proc is not None and proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+        for proc in self.engines:
+            if proc is None:
+                continue
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        self.engines = []
+
     def stop(self) -> None:
-        """Stop the server (SIGINT, then SIGKILL after 20 s) and fail if its web process
-        imported a heavy module on its event loop (``loopaudit/sitecustomize.py``) or its
-        fork server started without a module asked for later."""
+        """Stop the server (SIGINT, then SIGKILL after 20 s), and its engines if they are
+        its own processes, and fail if its web process imported a heavy module on its event
+        loop (``loopaudit/sitecustomize.py``) or its fork server started without a module
+        asked for later."""
         if self.proc and self.proc.poll() is None:
             self.proc.send_signal(signal.SIGINT)
             try:
@@ -150,6 +212,7 @@ class Server:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+        self._stop_engines()
         self.check_audit()
 
     def check_audit(self) -> None:
@@ -169,9 +232,15 @@ class Server:
         return [line for line in lines if line.startswith(mine)]
 
     def kill9(self) -> None:
+        """``kill -9`` of the web process; engines of their own are stopped after it (as a
+        host's power cut would; the test restarts the server on the same data)."""
         assert self.proc is not None
         self.proc.send_signal(signal.SIGKILL)
         self.proc.wait()
+        for proc in self.engines if self.on_broker else ():
+            if proc is not None:
+                proc.kill()
+        self._stop_engines()
         self.check_audit()  # what it did up to its end
 
     def client(self) -> httpx.Client:

@@ -33,6 +33,7 @@ class Controller:
 """
 
 
+@pytest.mark.local_engine_only("both slow runs on one engine, its timing in /server")
 def test_slow_code_runs_delay_nobody_else(tmp_path: Path) -> None:
     # a budget that lets the slow controller run on (by default it would fail in 0.2 s)
     srv = Server(tmp_path / "data", ELAB_CODE_BUDGET="1000").start()

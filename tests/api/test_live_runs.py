@@ -12,6 +12,7 @@ from typing import Any
 
 import httpx
 import numpy as np
+import pytest
 import scipy.io
 from websockets.sync.client import connect
 
@@ -133,6 +134,7 @@ def test_watchers_gain_change_downloads_and_restart(tmp_path: Path) -> None:
         srv.stop()
 
 
+@pytest.mark.local_engine_only("the engine ends its runs when the web process that started it dies")
 def test_kill_9_mid_run_leaves_an_interrupted_run_with_its_data(tmp_path: Path) -> None:
     srv = Server(tmp_path / "data").start()
     try:

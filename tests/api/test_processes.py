@@ -84,6 +84,7 @@ def test_the_web_process_stopped_for_2_s_mid_run_loses_no_sample(server: Server)
             np.testing.assert_array_equal(got[name], want[:, i].astype("<f4"))
 
 
+@pytest.mark.local_engine_only("the server restarts its engine (broker: test_engines_on_broker)")
 def test_a_killed_engine_interrupts_its_runs_with_their_data_and_starts_again(
     server: Server,
 ) -> None:
@@ -123,6 +124,7 @@ def test_a_killed_engine_interrupts_its_runs_with_their_data_and_starts_again(
         until(lambda: c.get(f"/runs/{again}").json()["status"] == "finished")
 
 
+@pytest.mark.local_engine_only("the server's own engine, found by its pid in /server")
 def test_a_stopped_engine_is_reported_and_its_runs_complete_after_it_goes_on(
     server: Server,
 ) -> None:
@@ -150,6 +152,7 @@ def test_a_stopped_engine_is_reported_and_its_runs_complete_after_it_goes_on(
         assert server.status()["engine"]["restarts"] == restarts  # it went on: not replaced
 
 
+@pytest.mark.local_engine_only("the server kills its engine (on a broker: test_engines_on_broker)")
 def test_an_engine_stalled_past_its_limit_is_killed_and_its_runs_say_why(tmp_path: Path) -> None:
     """Issue 24: a run ended by the stall watchdog said "killed by SIGKILL", as if someone
     had killed the engine; it now says the server did, and why."""
@@ -259,6 +262,7 @@ def _cmdline(pid: int) -> bytes:
         return b""
 
 
+@pytest.mark.local_engine_only("the server starts its engine itself")
 def test_a_run_asked_for_while_the_engine_starts_waits_briefly_then_is_told_to_retry(
     tmp_path: Path,
 ) -> None:

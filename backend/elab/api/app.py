@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import gc
+import importlib
 import logging
 from collections import Counter
 from collections.abc import AsyncIterator
@@ -81,6 +82,29 @@ APP_PAGES = (
 )
 
 
+async def _simulation_engines(settings: Settings) -> Engine:
+    """The engine process this server starts, or the engines on the broker."""
+    if settings.redis_url is None:
+        return ProcessEngine(
+            "sim-0",
+            settings.store,
+            settings.engine,
+            nice=settings.engine_nice,
+            max_queue=settings.engine_queue,
+            command_timeout=settings.engine_timeout,
+            stall_timeout=settings.engine_stall,
+        )
+    # off the event loop: redis-py's import (only a server on a broker needs it)
+    broker = await asyncio.to_thread(importlib.import_module, "elab.engines.broker")
+    engines: Engine = broker.BrokerEngines(
+        "simulation",
+        settings.redis_url,
+        command_timeout=settings.engine_timeout,
+        stall_timeout=settings.engine_stall,
+    )
+    return engines
+
+
 def create_app(settings: Settings | None = None) -> Starlette:
     settings = settings or Settings.from_env()
 
@@ -95,16 +119,7 @@ def create_app(settings: Settings | None = None) -> Starlette:
         except BaseException:
             store.close()
             raise
-        engine = ProcessEngine(
-            "sim-0",
-            settings.store,
-            settings.engine,
-            nice=settings.engine_nice,
-            max_queue=settings.engine_queue,
-            command_timeout=settings.engine_timeout,
-            stall_timeout=settings.engine_stall,
-        )
-        engines: dict[str, Engine] = {"simulation": engine}
+        engines: dict[str, Engine] = {"simulation": await _simulation_engines(settings)}
         emulator = (
             # the emulator's clock above the host loop, as hardware's own would be
             EmulatorProcess(

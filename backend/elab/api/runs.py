@@ -253,6 +253,7 @@ def server_model(status: ManagerStatus, jobs: s.JobsInfo, uploads: s.UploadsInfo
         ),
         stepper=timing,
         engine=_engine_model(st),
+        engines=[_engine_model(e) for e in status.simulation_engines],
         store=s.StoreInfo(
             ok=store.ok,
             error=store.error,
@@ -284,6 +285,7 @@ def _engine_model(st: EngineStatus) -> s.EngineInfo:
         restarts=st.restarts,
         pid=st.pid,
         heartbeat_age_s=st.heartbeat_age,
+        live_runs=None if st.health is None else st.health.live_runs,
     )
 
 

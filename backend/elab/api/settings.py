@@ -20,6 +20,8 @@ from elab.store import POSTGRES_SCHEMES
 
 #: the stepping thread's SCHED_FIFO priority by default (1..99; the kernel's threads: 50)
 REALTIME = 10
+#: the URLs a broker may have (redis-py's)
+REDIS_SCHEMES = ("redis://", "rediss://", "unix://")
 #: the host names a server on one's own machine answers to
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
@@ -29,7 +31,10 @@ class Settings:
     """``ELAB_DATA`` (default ``./data``): where the SQLite file lives (and the secret, the
     rig's emergency-stop socket); ``database_url``: ``ELAB_DATABASE_URL``, a
     ``postgresql://user:password@host:port/db`` whose database holds the records instead of
-    the file (docs/operations.md, *PostgreSQL*). Limits: ``limits`` (runs;
+    the file (docs/operations.md, *PostgreSQL*); ``redis_url``: ``ELAB_REDIS_URL``, a broker
+    on which the simulation engines are processes of their own (``elab engine``, on any
+    host; docs/operations.md, *Engines on a broker*) instead of one this server starts.
+    Limits: ``limits`` (runs;
     see :class:`~elab.runs.limits.Limits`), ``max_body`` bytes of a request (``ELAB_MAX_BODY``,
     1 MiB), ``max_upload`` bytes of identification data (``ELAB_MAX_UPLOAD``, 16 MiB),
     ``max_uploads`` large bodies read at once (``ELAB_MAX_UPLOADS``, 4), websocket streams one
@@ -83,6 +88,7 @@ class Settings:
 
     data_dir: Path = Path("data")
     database_url: str | None = None
+    redis_url: str | None = None
     limits: Limits = field(default_factory=Limits)
     max_body: int = 1 << 20
     max_head: int = 256 << 10
@@ -164,6 +170,7 @@ class Settings:
         return cls(
             data_dir=Path(env.get("ELAB_DATA", "data")),
             database_url=_database_url(env),
+            redis_url=_redis_url(env),
             limits=limits,
             max_body=_int(env, "ELAB_MAX_BODY", 1 << 20),
             max_head=_int(env, "ELAB_MAX_HEAD", 256 << 10),
@@ -218,6 +225,22 @@ def _database_url(env: Mapping[str, str]) -> str | None:
             shown,
             "a PostgreSQL URL, postgresql://user:password@host:port/database "
             "(unset: the SQLite file in ELAB_DATA)",
+        )
+    return url
+
+
+def _redis_url(env: Mapping[str, str]) -> str | None:
+    url = env.get("ELAB_REDIS_URL", "").strip()
+    if not url:
+        return None
+    if not url.startswith(REDIS_SCHEMES):
+        scheme, _, rest = url.partition("://")
+        shown = f"{scheme}://…@{rest.rsplit('@', 1)[-1]}" if "@" in rest else url  # no password
+        raise InvalidInput(
+            "ELAB_REDIS_URL",
+            shown,
+            "a Redis URL, redis://[:password@]host:port/db, rediss://… or unix:///path "
+            "(unset: the engine is a process of this server's own)",
         )
     return url
 

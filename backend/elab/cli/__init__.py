@@ -53,6 +53,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--data", help="data directory (default: $ELAB_DATA or ./data)")
     p.set_defaults(run="elab.cli.server:cmd_serve")
     p = sub.add_parser(
+        "engine",
+        help="a simulation engine of its own on the broker ($ELAB_REDIS_URL): steps the runs "
+        "the lab's web servers send it, records them in the store",
+    )
+    p.add_argument(
+        "--name",
+        help="its id, one per engine on the store (default: sim-<host name>)",
+    )
+    p.add_argument("--data", help="data directory (default: $ELAB_DATA or ./data)")
+    p.set_defaults(run="elab.cli.server:cmd_engine")
+    p = sub.add_parser(
         "migrate", help="bring the store ($ELAB_DATABASE_URL or the data file) to this schema"
     )
     p.add_argument("--data", help="data directory (default: $ELAB_DATA or ./data)")

@@ -78,6 +78,42 @@ def cmd_serve(args: argparse.Namespace) -> str:
     return "E-Lab stopped"
 
 
+def cmd_engine(args: argparse.Namespace) -> str:
+    """A simulation engine of its own on the broker (``ELAB_REDIS_URL``), on the store
+    (``ELAB_DATABASE_URL``, else the file in ``--data``/``ELAB_DATA``), until SIGTERM or
+    Ctrl-C: it interrupts its live runs, stores them and says why it stopped."""
+    import json
+    import os
+    import re
+    import socket
+    from dataclasses import asdict
+
+    from elab.api.settings import Settings
+
+    settings = Settings.from_env({**os.environ, **({"ELAB_DATA": args.data} if args.data else {})})
+    if settings.redis_url is None:
+        raise InvalidInput(
+            "ELAB_REDIS_URL",
+            "",
+            "a Redis URL (redis://host:port/db): an engine of its own hears its web servers "
+            "through a broker; without one, `elab serve` starts its engine itself",
+        )
+    name = args.name or f"sim-{socket.gethostname()}"
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}", name) or name == "web":
+        raise InvalidInput("--name", name, "1-40 letters, digits, '.', '_' or '-', not 'web'")
+    options = {
+        **asdict(settings.engine),
+        "nice": settings.engine_nice,
+        "max_queue": settings.engine_queue,
+    }
+    print(f"E-Lab engine {name} on {_where(settings)}", flush=True)
+    from elab.engines import child
+
+    argv = ["--engine", name, "--kind", "simulation", "--database", settings.store]
+    child.main([*argv, "--settings", json.dumps(options), "--redis", settings.redis_url])
+    return f"E-Lab engine {name} stopped"
+
+
 def cmd_migrate(args: argparse.Namespace) -> str:
     """Bring the store (``ELAB_DATABASE_URL``, else the file in ``--data``/``ELAB_DATA``) to
     this version's schema; safe beside web nodes doing the same (they take the same lock).

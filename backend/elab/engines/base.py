@@ -212,6 +212,9 @@ class Engine(Protocol):
     def status(self) -> EngineStatus:
         """Up or not, why, and its last heartbeat."""
 
+    def statuses(self) -> list[EngineStatus]:
+        """Each engine process behind this one (one, or each engine on a broker)."""
+
 
 class SteppingEngine(Protocol):
     """What an engine process runs (:mod:`elab.engines.child`), one per kind: the

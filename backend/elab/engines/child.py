@@ -1,16 +1,18 @@
 """The engine process: ``python -m elab.engines.child --fd N --engine ID --database PATH``,
-or, as the web process starts it, :func:`forked` from its fork server.
+or, as the web process starts it, :func:`forked` from its fork server; or, on a broker,
+``elab engine`` (``--redis URL`` here: :mod:`elab.engines.broker`).
 
 It runs a :class:`~elab.engines.simulation.SimulationEngine` and speaks
-:mod:`elab.engines.wire` over the socket ``N`` it inherits from the web process:
-commands in; events, heartbeats and replies out, all through one queue, in the
-order they happen (an event is always out before the reply to the command that
-caused it). A dedicated thread sends, so a web process that stops reading never
-delays a sample: sample blocks beyond ``max_queue`` bytes are dropped (the store
+:mod:`elab.engines.wire` over the socket ``N`` it inherits from the web process (or its
+two streams on the broker): commands in; events, heartbeats and replies out, all through
+one queue, in the order they happen (an event is always out before the reply to the
+command that caused it). A dedicated thread sends, so a web process that stops reading
+never delays a sample: sample blocks beyond ``max_queue`` bytes are dropped (the store
 has them; the web side reads the gap back), nothing else is.
 
-When the web process goes away (end of file on the socket) or asks it to close,
-it interrupts its live runs, stores everything and exits.
+When the web process goes away (end of file on the socket) or asks it to close, or an
+engine on a broker is told to stop (SIGTERM, SIGINT), it interrupts its live runs,
+stores everything and exits.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import assert_never
+from typing import Protocol, assert_never
 
 from elab.engines import wire
 from elab.engines.base import Block, Changed, Ended, EngineEvents, Health, SteppingEngine
@@ -49,8 +51,8 @@ HEARTBEAT = 0.5  # s
 class Outbox:
     """Messages to the web process, sent in order by a thread of their own."""
 
-    def __init__(self, sock: socket.socket, max_bytes: int, backlog_bytes: int) -> None:
-        self._sock = sock
+    def __init__(self, send: Callable[[bytes], None], max_bytes: int, backlog_bytes: int) -> None:
+        self._sendall = send  # raises OSError once nobody can be told
         self.max_bytes = max_bytes
         self.backlog_bytes = backlog_bytes
         self._items: deque[tuple[bytes | Callable[[], bytes], int]] = deque()
@@ -58,6 +60,7 @@ class Outbox:
         self._cond = threading.Condition()
         self._closing = False
         self.dropped = 0  # sample messages dropped while the web process did not read
+        self.gone = False  # sending failed for good
         self._thread = threading.Thread(target=self._send, name="elab-engine-out", daemon=True)
         self._thread.start()
 
@@ -95,8 +98,9 @@ class Outbox:
                     return
                 message, size = self._items.popleft()
             try:
-                self._sock.sendall(message if isinstance(message, bytes) else message())
-            except OSError:  # the web process is gone: nobody to tell
+                self._sendall(message if isinstance(message, bytes) else message())
+            except OSError:  # the web process (the broker) is gone: nobody to tell
+                self.gone = True
                 return
             with self._cond:
                 self._bytes -= size
@@ -157,8 +161,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     # a thread running Python (compiling a new run, sorting samples for the store) gives
     # the GIL to the stepping thread within 1 ms of its asking, not the default 5 ms
     sys.setswitchinterval(0.001)
-    sock = socket.socket(fileno=args.fd)
-    outbox = Outbox(sock, max_queue, backlog_bytes=min(4 << 20, max_queue // 4))
+    link = _link(args)
+    outbox = Outbox(link.send, max_queue, backlog_bytes=min(4 << 20, max_queue // 4))
     store = open_store(args.database, migrate=False)
     store.claim(args.engine)  # before it marks "its" live runs interrupted
     engine = _build(args.kind, args.engine, store, WireEvents(outbox), settings, outbox)
@@ -169,21 +173,71 @@ def main(argv: Sequence[str] | None = None) -> int:
     # 5-10 s after 300 runs were started: a tick 64-110 ms late)
     gc.collect()
     gc.freeze()
+    link.announce()  # on a broker: where its messages begin, for the web nodes to read
     outbox.put(wire.event_out(wire.Ready(engine.id, os.getpid(), interrupted, kind=args.kind)))
     beat = threading.Thread(
         target=_heartbeat, args=(engine, outbox), name="elab-engine-beat", daemon=True
     )
     beat.start()
-    reason = "the web server process ended"
     workers = ThreadPoolExecutor(2, thread_name_prefix="elab-engine-cmd")
     try:
-        reason = _serve(sock, engine, outbox, workers) or reason
+        reason = _serve(link.receive, engine, outbox, workers) or link.ended
     finally:
         workers.shutdown(wait=True)
         engine.close(reason)
         outbox.close()
+        link.close()
         store.close()
     return 0
+
+
+class Link(Protocol):
+    """How the engine hears commands and sends its messages: the socket to the web process
+    that started it, or its streams on a broker (:class:`elab.engines.broker.EngineLink`)."""
+
+    #: why the engine ends when :meth:`receive` says there is nothing more
+    ended: str
+
+    def send(self, message: bytes) -> None:
+        """Send one framed message; :class:`OSError` once nobody can be told."""
+
+    def receive(self) -> bytes | None:
+        """The next command's header, or ``None`` at the end."""
+
+    def announce(self) -> None:
+        """The engine is about to say it is ready."""
+
+    def close(self) -> None:
+        """After the last message has been sent."""
+
+
+class SocketLink:
+    """The socket pair to the web process that started the engine."""
+
+    ended = "the web server process ended"
+
+    def __init__(self, fd: int) -> None:
+        self._sock = socket.socket(fileno=fd)
+
+    def send(self, message: bytes) -> None:
+        self._sock.sendall(message)
+
+    def receive(self) -> bytes | None:
+        return _receive(self._sock)
+
+    def announce(self) -> None:
+        pass
+
+    def close(self) -> None:
+        self._sock.close()
+
+
+def _link(args: argparse.Namespace) -> Link:
+    if args.redis is None:
+        return SocketLink(args.fd)
+    from elab.engines.broker import EngineLink
+
+    return EngineLink(args.redis, args.engine, args.kind)
 
 
 def forked(sock: socket.socket, argv: Sequence[str]) -> None:
@@ -216,11 +270,14 @@ def _build(
 
 
 def _serve(
-    sock: socket.socket, engine: SteppingEngine, outbox: Outbox, workers: ThreadPoolExecutor
+    receive: Callable[[], bytes | None],
+    engine: SteppingEngine,
+    outbox: Outbox,
+    workers: ThreadPoolExecutor,
 ) -> str | None:
     """Commands until the web process closes us (its reason) or goes away (``None``)."""
     while True:
-        message = _receive(sock)
+        message = receive()
         if message is None:
             return None
         try:
@@ -326,7 +383,9 @@ def _lock_memory() -> None:
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m elab.engines.child")
-    p.add_argument("--fd", type=int, required=True, help="the socket to the web process")
+    where = p.add_mutually_exclusive_group(required=True)
+    where.add_argument("--fd", type=int, help="the socket to the web process")
+    where.add_argument("--redis", help="the broker's URL (an engine of its own: `elab engine`)")
     p.add_argument("--engine", required=True, help="this engine's id (its runs in the store)")
     p.add_argument("--kind", default="simulation", choices=["simulation", "rig"])
     p.add_argument("--database", required=True, help="the store: a SQLite file or a URL")

@@ -132,27 +132,11 @@ class ProcessEngine:
 
     def status(self) -> EngineStatus:
         age = None if self._beat is None else time.monotonic() - self._beat
-        problem, warning, h = self._problem, None, self._health
-        if problem is None and age is not None and age > 2.0:
-            problem = f"the engine has not reported for {age:.1f} s"
-        if problem is None and h is not None:
-            if not h.stepping:
-                problem = "the engine's stepping thread is not ticking"
-            elif not h.store.ok and not h.store.transient:
-                problem = f"the run store has failed: {h.store.error}"
-            elif not h.store.ok:
-                warning = f"the run store is busy, retrying: {h.store.error}"
         pid = self._proc.pid if self._proc is not None and self._ready else None
-        return EngineStatus(
-            engine=self.id,
-            up=self._ready,
-            problem=problem,
-            warning=warning,
-            pid=pid,
-            restarts=self._restarts,
-            heartbeat_age=age,
-            health=h,
-        )
+        return judged(self.id, self._ready, self._problem, self._health, age, pid, self._restarts)
+
+    def statuses(self) -> list[EngineStatus]:
+        return [self.status()]
 
     # -- commands ------------------------------------------------------------------
     async def add(self, order: RunOrder) -> RunRecord:
@@ -162,10 +146,10 @@ class ProcessEngine:
         return record
 
     async def control(self, run_id: str, action: Action, reason: str | None = None) -> int:
-        return _sample(await self._call(lambda cid: wire.Control(cid, run_id, action, reason)))
+        return sample_index(await self._call(lambda cid: wire.Control(cid, run_id, action, reason)))
 
     async def replace(self, run_id: str, new: NewParams) -> int:
-        return _sample(await self._call(lambda cid: wire.Replace(cid, run_id, new)))
+        return sample_index(await self._call(lambda cid: wire.Replace(cid, run_id, new)))
 
     async def _call(self, command: Callable[[int], wire.Command]) -> RunRecord | int | None:
         """Send the command made for a fresh id; its answer."""
@@ -277,35 +261,23 @@ class ProcessEngine:
         except wire.Unreadable as exc:
             log.error("engine %s sent a message not understood here: %s", self.id, exc)
             return
-        match ev:
-            case wire.Blocks():
-                events.blocks(self.id, ev.blocks)
-            case wire.Reply():
-                fut = self._pending.get(ev.id)
+        match wire.deliver(events, self.id, ev):
+            case wire.Reply() as reply:
+                fut = self._pending.get(reply.id)
                 if fut is not None and not fut.done():
-                    if ev.error is not None:
-                        fut.set_exception(ev.error)
+                    if reply.error is not None:
+                        fut.set_exception(reply.error)
                     else:
-                        fut.set_result(ev.ok)
-            case wire.StateChanged():
-                events.changed(self.id, ev.change)
-            case wire.Started():
-                events.started(self.id, ev.record)
-            case wire.Params():
-                events.params(self.id, ev.run, ev.change)
-            case wire.Committed():
-                events.committed(self.id, ev.counts)
-            case wire.Stored():
-                events.stored(self.id, ev.run)
-            case wire.RunEnded():
-                events.ended(self.id, ev.run, ev.ended)
-            case wire.Beat():
-                self._health, self._beat = ev.health, time.monotonic()
-                events.health(self.id, ev.health)
+                        fut.set_result(reply.ok)
+            case wire.Beat() as beat:
+                self._health, self._beat = beat.health, time.monotonic()
+                events.health(self.id, beat.health)
             case wire.Ready():
                 log.error("engine %s said it was ready twice", self.id)
-            case _:
-                assert_never(ev)
+            case None:
+                pass
+            case other:
+                assert_never(other)
 
     async def _lost(self) -> None:
         self._ready = False
@@ -364,6 +336,40 @@ class ProcessEngine:
         return task
 
 
+def judged(
+    engine: str,
+    up: bool,
+    problem: str | None,
+    h: Health | None,
+    age: float | None,
+    pid: int | None,
+    restarts: int,
+) -> EngineStatus:
+    """An engine's status from what its link knows (``problem``: why it is not up) and what
+    it last said of itself (``h``, ``age`` s ago): silent for 2 s, a stepping thread that
+    does not tick or a failed store are problems; a store being retried a warning."""
+    warning = None
+    if problem is None and age is not None and age > 2.0:
+        problem = f"the engine has not reported for {age:.1f} s"
+    if problem is None and h is not None:
+        if not h.stepping:
+            problem = "the engine's stepping thread is not ticking"
+        elif not h.store.ok and not h.store.transient:
+            problem = f"the run store has failed: {h.store.error}"
+        elif not h.store.ok:
+            warning = f"the run store is busy, retrying: {h.store.error}"
+    return EngineStatus(
+        engine=engine,
+        up=up,
+        problem=problem,
+        warning=warning,
+        pid=pid,
+        restarts=restarts,
+        heartbeat_age=age,
+        health=h,
+    )
+
+
 async def _read(reader: asyncio.StreamReader) -> tuple[bytes, bytes]:
     head, size = wire.lengths(await reader.readexactly(wire.HEADER_BYTES))
     header = await reader.readexactly(head)
@@ -371,7 +377,7 @@ async def _read(reader: asyncio.StreamReader) -> tuple[bytes, bytes]:
     return header, payload
 
 
-def _sample(answer: RunRecord | int | None) -> int:
+def sample_index(answer: RunRecord | int | None) -> int:
     if not isinstance(answer, int):
         raise ElabError(f"an engine answered a command with {answer!r}, not a sample index")
     return answer

@@ -32,6 +32,7 @@ from elab.engines.base import (
     Block,
     Changed,
     Ended,
+    EngineEvents,
     Health,
     NewParams,
     RigLink,
@@ -323,6 +324,39 @@ def _frame(header: dict[str, Any], payload: bytes = b"") -> bytes:
     """One framed message."""
     head = json.dumps(header, separators=(",", ":")).encode()
     return _FRAME.pack(len(head), len(payload)) + head + payload
+
+
+def unframe(frame: bytes) -> tuple[bytes, bytes]:
+    """A whole framed message's header and payload (a message kept whole: on a broker)."""
+    head, size = lengths(frame[:HEADER_BYTES])
+    if len(frame) != HEADER_BYTES + head + size:
+        raise Unreadable(f"a message of {len(frame)} bytes, framed as {head} + {size}")
+    return frame[HEADER_BYTES : HEADER_BYTES + head], frame[HEADER_BYTES + head :]
+
+
+def deliver(events: EngineEvents, engine: str, ev: Event) -> Reply | Beat | Ready | None:
+    """Hand an engine's event to the run manager (``events``); the link's own messages
+    (a reply, a heartbeat, the engine's ready) go back to the caller, whose they are."""
+    match ev:
+        case Blocks():
+            events.blocks(engine, ev.blocks)
+        case StateChanged():
+            events.changed(engine, ev.change)
+        case Started():
+            events.started(engine, ev.record)
+        case Params():
+            events.params(engine, ev.run, ev.change)
+        case Committed():
+            events.committed(engine, ev.counts)
+        case Stored():
+            events.stored(engine, ev.run)
+        case RunEnded():
+            events.ended(engine, ev.run, ev.ended)
+        case Reply() | Beat() | Ready():
+            return ev
+        case _:
+            assert_never(ev)
+    return None
 
 
 def lengths(prefix: bytes) -> tuple[int, int]:

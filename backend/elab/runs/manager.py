@@ -16,7 +16,7 @@ import secrets
 import time
 from collections import Counter
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from elab.access import Identity, may_view, require_control
 from elab.engines.base import Action, Engine, EngineStatus, Pace, RunOrder
@@ -53,6 +53,8 @@ class ManagerStatus:
     live_runs: int
     watchers: int
     engines: dict[str, EngineStatus]
+    #: each engine process stepping simulations (one; or each engine on a broker)
+    simulation_engines: list[EngineStatus] = field(default_factory=list)
     #: how far the most belated watcher is behind its run's stream (s); how many are
     #: catching up from the recording (they fell behind, or joined late) and how many are
     #: having frames skipped (too slow for their queue; told so when they read again)
@@ -111,6 +113,7 @@ class RunManager(RunFollower):
             live_runs=self.live_count,
             watchers=len(watching),
             engines={mode: e.status() for mode, e in self.engines.items()},
+            simulation_engines=self.engines["simulation"].statuses(),
             delivery_lag_max=max((ch.lag(w) for ch, w in watching), default=0.0),
             catching_up=sum(w.pull_from is not None for _, w in watching),
             skipping=sum(w.skipped is not None for _, w in watching),
@@ -133,7 +136,9 @@ class RunManager(RunFollower):
         run = self._runs.get(run_id)
         if run is None:
             raise Conflict(f"run {run_id} is not live")
-        engine = self._by_id.get(run.engine)
+        # an engine of its own id, or the engines of its mode on a broker (which know
+        # which of them steps it)
+        engine = self._by_id.get(run.engine) or self.engines.get(run.record.mode)
         if engine is None:
             raise Unavailable(f"run {run_id}: its engine {run.engine} is not known here")
         return engine

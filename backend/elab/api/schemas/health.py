@@ -48,6 +48,7 @@ class EngineInfo(Model):
     restarts: int = Field(description="restarts after its process was lost")
     pid: int | None
     heartbeat_age_s: float | None = Field(description="since it last reported (s)")
+    live_runs: int | None = Field(default=None, description="its live runs, as it last said")
 
 
 class StoreInfo(Model):
@@ -119,7 +120,13 @@ class ServerStatus(Model):
     watchers: int = Field(description="websocket watchers connected, all runs")
     delivery: DeliveryInfo
     stepper: StepperTiming
-    engine: EngineInfo
+    engine: EngineInfo = Field(
+        description="the simulation engine (on a broker: the busiest of those up, or why none is)"
+    )
+    engines: list[EngineInfo] = Field(
+        description="each simulation engine process: the server's own, or each engine on "
+        "the broker (ELAB_REDIS_URL) that has reported"
+    )
     store: StoreInfo
     ident: JobsInfo
     uploads: UploadsInfo

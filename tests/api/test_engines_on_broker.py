@@ -1,0 +1,249 @@
+"""Simulation engines of their own on a Redis broker (``ELAB_REDIS_URL``, ``elab engine``):
+a real redis-server, real engine processes beside a real ``elab serve``, each test a server
+of its own (``make test-cluster`` runs the whole API suite this way)."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+import sqlite3
+import subprocess
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.api.server import ELAB, Server, Watcher, until
+from tests.api.test_live_runs import NEW_K, NEW_SQUARE, SQUARE, downloads, offline
+from tests.redis_server import RedisServer
+
+LONG = {"plant": "flexible_link", "signal": SQUARE, "duration": 60.0}
+
+
+def on_broker(tmp_path: Path, broker: RedisServer, **env: str) -> Server:
+    return Server(tmp_path / "data", ELAB_REDIS_URL=broker.url(), ELAB_ENGINE_STALL="5", **env)
+
+
+def engines_of(srv: Server) -> dict[str, str]:
+    """Each run's engine, as the store recorded it (its own record; the API does not say)."""
+    url = srv.env.get("ELAB_DATABASE_URL")
+    if url is not None:
+        import psycopg
+
+        with psycopg.connect(url) as conn:
+            return dict(conn.execute("SELECT id, engine FROM runs").fetchall())
+    path = srv.data / "elab.sqlite3"
+    with sqlite3.connect(f"file:{path}?mode=ro", uri=True) as db:
+        return dict(db.execute("SELECT id, engine FROM runs").fetchall())
+
+
+def engine_pid(srv: Server, name: str) -> int:
+    i = int(name.rsplit("-", 1)[1])
+    proc = srv.engines[i]
+    assert proc is not None
+    return proc.pid
+
+
+def reported(srv: Server, name: str, not_pid: int) -> bool:
+    """The web process hears engine ``name`` in another process than ``not_pid``."""
+    st = {e["id"]: e for e in srv.status()["engines"]}.get(name)
+    return st is not None and st["up"] and st["pid"] != not_pid
+
+
+def test_runs_share_the_engines_and_each_recording_is_the_offline_run(
+    tmp_path: Path, redis_server: RedisServer
+) -> None:
+    srv = on_broker(tmp_path, redis_server).start()
+    try:
+        with srv.client() as c:
+            ids = [c.post("/runs", json={**LONG, "duration": 4.0}).json()["id"] for _ in range(6)]
+            # a change, a pause and a resume go to the engine that steps the run
+            applied = c.post(
+                f"/runs/{ids[0]}/params",
+                json={"controller": {"kind": "state_feedback", "K": NEW_K}, "signal": NEW_SQUARE},
+            ).json()
+            assert c.post(f"/runs/{ids[1]}/pause").json()["status"] == "paused"
+            assert c.post(f"/runs/{ids[1]}/resume").json()["status"] == "running"
+            for rid in ids:
+                until(lambda rid=rid: c.get(f"/runs/{rid}").json()["status"] == "finished")
+            by_engine = Counter(engines_of(srv).values())
+            assert by_engine == {"sim-0": 3, "sim-1": 3}, by_engine  # the least busy first
+            for i, rid in enumerate(ids):
+                info = c.get(f"/runs/{rid}").json()
+                assert info["n_samples"] == 4000
+                want = offline(4.0, change_at=applied["k"] if i == 0 else None)
+                got = downloads(c, rid)
+                for fmt in ("csv", "json", "mat"):
+                    np.testing.assert_array_equal(got[fmt], want, err_msg=f"{rid} {fmt}")
+    finally:
+        srv.stop()
+
+
+def test_a_killed_engine_interrupts_only_its_runs_and_is_replaced(
+    tmp_path: Path, redis_server: RedisServer
+) -> None:
+    srv = on_broker(tmp_path, redis_server).start()
+    try:
+        with srv.client() as c:
+            a, b = (c.post("/runs", json=LONG).json()["id"] for _ in range(2))
+            until(lambda: c.get(f"/runs/{a}").json()["n_samples"] >= 1000)
+            engines = engines_of(srv)
+            assert engines[a] != engines[b]
+            victim = engine_pid(srv, engines[a])
+
+            async def scenario() -> dict[str, Any]:
+                w = await Watcher.open(srv.ws_url, a, "?from_seq=0")
+                os.kill(victim, signal.SIGKILL)
+                end = await w.until_status({"interrupted"}, timeout=90)
+                await w.conn.close()
+                return end
+
+            end = asyncio.run(scenario())
+            info = c.get(f"/runs/{a}").json()
+            assert info["status"] == "interrupted"
+            # said by the web process (no heartbeat for 5 s) or by the engine started again
+            # in its place, if that came first (it ends its predecessor's runs)
+            said = (f"engine {engines[a]} sent nothing for 5 s", "its process ended unexpectedly")
+            assert any(s in info["error"] for s in said), info["error"]
+            got = downloads(c, a)["csv"]
+            assert end["k"] == info["n_samples"] == got.shape[0]
+            assert 500 <= got.shape[0] < 60_000
+            np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
+            # the other engine's run goes on
+            assert c.get(f"/runs/{b}").json()["status"] == "running"
+            # the killed engine's supervisor (here: the test's) starts it again; it takes runs
+            until(lambda: reported(srv, engines[a], not_pid=victim))
+            new = [c.post("/runs", json={**LONG, "duration": 0.5}).json()["id"] for _ in range(2)]
+            for rid in new:
+                until(lambda rid=rid: c.get(f"/runs/{rid}").json()["status"] == "finished")
+            assert engines[a] in {engines_of(srv)[rid] for rid in new}
+            assert c.post(f"/runs/{b}/stop").json()["status"] == "stopped"
+    finally:
+        srv.stop()
+
+
+def test_an_engine_stopped_past_the_stall_loses_its_runs_and_closes_when_it_goes_on(
+    tmp_path: Path, redis_server: RedisServer
+) -> None:
+    srv = on_broker(tmp_path, redis_server).start()
+    try:
+        with srv.client() as c:
+            rid = c.post("/runs", json=LONG).json()["id"]
+            until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] >= 1000)
+            name = engines_of(srv)[rid]
+            pid = engine_pid(srv, name)
+            os.kill(pid, signal.SIGSTOP)
+            try:
+                info = until(
+                    lambda: (i := c.get(f"/runs/{rid}").json())["status"] == "interrupted" and i,
+                    timeout=90,
+                )
+            finally:
+                os.kill(pid, signal.SIGCONT)
+            assert f"engine {name} sent nothing" in info["error"]
+            # going on, it is told to close: it must not step a run the lab has ended
+            until(lambda: engine_pid(srv, name) != pid, timeout=90)
+            assert "reports again after it was lost" in srv.log
+            again = c.get(f"/runs/{rid}").json()
+            assert again["status"] == "interrupted" and again["n_samples"] < 60_000
+            got = downloads(c, rid)["csv"]
+            assert got.shape[0] == again["n_samples"]
+            np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
+            new = c.post("/runs", json={**LONG, "duration": 0.5}).json()["id"]
+            until(lambda: c.get(f"/runs/{new}").json()["status"] == "finished")
+    finally:
+        srv.stop()
+
+
+def test_without_an_engine_runs_are_refused_with_503_and_why(
+    tmp_path: Path, redis_server: RedisServer
+) -> None:
+    srv = on_broker(tmp_path, redis_server).start()
+    try:
+        srv._stop_engines()
+        with srv.client() as c:
+            health = until(
+                lambda: (
+                    (r := c.get("/health")).status_code == 503
+                    and "no simulation engine has reported" in r.json()["problems"][0]
+                    and r.json()
+                )
+            )
+            assert "`elab engine`" in health["problems"][0]
+            assert srv.status()["engines"] == []  # each left the broker as it stopped
+            r = c.post("/runs", json={**LONG, "duration": 0.5})
+            assert r.status_code == 503, r.text
+            assert "no simulation engine is running" in r.json()["error"]["message"]
+            assert "Retry-After" in r.headers
+    finally:
+        srv.stop()
+
+
+def test_an_engine_stops_in_order_its_runs_interrupted_with_their_data(
+    tmp_path: Path, redis_server: RedisServer
+) -> None:
+    srv = on_broker(tmp_path, redis_server).start()
+    try:
+        with srv.client() as c:
+            rid = c.post("/runs", json=LONG).json()["id"]
+            until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] >= 1000)
+            name = engines_of(srv)[rid]
+            os.kill(engine_pid(srv, name), signal.SIGTERM)  # as systemd stops it
+            info = until(
+                lambda: (i := c.get(f"/runs/{rid}").json())["status"] == "interrupted" and i
+            )
+            assert "the engine was shut down" in info["error"]
+            got = downloads(c, rid)["csv"]
+            assert got.shape[0] == info["n_samples"]  # everything it stepped, stored
+            np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
+    finally:
+        srv.stop()
+    assert "Traceback" not in srv.log, srv.log[-3000:]
+
+
+def run_elab(*args: str, **env: str) -> subprocess.CompletedProcess[str]:
+    environ = {k: v for k, v in os.environ.items() if not k.startswith("ELAB_")}
+    return subprocess.run(
+        [ELAB, *args], env={**environ, **env}, capture_output=True, text=True, timeout=120
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "env", "names"),
+    [
+        ((), {}, "ELAB_REDIS_URL"),
+        ((), {"ELAB_REDIS_URL": "http://127.0.0.1:1/0"}, "ELAB_REDIS_URL"),
+        (("--name", "a:b"), {"ELAB_REDIS_URL": "redis://127.0.0.1:1/0"}, "--name"),
+        (("--name", "web"), {"ELAB_REDIS_URL": "redis://127.0.0.1:1/0"}, "--name"),
+    ],
+)
+def test_elab_engine_refuses_what_it_cannot_use_by_name(
+    tmp_path: Path, args: tuple[str, ...], env: dict[str, str], names: str
+) -> None:
+    done = run_elab("engine", *args, ELAB_DATA=str(tmp_path), **env)
+    assert done.returncode == 2, done
+    assert done.stderr.startswith("error: ") and names in done.stderr, done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_elab_engine_says_when_the_broker_does_not_answer(tmp_path: Path) -> None:
+    done = run_elab("engine", ELAB_DATA=str(tmp_path), ELAB_REDIS_URL="redis://127.0.0.1:1/0")
+    assert done.returncode == 2, done
+    assert "the broker at redis://127.0.0.1:1/0 does not answer" in done.stderr, done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_a_second_engine_of_the_same_name_is_refused(
+    tmp_path: Path, redis_server: RedisServer
+) -> None:
+    srv = on_broker(tmp_path, redis_server).start()
+    try:
+        env = {k: v for k, v in srv.env.items() if k.startswith("ELAB_")}
+        done = run_elab("engine", "--name", "sim-0", **env)
+        assert done.returncode == 2, done
+        assert "'sim-0' is already running on this store" in done.stderr, done.stderr
+    finally:
+        srv.stop()
