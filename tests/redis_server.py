@@ -57,6 +57,12 @@ class RedisServer:
         """A URL on a database nobody else uses."""
         return f"redis://127.0.0.1:{self.port}/{next(self._numbers) % DATABASES}"
 
+    def kill9(self) -> None:
+        """``kill -9``: everything it held is gone (nothing is saved)."""
+        assert self.proc is not None
+        self.proc.kill()
+        self.proc.wait()
+
     def stop(self) -> None:
         if self.proc is not None and self.proc.poll() is None:
             self.proc.kill()

@@ -9,6 +9,7 @@ import os
 import signal
 import sqlite3
 import subprocess
+import time
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -24,7 +25,9 @@ LONG = {"plant": "flexible_link", "signal": SQUARE, "duration": 60.0}
 
 
 def on_broker(tmp_path: Path, broker: RedisServer, **env: str) -> Server:
-    return Server(tmp_path / "data", ELAB_REDIS_URL=broker.url(), ELAB_ENGINE_STALL="5", **env)
+    return Server(
+        tmp_path / "data", **{"ELAB_REDIS_URL": broker.url(), "ELAB_ENGINE_STALL": "5", **env}
+    )
 
 
 def engines_of(srv: Server) -> dict[str, str]:
@@ -156,6 +159,41 @@ def test_an_engine_stopped_past_the_stall_loses_its_runs_and_closes_when_it_goes
             until(lambda: c.get(f"/runs/{new}").json()["status"] == "finished")
     finally:
         srv.stop()
+
+
+def test_a_broker_killed_and_started_again_empty_loses_no_run(tmp_path: Path) -> None:
+    """redis-server killed (everything it held gone: streams, the registry) and started
+    again on its port 2 s later, under two live runs: the engines retry their writes and
+    announce themselves again, the web process reads on and takes what it missed from the
+    store; the runs end whole, equal to the offline simulation, and new runs work."""
+    broker = RedisServer()
+    broker.start()
+    srv = on_broker(tmp_path, broker, ELAB_ENGINE_STALL="30").start()
+    try:
+        with srv.client() as c:
+            ids = [c.post("/runs", json={**LONG, "duration": 8.0}).json()["id"] for _ in range(2)]
+            until(lambda: c.get(f"/runs/{ids[0]}").json()["n_samples"] >= 1000)
+            broker.kill9()
+            time.sleep(2.0)
+            broker.start()
+            for rid in ids:
+                info = until(
+                    lambda rid=rid: (
+                        (i := c.get(f"/runs/{rid}").json())["status"] == "finished" and i
+                    ),
+                    timeout=120,
+                )
+                assert info["n_samples"] == 8000
+                np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(8.0))
+            until(lambda: sum(e["up"] for e in srv.status()["engines"]) == 2, timeout=60)
+            new = c.post("/runs", json={**LONG, "duration": 0.5})
+            assert new.status_code == 201, new.text
+            rid = new.json()["id"]
+            until(lambda: c.get(f"/runs/{rid}").json()["status"] == "finished")
+            assert c.get("/health").status_code == 200
+    finally:
+        srv.stop()
+        broker.stop()
 
 
 def test_without_an_engine_runs_are_refused_with_503_and_why(

@@ -203,6 +203,12 @@ def store_section() -> str:
     return bench_store()
 
 
+def broker_section() -> str:
+    from tests.bench.broker import bench_broker
+
+    return bench_broker()
+
+
 #: name → function returning the section's markdown, in document order
 SECTIONS: dict[str, Callable[[], str]] = {
     "engine": engine_section,
@@ -218,6 +224,7 @@ SECTIONS: dict[str, Callable[[], str]] = {
     "cli": cli_section,
     "rig": rig_section,
     "store": store_section,
+    "broker": broker_section,
 }
 OUT = ROOT / "docs" / "benchmarks.md"
 

@@ -237,7 +237,9 @@ def summarise(window: Window, frames: dict[str, np.ndarray]) -> dict[str, float]
         "window": window.seconds,
         "server_core": server / window.seconds,
         "web_core": window.cpu.get("web", server) / window.seconds,
-        "engine_core": window.cpu.get("engine", 0.0) / window.seconds,
+        "engine_core": sum(c for n, c in window.cpu.items() if n.startswith("engine"))
+        / window.seconds,
+        "broker_core": window.cpu.get("broker", 0.0) / window.seconds,
         "client_core": window.cpu["client"] / window.seconds,
         "msg_rate": msgs / window.seconds,
         "us_per_msg": server / msgs * 1e6,
@@ -255,12 +257,13 @@ def summarise(window: Window, frames: dict[str, np.ndarray]) -> dict[str, float]
     }
 
 
-def lab_server(data: Path, runs: int) -> Server:
+def lab_server(data: Path, runs: int, **env: str) -> Server:
     """A started ``elab serve`` that takes ``runs`` live hour-long runs from one client
     (its storage budget too: each reserves 259 MB); its runs are watched by spectators
-    only, so their owner's absence must not pause them."""
+    only, so their owner's absence must not pause them. ``env``: more settings (a broker)."""
     return Server(
         data,
+        **env,
         ELAB_MAX_LIVE_RUNS=str(runs + 10),
         ELAB_MAX_LIVE_PER_IDENTITY=str(runs + 10),
         ELAB_MAX_STORAGE_PER_IDENTITY=str(1 << 50),
@@ -270,11 +273,14 @@ def lab_server(data: Path, runs: int) -> Server:
     ).start()
 
 
-def bench_elab(runs: int, watchers: int, seconds: float) -> dict[str, float]:
+def bench_elab(
+    runs: int, watchers: int, seconds: float, extra: dict[str, int] | None = None, **env: str
+) -> dict[str, float]:
     """``runs`` real-time runs, each followed by ``watchers`` watchers from sample 0; a
-    ``seconds`` window, then every run is stopped and its recording checked."""
+    ``seconds`` window, then every run is stopped and its recording checked. ``extra``:
+    more processes whose CPU counts as the server's (a broker); ``env``: more settings."""
     with tempfile.TemporaryDirectory() as tmp:
-        server = lab_server(Path(tmp) / "data", runs)
+        server = lab_server(Path(tmp) / "data", runs, **env)
         assert server.proc is not None
         try:
             started = start_runs(server, runs)
@@ -290,7 +296,11 @@ def bench_elab(runs: int, watchers: int, seconds: float) -> dict[str, float]:
                     status.update(c.get("/server").raise_for_status().json()["stepper"])
                 stop_runs(server, started)
 
-            pids = {"web": server.proc.pid, "engine": server.engine_pid}
+            pids = {"web": server.proc.pid, **(extra or {})}
+            if server.on_broker:  # each engine of its own
+                pids |= {f"engine-{i}": p.pid for i, p in enumerate(server.engines) if p}
+            else:
+                pids["engine"] = server.engine_pid
             window, frames = watch(pids, urls, seconds, Path(tmp), end)
             rec = check_recordings(server, started)
         finally:

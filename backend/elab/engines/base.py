@@ -180,6 +180,10 @@ class EngineEvents(Protocol):
         """The engine is gone (its process died or stopped answering); its live runs are
         over. It restarts by itself if it can."""
 
+    def resync(self, engine: str) -> None:
+        """Some of the engine's messages were missed (a web process that fell behind its
+        broker, a broker restarted): the store's records of its runs are the truth."""
+
 
 class Engine(Protocol):
     """Steps runs. Commands are decided in the engine, one at a time, in the order they

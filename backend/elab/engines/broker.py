@@ -39,6 +39,7 @@ from typing import assert_never, cast
 
 import redis
 import redis.asyncio
+from redis.asyncio.retry import Retry as AsyncRetry
 from redis.backoff import ExponentialBackoff
 from redis.retry import Retry
 
@@ -58,6 +59,8 @@ KEEP = 30.0
 INBOX = 1000
 #: connections a web process opens to the broker: one reads, the rest send commands
 CONNECTIONS = 8
+#: s between an engine's registry writes (a broker restarted empty learns it again)
+ANNOUNCE = 5.0
 #: s an engine keeps trying a broker that does not answer before it gives up
 PATIENCE = 30.0
 _POLL = 0.5  # s a read blocks: how soon a stopping engine notices
@@ -93,7 +96,8 @@ class EngineLink:
         self.engine, self.kind = engine, kind
         self.ended = "the engine was shut down"
         self._r = _client(url)
-        self._since = "0-0"
+        self._since: str | None = None  # where its outbox began, once announced
+        self._announced = 0.0  # monotonic time it last wrote its registry entry
         self._last = "0-0"  # the last inbox entry read
         self._seq = itertools.count(1)
         self._stopping = threading.Event()
@@ -110,6 +114,8 @@ class EngineLink:
         fields = {"m": message, "n": next(self._seq)}
         keep = f"{int((time.time() - KEEP) * 1000)}-0"
         try:
+            if self._since is not None and time.monotonic() - self._announced > ANNOUNCE:
+                self._register()  # again: a broker restarted without its data forgot it
             self._r.xadd(outbox(self.engine), fields, minid=keep, approximate=True)  # type: ignore[arg-type]
         except redis.RedisError as exc:  # after the client's retries
             raise OSError(f"the broker: {exc}") from exc
@@ -140,6 +146,10 @@ class EngineLink:
 
     def announce(self) -> None:
         self._since = _last_id(self._r, outbox(self.engine))
+        self._register()
+
+    def _register(self) -> None:
+        self._announced = time.monotonic()
         info = {
             "kind": self.kind,
             "pid": os.getpid(),
@@ -246,12 +256,17 @@ class BrokerEngines:
         self._events = events
         # commands wait for one of a few connections (a burst of 300 new runs opened one
         # each, past the broker's limit: "Too many connections")
+        # a connection the broker closed (it restarted) is replaced, the command sent again
+        # (a command that reached the engine twice is answered twice: the first answer
+        # counts, a second stop is a refusal nobody waits for)
         pool = redis.asyncio.BlockingConnectionPool.from_url(
             self.url,
             max_connections=CONNECTIONS,
             timeout=self.command_timeout,
             socket_timeout=10.0,
             socket_connect_timeout=5.0,
+            retry=AsyncRetry(ExponentialBackoff(cap=1.0, base=0.05), retries=3),
+            retry_on_error=[redis.ConnectionError, redis.TimeoutError],
         )
         self._r = redis.asyncio.Redis(connection_pool=pool)
         try:  # what the engines said before this process started is not for it
@@ -271,7 +286,7 @@ class BrokerEngines:
             if not fut.done():
                 fut.set_exception(Unavailable("the server is shutting down", retry_after=2.0))
         if self._r is not None:
-            await self._r.aclose()
+            await self._r.aclose(close_connection_pool=True)
 
     def status(self) -> EngineStatus:
         """The engines as one: an engine up with a problem (its store failed: the store is
@@ -476,11 +491,13 @@ class BrokerEngines:
         if seq > member.seq + 1 and member.seq and seq != 1:
             member.missed += seq - member.seq - 1
             log.error(
-                "missed %d messages of engine %s (this web process fell more than %g s behind)",
+                "missed %d messages of engine %s (this web process fell more than %g s "
+                "behind, or the broker lost them): its runs' ends are read from the store",
                 seq - member.seq - 1,
                 member.id,
                 KEEP,
             )
+            events.resync(member.id)
         member.seq = seq
         match ev:
             case wire.Started():

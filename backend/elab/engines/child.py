@@ -140,6 +140,9 @@ class WireEvents:
     def lost(self, engine: str, reason: str) -> None:  # the web side's to say
         raise NotImplementedError
 
+    def resync(self, engine: str) -> None:  # the web side's to do
+        raise NotImplementedError
+
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)

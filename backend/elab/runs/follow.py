@@ -177,9 +177,33 @@ class RunFollower:
         run = self._runs.get(run_id)
         if run is None:
             return
+        if not run.settled.is_set():  # its end was missed (resync): the store says it
+            self._spawn(self._settle_from_store(engine, [run]))
+            return
         run.stored = True
-        if run.filling is None and run.settled.is_set():
+        if run.filling is None:
             self._forget(run)
+
+    def resync(self, engine: str) -> None:
+        """Ends of the engine's runs this process missed, from their records."""
+        runs = [r for r in self._runs.values() if r.engine == engine and not r.stored]
+        if runs:
+            self._spawn(self._settle_from_store(engine, runs))
+
+    async def _settle_from_store(self, engine: str, runs: list[LiveRun]) -> None:
+        """Each of ``runs`` whose record in the store says it has ended ends here so."""
+        for run in runs:
+            try:
+                r = await asyncio.to_thread(self.store.get_run, run.record.id)
+            except ElabError:
+                log.exception("could not read run %s to follow its end", run.record.id)
+                continue
+            if RunState(r.status).live or run.stored:
+                continue
+            self.ended(engine, r.id, Ended(RunState(r.status), r.error, r.n_stored))
+            run.stored = True
+            if run.filling is None:
+                self._forget(run)
 
     def health(self, engine: str, health: Health) -> None:
         pass  # the engine keeps its last heartbeat; GET /server and /health read it there

@@ -59,6 +59,9 @@ class Heard:
     def lost(self, engine: str, reason: str) -> None:
         self.said.append(("lost", reason))
 
+    def resync(self, engine: str) -> None:
+        self.said.append(("resync", engine))
+
 
 def order(duration: float) -> RunOrder:
     spec = RunSpec(FLEX, FLEX.predefined, Square(math.radians(30), 2.0), duration=duration)
@@ -121,6 +124,7 @@ def test_a_web_process_that_missed_messages_says_how_many(redis_server: RedisSer
             st = engines.status()
             assert st.up and st.pid == 42
             assert st.warning == "this web process missed 4 engine messages"
+            assert heard.said == [("resync", "e-1")]  # its runs' ends: from the store
         finally:
             await engines.close()
 

@@ -85,6 +85,9 @@ class Heard:
     def lost(self, engine: str, reason: str) -> None:
         pass
 
+    def resync(self, engine: str) -> None:
+        pass
+
     def wait_ended(self, run_id: str, timeout: float = 60.0) -> Ended:
         with self.cond:
             assert self.cond.wait_for(lambda: run_id in self.ends, timeout), self.changes
