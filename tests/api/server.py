@@ -231,16 +231,18 @@ class Server:
         lines = self.loop_imports_path.read_text().splitlines()
         return [line for line in lines if line.startswith(mine)]
 
-    def kill9(self) -> None:
-        """``kill -9`` of the web process; engines of their own are stopped after it (as a
-        host's power cut would; the test restarts the server on the same data)."""
+    def kill9(self, engines: bool = True) -> None:
+        """``kill -9`` of the web process; engines of their own are killed with it (as a
+        host's power cut would) unless ``engines`` is false (they go on, as on other hosts;
+        ``start()`` then starts only a web process)."""
         assert self.proc is not None
         self.proc.send_signal(signal.SIGKILL)
         self.proc.wait()
-        for proc in self.engines if self.on_broker else ():
-            if proc is not None:
-                proc.kill()
-        self._stop_engines()
+        if engines:
+            for proc in self.engines if self.on_broker else ():
+                if proc is not None:
+                    proc.kill()
+            self._stop_engines()
         self.check_audit()  # what it did up to its end
 
     def client(self) -> httpx.Client:

@@ -196,6 +196,31 @@ def test_a_broker_killed_and_started_again_empty_loses_no_run(tmp_path: Path) ->
         broker.stop()
 
 
+def test_the_web_process_killed_leaves_the_runs_to_their_engines(
+    tmp_path: Path, redis_server: RedisServer
+) -> None:
+    """``kill -9`` of the web process: its engines, processes of their own, step the runs
+    on and store them whole; the web process started again finds them finished."""
+    srv = on_broker(tmp_path, redis_server).start()
+    try:
+        with srv.client() as c:
+            ids = [c.post("/runs", json={**LONG, "duration": 6.0}).json()["id"] for _ in range(2)]
+            until(lambda: c.get(f"/runs/{ids[0]}").json()["n_samples"] >= 1000)
+        srv.kill9(engines=False)
+        srv.start()
+        with srv.client() as c:
+            for rid in ids:
+                info = until(
+                    lambda rid=rid: (
+                        (i := c.get(f"/runs/{rid}").json())["status"] == "finished" and i
+                    )
+                )
+                assert info["n_samples"] == 6000
+                np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(6.0))
+    finally:
+        srv.stop()
+
+
 def test_without_an_engine_runs_are_refused_with_503_and_why(
     tmp_path: Path, redis_server: RedisServer
 ) -> None:
