@@ -144,7 +144,9 @@ def cmd_migrate(args: argparse.Namespace) -> str:
         from elab.store.sql.tables import Tables
 
         assert isinstance(store, Tables)
-        with SQLiteStore(source) as old:  # upgraded first if an older E-Lab wrote it
+        # not in use (its web name held before the file is upgraded, if an older E-Lab
+        # wrote it: a server of that version must not see its schema change under it)
+        with SQLiteStore(source, claim="web") as old:
             copied = copy_records(old, store)
     finally:
         store.close()

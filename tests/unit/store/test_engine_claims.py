@@ -7,19 +7,21 @@ from __future__ import annotations
 
 import os
 import signal
+import sqlite3
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
 from elab.errors import ElabError
-from elab.store import open_store
+from elab.store import SQLiteStore, open_store
 from tests.postgres import PostgresServer
 
 HOLDER = """
 import sys, time
-from elab.store import open_store
+from elab.store import SQLiteStore, open_store
 from tests.postgres import PostgresServer
 store = open_store(sys.argv[1], migrate=False)
 store.claim("sim-0")
@@ -42,6 +44,28 @@ def test_a_second_claim_of_an_engine_waits_then_fails_by_name(target: str) -> No
     finally:
         for s in (first, second):
             s.close()
+
+
+def test_a_name_the_store_holds_is_held_again_at_once(target: str) -> None:
+    with open_store(target) as store, open_store(target) as other:
+        store.claim("web", wait=0.0)
+        store.claim("web", wait=0.0)  # the same store: held, not a second claimant
+        with pytest.raises(ElabError, match="'web' is already running"):
+            other.claim("web", wait=0.0)
+
+
+def test_a_file_in_use_is_refused_before_it_is_upgraded(tmp_path: Path) -> None:
+    """``claim=`` holds the name before the file is migrated: a server of an older version
+    using the file never sees its schema change under it."""
+    path = tmp_path / "elab.sqlite3"
+    with SQLiteStore(path) as serving:
+        serving.claim("web")
+        with sqlite3.connect(path) as db:  # as an older version would have left it
+            db.execute("PRAGMA user_version = 8")
+        with pytest.raises(ElabError, match="'web' is already running"):
+            SQLiteStore(path, claim="web")
+        with sqlite3.connect(path) as db:
+            assert db.execute("PRAGMA user_version").fetchone()[0] == 8  # untouched
 
 
 def test_a_killed_holder_lets_go_of_its_engine(target: str) -> None:

@@ -53,7 +53,7 @@ class PostgresConnections(Tables):
         ``lock_timeout``), then fails transiently, as a busy SQLite file does."""
         super().__init__(redacted(url))
         self._url = url
-        self._claims: list[psycopg.Connection[Any]] = []  # sessions holding claim's
+        self._claims: dict[str, psycopg.Connection[Any]] = {}  # sessions holding claims
         with _faults(self.where):
             # one connection first, for the schema and for a clear error if the database
             # cannot be reached (the pool would only say it timed out)
@@ -76,7 +76,10 @@ class PostgresConnections(Tables):
 
     def claim(self, name: str, wait: float = 10.0) -> None:
         """A session-level advisory lock on a connection of its own: PostgreSQL lets go
-        when the session ends, and a dead process's session ends with its socket."""
+        when the session ends, and a dead process's session ends with its socket. A name
+        this store holds already is held."""
+        if name in self._claims:
+            return
         with _faults(self.where):
             conn = psycopg.connect(self._url, autocommit=True)
             deadline = time.monotonic() + wait
@@ -87,12 +90,12 @@ class PostgresConnections(Tables):
                     conn.close()
                     raise taken(self.where, name)
                 time.sleep(0.05)
-        self._claims.append(conn)
+        self._claims[name] = conn
 
     def close(self) -> None:
         self._pool.close()
         while self._claims:
-            self._claims.pop().close()
+            self._claims.popitem()[1].close()
 
     @contextmanager
     def _transaction(self) -> Iterator[Conn]:

@@ -30,13 +30,24 @@ class SQLiteConnections(Tables):
     LOCK_ROWS = ""  # BEGIN IMMEDIATE holds the whole file
     CHANNEL_COUNT = "json_array_length(channels)"
 
-    def __init__(self, path: Path, *, migrate: bool = True, busy_timeout: float = 5.0) -> None:
+    def __init__(
+        self,
+        path: Path,
+        *,
+        migrate: bool = True,
+        busy_timeout: float = 5.0,
+        claim: str | None = None,
+    ) -> None:
         """Open (creating if needed) the file; ``migrate``: bring it to this version's
         schema, else refuse a file of another version. A write waits ``busy_timeout``
-        seconds for another writer before it fails (transiently)."""
+        seconds for another writer before it fails (transiently). ``claim``: that name
+        first (:meth:`claim`, not waiting), before anything is written to the file."""
         super().__init__(str(path))
         path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
+        self._claims: dict[str, int] = {}  # locked files' descriptors, by name (claim)
+        if claim is not None:
+            self.claim(claim, 0.0)
         with _faults():
             self._writer = _db.connect(path, busy_timeout)
             if migrate:
@@ -47,11 +58,13 @@ class SQLiteConnections(Tables):
             self._checkpointer = _db.Checkpointer(path)
         self._write_lock = threading.Lock()
         self._read_lock = threading.Lock()
-        self._claims: list[int] = []  # locked files' descriptors (claim)
 
     def claim(self, name: str, wait: float = 10.0) -> None:
         """An exclusive ``flock`` on ``<file>.<name>.lock`` beside the file: the kernel
-        lets go when the process ends, however it ends."""
+        lets go when the process ends, however it ends. A name this store holds already
+        is held."""
+        if name in self._claims:
+            return
         lock = self.path.with_name(f"{self.path.name}.{name}.lock")
         fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
         deadline = time.monotonic() + wait
@@ -64,7 +77,7 @@ class SQLiteConnections(Tables):
                     os.close(fd)
                     raise taken(self.where, name) from None
                 time.sleep(0.05)
-        self._claims.append(fd)
+        self._claims[name] = fd
 
     def close(self) -> None:
         with self._write_lock, self._read_lock:
@@ -72,7 +85,7 @@ class SQLiteConnections(Tables):
             self._reader.close()
             self._writer.close()
             while self._claims:
-                os.close(self._claims.pop())
+                os.close(self._claims.popitem()[1])
 
     # -- connections -----------------------------------------------------------
     @contextmanager
