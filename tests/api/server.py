@@ -83,6 +83,7 @@ class Server:
             # an engine killed is noticed when its heartbeats stop, not when a socket closes
             self.env.setdefault("ELAB_ENGINE_STALL", "5")
         self.engines: list[subprocess.Popen[bytes] | None] = []
+        self.engine_count = ENGINES  # on a broker: the engines it starts (0: another's)
         self._keeping: threading.Thread | None = None
         self._stopping = threading.Event()
         self.log_from = 0  # where this view's part of the log starts (see visitor())
@@ -135,8 +136,8 @@ class Server:
                 r = httpx.get(self.url + "/api/v1/me", timeout=1, cookies=self.cookies, verify=TLS)
                 r.raise_for_status()
                 self.cookies.update(r.cookies)
-                if self.on_broker and not self.engines:  # the store is migrated by now
-                    self._start_engines()
+                if self.on_broker and self.engine_count and not self.engines:
+                    self._start_engines()  # the store is migrated by now
                 # ready: the identification workers have imported what their jobs need,
                 # and the engines have started (in the background since the web process
                 # serves at once: its health says 503 until then)
@@ -144,7 +145,7 @@ class Server:
                 engines = [st["engine"], *([st["rig"]["engine"]] if st.get("rig") else [])]
                 started = all(e["up"] or e["problem"] not in (None, "starting") for e in engines)
                 if self.on_broker:  # and every engine of its own is up
-                    started &= sum(e["up"] for e in st["engines"]) >= ENGINES
+                    started &= sum(e["up"] for e in st["engines"]) >= max(1, self.engine_count)
                 if st["ident"]["starting"] == 0 and started:
                     return self
             except httpx.HTTPError:
@@ -160,11 +161,21 @@ class Server:
         """Its simulation engines are processes of their own on a broker."""
         return "ELAB_REDIS_URL" in self.env
 
+    def another_node(self) -> Server:
+        """A second web process (not started) on this server's store, broker and data
+        directory (its secret: the same visitors), with a log of its own and no engines."""
+        env = {k: v for k, v in self.env.items() if k.startswith("ELAB_") and k != "ELAB_DATA"}
+        node = Server(self.data, **env)
+        node.log_path = self.data.parent / f"{self.data.name}-node-{node.port}.log"
+        node.loop_imports_path = self.data.parent / f"{self.data.name}-node-{node.port}.imports"
+        node.engine_count = 0
+        return node
+
     def _start_engines(self) -> None:
-        """``ENGINES`` engines on its broker, kept running as a supervisor (systemd) would:
+        """``engine_count`` engines on its broker, kept running as a supervisor (systemd) would:
         one that ends is started again after half a second, until the server stops."""
         self._stopping.clear()
-        self.engines = [self._engine(i) for i in range(ENGINES)]
+        self.engines = [self._engine(i) for i in range(self.engine_count)]
         self._keeping = threading.Thread(target=self._keep_engines, daemon=True)
         self._keeping.start()
 

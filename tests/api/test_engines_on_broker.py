@@ -14,11 +14,13 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+import httpx
 import numpy as np
 import pytest
 
-from tests.api.server import ELAB, Server, Watcher, until
-from tests.api.test_live_runs import NEW_K, NEW_SQUARE, SQUARE, downloads, offline
+from tests.api.server import ELAB, TLS, Server, Watcher, until
+from tests.api.test_live_runs import NEW_K, NEW_SQUARE, SQUARE, _received, downloads, offline
+from tests.api.test_processes import until_async
 from tests.redis_server import RedisServer
 
 LONG = {"plant": "flexible_link", "signal": SQUARE, "duration": 60.0}
@@ -219,6 +221,66 @@ def test_the_web_process_killed_leaves_the_runs_to_their_engines(
                 np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(6.0))
     finally:
         srv.stop()
+
+
+def test_two_web_processes_follow_and_command_the_same_runs(
+    tmp_path: Path, redis_server: RedisServer
+) -> None:
+    """Two ``elab serve`` on one store and broker (as behind a load balancer): a run
+    started through one is watched, paused, resumed and changed through the other, every
+    sample reaches the watcher, the recording is the offline run with the change, both say
+    the same; its owner watching through the second keeps the first from pausing it as
+    unwatched (ELAB_OWNER_GRACE 2 s): owners' presence is shared."""
+    a = on_broker(tmp_path, redis_server, ELAB_OWNER_GRACE="2").start()
+    b = a.another_node().start()
+    try:
+        with (
+            a.client() as ca,
+            httpx.Client(
+                base_url=b.url + "/api/v1", cookies=a.cookies, timeout=30, verify=TLS
+            ) as cb,
+        ):
+            rid = ca.post("/runs", json={**LONG, "duration": 6.0}).json()["id"]
+
+            async def post(path: str, **kw: Any) -> dict[str, Any]:
+                r = await asyncio.to_thread(cb.post, path, **kw)
+                assert r.status_code == 200, r.text
+                return r.json()  # type: ignore[no-any-return]
+
+            async def scenario() -> tuple[Watcher, dict[str, Any]]:
+                w = await Watcher.open(b.ws_url, rid, "?from_seq=0", as_=cb)
+                ends = {"finished", "stopped", "interrupted", "failed"}
+                reading = asyncio.create_task(w.until_status(ends, timeout=120))
+                await until_async(lambda: _received(w) >= 1000)
+                assert (await post(f"/runs/{rid}/pause"))["status"] == "paused"
+                await asyncio.sleep(0.3)
+                assert (await post(f"/runs/{rid}/resume"))["status"] == "running"
+                law = {"kind": "state_feedback", "K": NEW_K}
+                applied = await post(
+                    f"/runs/{rid}/params", json={"controller": law, "signal": NEW_SQUARE}
+                )
+                end = await reading
+                assert end["state"] == "finished", end  # never stopped as unwatched
+                await w.conn.close()
+                return w, applied
+
+            w, applied = asyncio.run(scenario())
+            k = applied["k"]
+            want = offline(6.0, change_at=k)
+            n, cols = w.samples()
+            assert n == 0 and len(cols["u"]) == 6000  # every sample, through the other node
+            np.testing.assert_array_equal(cols["u"], want[:, 1].astype("<f4"))
+            for c in (ca, cb):
+                info = until(
+                    lambda c=c: (i := c.get(f"/runs/{rid}").json())["status"] == "finished" and i
+                )
+                assert [p["k"] for p in info["param_changes"]] == [k]
+                np.testing.assert_array_equal(downloads(c, rid)["csv"], want)
+            states = [m["state"] for m in w.messages if m["type"] == "status"]
+            assert states.count("paused") == 1, states  # the one asked for
+    finally:
+        b.stop()
+        a.stop()
 
 
 def test_without_an_engine_runs_are_refused_with_503_and_why(

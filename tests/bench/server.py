@@ -270,6 +270,8 @@ def lab_server(data: Path, runs: int, **env: str) -> Server:
         ELAB_MAX_RUNS_PER_IDENTITY=str(10 * runs + 10),
         ELAB_OWNER_GRACE="86400",
         ELAB_OWNER_GONE="86400",
+        # the watchers are one visitor (the client process sends no cookie)
+        ELAB_MAX_STREAMS_PER_IDENTITY=str(10 * runs + 1000),
     ).start()
 
 

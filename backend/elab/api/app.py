@@ -60,6 +60,7 @@ from elab.errors import ElabError
 from elab.jobs import JobPool, Names
 from elab.rig.estop import estop_address
 from elab.runs.manager import RunManager
+from elab.runs.patrol import SharedPresence
 from elab.runs.prediction import Predictions
 from elab.runs.rigdesk import RigDesk
 from elab.store import open_store
@@ -105,6 +106,12 @@ async def _simulation_engines(settings: Settings) -> Engine:
     return engines
 
 
+def _presence(engines: Engine) -> SharedPresence | None:
+    """Owners' presence shared with the other web processes on the broker, if any."""
+    make = getattr(engines, "presence", None)  # BrokerEngines'
+    return None if make is None else make()
+
+
 def create_app(settings: Settings | None = None) -> Starlette:
     settings = settings or Settings.from_env()
 
@@ -113,12 +120,14 @@ def create_app(settings: Settings | None = None) -> Starlette:
         # migrated here, before the engine opens it
         store = await asyncio.to_thread(open_store, settings.store)
         # one server per store: a second one stops here, before its engine could mark this
-        # one's live runs interrupted (its predecessor on a restart has 5 s to let go)
-        try:
-            await asyncio.to_thread(store.claim, "web", 5.0)
-        except BaseException:
-            store.close()
-            raise
+        # one's live runs interrupted (its predecessor on a restart has 5 s to let go). On
+        # a broker the engines are their own: any number of web processes share the store
+        if settings.redis_url is None:
+            try:
+                await asyncio.to_thread(store.claim, "web", 5.0)
+            except BaseException:
+                store.close()
+                raise
         engines: dict[str, Engine] = {"simulation": await _simulation_engines(settings)}
         emulator = (
             # the emulator's clock above the host loop, as hardware's own would be
@@ -180,7 +189,14 @@ def create_app(settings: Settings | None = None) -> Starlette:
             desk = RigDesk(
                 store, "rig", settings.rig_queue, estop_address(settings.data_dir), trials
             )
-        manager = RunManager(store, engines, MsgpackCodec(), limits=settings.limits, desk=desk)
+        manager = RunManager(
+            store,
+            engines,
+            MsgpackCodec(),
+            limits=settings.limits,
+            desk=desk,
+            presence=_presence(engines["simulation"]),
+        )
         app.state.lab = Lab(
             settings=settings,
             index=STATIC / "index.html" if (STATIC / "index.html").is_file() else None,

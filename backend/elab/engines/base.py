@@ -151,8 +151,9 @@ class EngineStatus:
 class EngineEvents(Protocol):
     """What an engine reports, delivered on the web process's event loop, in order."""
 
-    def started(self, engine: str, record: RunRecord) -> None:
-        """A run is stored and about to step (before any of its samples)."""
+    def started(self, engine: str, record: RunRecord, order: RunOrder | None = None) -> None:
+        """A run is stored and about to step (before any of its samples); ``order``: what
+        it was started with."""
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
         """New samples (already handed to the engine's recorder)."""
@@ -160,8 +161,10 @@ class EngineEvents(Protocol):
     def changed(self, engine: str, change: Changed) -> None:
         """A run paused or resumed, or its stepping ended (its end is news once stored)."""
 
-    def params(self, engine: str, run_id: str, change: ParamChange) -> None:
-        """A run's parameters changed from sample ``change.k`` on."""
+    def params(
+        self, engine: str, run_id: str, change: ParamChange, new: NewParams | None = None
+    ) -> None:
+        """A run's parameters changed from sample ``change.k`` on (``new``: typed)."""
 
     def committed(self, engine: str, counts: dict[str, int]) -> None:
         """Samples ``[0, n)`` of each run are in the store."""

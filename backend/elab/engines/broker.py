@@ -237,7 +237,21 @@ class BrokerEngines:
         self.url = url
         self.command_timeout = command_timeout
         self.stall_timeout = stall_timeout
-        self._r: redis.asyncio.Redis | None = None
+        # commands wait for one of a few connections (a burst of 300 new runs opened one
+        # each, past the broker's limit: "Too many connections"); a connection the broker
+        # closed (it restarted) is replaced, the command sent again
+        # (a command that reached the engine twice is answered twice: the first answer
+        # counts, a second stop is a refusal nobody waits for)
+        pool = redis.asyncio.BlockingConnectionPool.from_url(
+            self.url,
+            max_connections=CONNECTIONS,
+            timeout=self.command_timeout,
+            socket_timeout=10.0,
+            socket_connect_timeout=5.0,
+            retry=AsyncRetry(ExponentialBackoff(cap=1.0, base=0.05), retries=3),
+            retry_on_error=[redis.ConnectionError, redis.TimeoutError],
+        )
+        self._r = redis.asyncio.Redis(connection_pool=pool)
         self._events: EngineEvents | None = None
         self._members: dict[str, _Member] = {}
         self._owner: dict[str, str] = {}  # live run -> the engine stepping it
@@ -254,21 +268,6 @@ class BrokerEngines:
     # -- lifecycle -----------------------------------------------------------------------
     async def start(self, events: EngineEvents) -> None:
         self._events = events
-        # commands wait for one of a few connections (a burst of 300 new runs opened one
-        # each, past the broker's limit: "Too many connections")
-        # a connection the broker closed (it restarted) is replaced, the command sent again
-        # (a command that reached the engine twice is answered twice: the first answer
-        # counts, a second stop is a refusal nobody waits for)
-        pool = redis.asyncio.BlockingConnectionPool.from_url(
-            self.url,
-            max_connections=CONNECTIONS,
-            timeout=self.command_timeout,
-            socket_timeout=10.0,
-            socket_connect_timeout=5.0,
-            retry=AsyncRetry(ExponentialBackoff(cap=1.0, base=0.05), retries=3),
-            retry_on_error=[redis.ConnectionError, redis.TimeoutError],
-        )
-        self._r = redis.asyncio.Redis(connection_pool=pool)
         try:  # what the engines said before this process started is not for it
             await self._discover(fresh=True)
             self._problem = None
@@ -285,8 +284,11 @@ class BrokerEngines:
         for _, fut in self._pending.values():
             if not fut.done():
                 fut.set_exception(Unavailable("the server is shutting down", retry_after=2.0))
-        if self._r is not None:
-            await self._r.aclose(close_connection_pool=True)
+        await self._r.aclose(close_connection_pool=True)
+
+    def presence(self) -> BrokerPresence:
+        """Owners' presence shared with the other web processes on this broker."""
+        return BrokerPresence(self._r)
 
     def status(self) -> EngineStatus:
         """The engines as one: an engine up with a problem (its store failed: the store is
@@ -407,7 +409,6 @@ class BrokerEngines:
     async def _call(
         self, member: _Member, command: Callable[[int], wire.Command]
     ) -> RunRecord | int | None:
-        assert self._r is not None
         cid = next(self._ids)
         fut: asyncio.Future[RunRecord | int | None] = asyncio.get_running_loop().create_future()
         self._pending[cid] = (member.id, fut)
@@ -430,7 +431,6 @@ class BrokerEngines:
     async def _discover(self, fresh: bool = False) -> None:
         """Engines of this kind newly in the registry: read from where each began (or, when
         this process has just started, from now)."""
-        assert self._r is not None
         self._looked = now = time.monotonic()
         registry = {_text(k): v for k, v in (await self._r.hgetall(REGISTRY)).items()}
         for member in list(self._members.values()):
@@ -452,7 +452,6 @@ class BrokerEngines:
             self._members[engine] = _Member(engine, start)
 
     async def _read_loop(self) -> None:
-        assert self._r is not None
         while True:
             try:
                 if time.monotonic() - self._looked > 1.0:
@@ -579,7 +578,6 @@ class BrokerEngines:
         log.error("engine %s reports again after it was lost: telling it to close", member.id)
         frame = wire.command_out(wire.Close(f"engine {member.id} was lost: it stopped reporting"))
         r = self._r
-        assert r is not None
 
         async def send() -> None:
             try:
@@ -607,3 +605,32 @@ class BrokerEngines:
 def _failed(h: Health) -> bool:
     """The engine's store has failed (not a fault being retried)."""
     return not h.store.ok and not h.store.transient
+
+
+class BrokerPresence:
+    """When web processes last saw each run's owner
+    (:class:`~elab.runs.patrol.SharedPresence`), on the broker: the hash
+    ``elab:seen:<run>`` holds each process's latest sighting (unix s), kept a day; a
+    sighting goes out when it is newer than the last one sent by a second."""
+
+    def __init__(self, r: redis.asyncio.Redis) -> None:
+        self._r = r
+        self._me = f"web-{secrets.token_hex(6)}"
+        self._sent: dict[str, float] = {}
+
+    async def exchange(self, seen: dict[str, float]) -> dict[str, float]:
+        runs = list(seen)
+        fresh = {run: at for run, at in seen.items() if at > self._sent.get(run, 0.0) + 1.0}
+        try:
+            async with self._r.pipeline(transaction=False) as pipe:
+                for run, at in fresh.items():
+                    pipe.hset(f"elab:seen:{run}", self._me, repr(at))
+                    pipe.expire(f"elab:seen:{run}", 86_400)
+                for run in runs:
+                    pipe.hvals(f"elab:seen:{run}")
+                answers = await pipe.execute()
+        except redis.RedisError as exc:
+            raise Unavailable(f"the broker: {exc}", retry_after=2.0) from None
+        self._sent = {run: fresh.get(run, self._sent.get(run, 0.0)) for run in runs}
+        got = answers[2 * len(fresh) :]
+        return {run: max(map(float, vals)) for run, vals in zip(runs, got, strict=True) if vals}

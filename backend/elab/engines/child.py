@@ -33,7 +33,16 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Protocol, assert_never
 
 from elab.engines import wire
-from elab.engines.base import Block, Changed, Ended, EngineEvents, Health, SteppingEngine
+from elab.engines.base import (
+    Block,
+    Changed,
+    Ended,
+    EngineEvents,
+    Health,
+    NewParams,
+    RunOrder,
+    SteppingEngine,
+)
 from elab.engines.rig import RigEngine
 from elab.engines.settings import EngineSettings, RigSettings
 from elab.engines.simulation import SimulationEngine
@@ -112,8 +121,8 @@ class WireEvents:
     def __init__(self, outbox: Outbox) -> None:
         self._out = outbox
 
-    def started(self, engine: str, record: RunRecord) -> None:
-        self._out.put(wire.event_out(wire.Started(record)))
+    def started(self, engine: str, record: RunRecord, order: RunOrder | None = None) -> None:
+        self._out.put(wire.event_out(wire.Started(record, order)))
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
         size = sum(b.data.nbytes for b in blocks)
@@ -122,8 +131,10 @@ class WireEvents:
     def changed(self, engine: str, change: Changed) -> None:
         self._out.put(wire.event_out(wire.StateChanged(change)))
 
-    def params(self, engine: str, run_id: str, change: ParamChange) -> None:
-        self._out.put(wire.event_out(wire.Params(run_id, change)))
+    def params(
+        self, engine: str, run_id: str, change: ParamChange, new: NewParams | None = None
+    ) -> None:
+        self._out.put(wire.event_out(wire.Params(run_id, change, new)))
 
     def committed(self, engine: str, counts: dict[str, int]) -> None:
         self._out.put(wire.event_out(wire.Committed(counts)))

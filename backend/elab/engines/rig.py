@@ -176,7 +176,7 @@ class RigEngine(HostLoop):
                 self._reserved, self._taking = False, None
         with self._lock:
             self._pending = active
-        self._events.started(self.id, record)
+        self._events.started(self.id, record, order)
         return record
 
     def _facts(self, order: RunOrder) -> dict[str, Any]:
@@ -290,7 +290,7 @@ class RigEngine(HostLoop):
             ) from None
         change = ParamChange(k=k, params=new.asked, at=time.time())
         self.recorder.param(run_id, change)
-        self._events.params(self.id, run_id, change)
+        self._events.params(self.id, run_id, change, new)
         return k
 
     # -- health ----------------------------------------------------------------------

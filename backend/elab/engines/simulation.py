@@ -162,7 +162,7 @@ class SimulationEngine:
         self.store.create_run(record)
         self.recorder.open(record.id, len(record.channels), OutcomeTracker.of(run, record.channels))
         self._runs[record.id] = run
-        self._events.started(self.id, record)
+        self._events.started(self.id, record, order)
         stepper = self.stepper
         if coded is not None:  # its own thread: a slow controller delays only its run
             stepper = Stepper(
@@ -242,7 +242,7 @@ class SimulationEngine:
             self._runs[run_id] = run
         change = ParamChange(k=k, params=new.asked, at=time.time())
         self.recorder.param(run_id, change)
-        self._events.params(self.id, run_id, change)
+        self._events.params(self.id, run_id, change, new)
         return k
 
     # -- health ---------------------------------------------------------------------

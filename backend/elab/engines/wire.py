@@ -47,7 +47,7 @@ from elab.sim.spec import RunSpec
 from elab.store.base import ParamChange, RunRecord
 
 #: The version of these messages; bumped with any change to a message's fields.
-PROTOCOL = 2
+PROTOCOL = 3
 
 _FRAME = struct.Struct("<II")
 HEADER_BYTES = _FRAME.size
@@ -218,13 +218,21 @@ class StateChanged:
 
 @dataclass(frozen=True)
 class Started:
+    """A run started; ``order``: what it was started with, for a web process that did not
+    send it (engines on a broker are heard by every web process)."""
+
     record: RunRecord
+    order: RunOrder | None = None
 
 
 @dataclass(frozen=True)
 class Params:
+    """A run's parameters changed; ``new``: the change typed, for every web process's
+    view of the run's law and reference."""
+
     run: str
     change: ParamChange
+    new: NewParams | None = None
 
 
 @dataclass(frozen=True)
@@ -272,10 +280,15 @@ def event_out(ev: Event) -> bytes:
         case StateChanged():
             return _frame(_changed_out(ev.change))
         case Started():
-            return _frame({"ev": "started", "record": dataclasses.asdict(ev.record)})
+            order = None if ev.order is None else _order_out(ev.order)
+            fields = dataclasses.asdict(ev.record)
+            return _frame({"ev": "started", "record": fields, "order": order})
         case Params():
             c = ev.change
-            return _frame({"ev": "params", "run": ev.run, "k": c.k, "params": c.params, "at": c.at})
+            h = {"ev": "params", "run": ev.run, "k": c.k, "params": c.params, "at": c.at}
+            if ev.new is not None:
+                h |= {"law": _plain(ev.new.law), "reference": _plain(ev.new.reference)}
+            return _frame(h)
         case Committed():
             return _frame({"ev": "committed", "counts": ev.counts})
         case Stored():
@@ -305,9 +318,13 @@ def _event_in(h: dict[str, Any], payload: bytes) -> Event:
         case "changed":
             return StateChanged(_changed_in(h))
         case "started":
-            return Started(_record_in(h["record"]))
+            order = h.get("order")
+            return Started(_record_in(h["record"]), None if order is None else _order_in(order))
         case "params":
-            return Params(h["run"], ParamChange(h["k"], h["params"], h["at"]))
+            new = None
+            if "law" in h:
+                new = NewParams(_typed(h["law"]), _typed(h["reference"]), h["params"])
+            return Params(h["run"], ParamChange(h["k"], h["params"], h["at"]), new)
         case "committed":
             return Committed(h["counts"])
         case "stored":
@@ -343,9 +360,9 @@ def deliver(events: EngineEvents, engine: str, ev: Event) -> Reply | Beat | Read
         case StateChanged():
             events.changed(engine, ev.change)
         case Started():
-            events.started(engine, ev.record)
+            events.started(engine, ev.record, ev.order)
         case Params():
-            events.params(engine, ev.run, ev.change)
+            events.params(engine, ev.run, ev.change, ev.new)
         case Committed():
             events.committed(engine, ev.counts)
         case Stored():

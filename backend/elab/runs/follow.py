@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from elab.engines.base import Block, Changed, Ended, Engine, Health, RunOrder
+from elab.engines.base import Block, Changed, Ended, Engine, Health, NewParams, RunOrder
 from elab.errors import ElabError
 from elab.lifecycle import RunState
 from elab.runs.changes import RunParams
@@ -104,11 +104,15 @@ class RunFollower:
         return read
 
     # -- events from the engines (on the loop) ----------------------------------------
-    def started(self, engine: str, record: RunRecord) -> None:
+    def started(self, engine: str, record: RunRecord, order: RunOrder | None = None) -> None:
+        # the order this process sent, or, on a broker, one another web process sent
+        order = self._ordered.get(record.id, order)
+        if order is None:
+            log.error("run %s started without its order: not followed here", record.id)
+            return
         names = tuple(n for n, _ in record.channels)
         ch = RunChannel(names, record.Ts, self._reader(record.id), self.codec, sender=self._sender)
         self._channels[record.id] = ch
-        order = self._ordered[record.id]  # every run starts from this manager's order
         params = RunParams(order.spec.law, order.spec.reference)
         self._runs[record.id] = LiveRun(record, engine, ch, order, params)
 
@@ -140,10 +144,14 @@ class RunFollower:
         run.error = change.error  # while paused: who paused it or why, for late joiners
         run.channel.control(self.codec.status(change.state.value, run.next_k, change.error))
 
-    def params(self, engine: str, run_id: str, change: ParamChange) -> None:
+    def params(
+        self, engine: str, run_id: str, change: ParamChange, new: NewParams | None = None
+    ) -> None:
         run = self._runs.get(run_id)
         if run is None:
             return
+        if new is not None:  # whoever changed it: the law and reference it uses now
+            run.params = run.params.after(new)
         run.changes.append(change)
         run.channel.control(self.codec.params(change.k, change.k * run.record.Ts, change.params))
 

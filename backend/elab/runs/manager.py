@@ -26,7 +26,7 @@ from elab.runs.fanout import Codec
 from elab.runs.follow import RunFollower
 from elab.runs.limits import Limits
 from elab.runs.live import LiveRun
-from elab.runs.patrol import Patrol
+from elab.runs.patrol import Patrol, SharedPresence
 from elab.runs.rigdesk import RigDesk
 from elab.sim.spec import RunSpec
 from elab.store.base import JsonObject, ParamChange, RunRecord, RunStore, RunSummary
@@ -76,6 +76,7 @@ class RunManager(RunFollower):
         *,
         limits: Limits | None = None,
         desk: RigDesk | None = None,
+        presence: SharedPresence | None = None,
     ) -> None:
         if "simulation" not in engines:
             raise ValueError("a run manager needs a simulation engine")
@@ -84,6 +85,7 @@ class RunManager(RunFollower):
         self._by_id = {e.id: e for e in engines.values()}
         self.limits = limits or Limits()
         self.desk = desk  # the rig's queue (a server with a rig)
+        self.presence = presence  # owners seen by the other web processes (on a broker)
         self._starting: Counter[str | None] = Counter()  # runs being started, by owner
         self._downloads: Counter[str] = Counter()  # downloads under way, by run
         self._deleted: set[str] = set()  # deleted while downloaded: removed after the last
@@ -92,7 +94,9 @@ class RunManager(RunFollower):
     async def start(self) -> None:
         for engine in self.engines.values():
             await engine.start(self)
-        patrol = Patrol(self._runs, self.limits, self.store, self._command, self._remove)
+        patrol = Patrol(
+            self._runs, self.limits, self.store, self._command, self._remove, self.presence
+        )
         self._patrol_task = asyncio.get_running_loop().create_task(patrol.run())
 
     async def close(self) -> None:

@@ -10,7 +10,7 @@ import math
 import time
 from collections.abc import Awaitable, Callable, Coroutine
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 from elab.engines.base import Action
 from elab.errors import ElabError
@@ -22,16 +22,27 @@ from elab.store.base import RunStore
 log = logging.getLogger(__name__)
 
 
+class SharedPresence(Protocol):
+    """When the web processes last saw each run's owner, shared among them (several web
+    processes on a broker: the owner may watch through any of them)."""
+
+    async def exchange(self, seen: dict[str, float]) -> dict[str, float]:
+        """Say when this process saw owners (unix s, by run); the latest any process saw
+        each run's owner, of the runs in ``seen``."""
+
+
 @dataclass(eq=False)
 class Patrol:
     """Looks after the runs a manager follows (``runs``, shared with it): ``command``
-    pauses or stops one, ``remove`` deletes an ended one (false while it is downloaded)."""
+    pauses or stops one, ``remove`` deletes an ended one (false while it is downloaded);
+    ``presence``: owners seen by other web processes count too."""
 
     runs: dict[str, LiveRun]
     limits: Limits
     store: RunStore
     command: Callable[[str, Action, str], Awaitable[None]]
     remove: Callable[[str], Awaitable[bool]]
+    presence: SharedPresence | None = None
     _tasks: set[asyncio.Task[None]] = field(default_factory=set)
 
     async def run(self) -> None:
@@ -41,12 +52,31 @@ class Patrol:
         sweep_at = 0.0
         while True:
             await asyncio.sleep(min(1.0, self.limits.owner_grace / 4))
+            if self.presence is not None:
+                await self._share()
             now = time.monotonic()
             for run in list(self.runs.values()):
                 self._look_after(run, now)
             if self.limits.retention > 0 and now >= sweep_at:
                 sweep_at = now + min(600.0, max(1.0, self.limits.retention / 4))
                 self._spawn(self._sweep())
+
+    async def _share(self) -> None:
+        """Owners seen here, out; seen anywhere, in (a run's ``seen`` the latest of all)."""
+        assert self.presence is not None
+        live = [r for r in self.runs.values() if r.state.live and math.isfinite(r.seen)]
+        if not live:
+            return
+        lag = time.time() - time.monotonic()  # monotonic -> unix s
+        try:
+            seen = await self.presence.exchange({r.record.id: r.seen + lag for r in live})
+        except ElabError as exc:  # judged by this process's own sightings meanwhile
+            log.warning("owners' presence not shared this round: %s", exc)
+            return
+        for run in live:
+            at = seen.get(run.record.id)
+            if at is not None and math.isfinite(run.seen):
+                run.seen = max(run.seen, at - lag)
 
     def _look_after(self, run: LiveRun, now: float) -> None:
         owner = run.record.owner

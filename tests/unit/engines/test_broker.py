@@ -32,7 +32,7 @@ class Heard:
     def __init__(self) -> None:
         self.said: list[tuple[str, str]] = []  # (what, run)
 
-    def started(self, engine: str, record: RunRecord) -> None:
+    def started(self, engine: str, record: RunRecord, order: object = None) -> None:
         self.said.append(("started", record.id))
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
@@ -41,7 +41,7 @@ class Heard:
     def changed(self, engine: str, change: Changed) -> None:
         self.said.append((f"changed {change.state.value}", change.run_id))
 
-    def params(self, engine: str, run_id: str, change: ParamChange) -> None:
+    def params(self, engine: str, run_id: str, change: ParamChange, new: object = None) -> None:
         pass
 
     def committed(self, engine: str, counts: dict[str, int]) -> None:

@@ -48,7 +48,7 @@ class Heard:
         self.rows_of: dict[str, int] = {}
         self.cond = threading.Condition()
 
-    def started(self, engine: str, record: RunRecord) -> None:
+    def started(self, engine: str, record: RunRecord, order: object = None) -> None:
         pass
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
@@ -65,7 +65,7 @@ class Heard:
             self.changes.append(change)
             self.cond.notify_all()
 
-    def params(self, engine: str, run_id: str, change: ParamChange) -> None:
+    def params(self, engine: str, run_id: str, change: ParamChange, new: object = None) -> None:
         pass
 
     def committed(self, engine: str, counts: dict[str, int]) -> None:

@@ -9,11 +9,11 @@ import json
 import pytest
 
 from elab.engines import wire
-from elab.engines.base import RunOrder
+from elab.engines.base import NewParams, RunOrder
 from elab.laws import PID, CodeController, LTIController, OpenLoop, StateFeedback
 from elab.plants import get_plant
 from elab.sim import PRBS, Chirp, RunSpec, Sine, Square, Step
-from elab.store.base import RunRecord
+from elab.store.base import ParamChange, RunRecord
 
 FLEX = get_plant("flexible_link")
 LAWS = [
@@ -46,6 +46,27 @@ def test_a_run_order_survives_the_wire(law: object, signal: object) -> None:
     head, _ = wire.lengths(message[: wire.HEADER_BYTES])
     back = wire.decode_command(message[wire.HEADER_BYTES : wire.HEADER_BYTES + head])
     assert back == wire.Add(7, order)
+
+
+@pytest.mark.parametrize("law", LAWS[:2], ids=lambda law: type(law).__name__)
+def test_a_start_and_a_change_carry_their_typed_parts_to_any_web_process(law: object) -> None:
+    """On a broker every web process hears every run: ``Started`` carries the order it
+    was started with, ``Params`` the new law and reference, as decoded from the wire."""
+    order = RunOrder("r-2", RunSpec(FLEX, law, Square(0.5, 4.0), duration=1.0), "realtime",
+                     "simulation", "analysis", {"plant": "flexible_link"}, owner="a-2")  # fmt: skip
+    record = RunRecord(
+        id="r-2", plant="flexible_link", mode="simulation", experiment="analysis",
+        spec={}, status="running", Ts=0.001, channels=(("r", "rad"),), n_planned=1000,
+        created_at=1.0, started_at=1.0, engine="sim-0", owner="a-2",
+    )  # fmt: skip
+    started = wire.decode_event(*wire.unframe(wire.event_out(wire.Started(record, order))))
+    assert started == wire.Started(record, order)
+    change = ParamChange(k=17, params={"signal": {"kind": "sine"}}, at=2.0)
+    new = NewParams(law, Sine(0.2, 1.5), change.params)  # type: ignore[arg-type]
+    params = wire.decode_event(*wire.unframe(wire.event_out(wire.Params("r-2", change, new))))
+    assert params == wire.Params("r-2", change, new)
+    bare = wire.decode_event(*wire.unframe(wire.event_out(wire.Params("r-2", change))))
+    assert bare == wire.Params("r-2", change, None)
 
 
 def _head(message: bytes) -> tuple[bytes, bytes]:
