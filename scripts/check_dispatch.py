@@ -71,9 +71,9 @@ UNIONS = (
     Union(
         "engine commands",
         "engines/wire.py",
-        "Command = Add | Control | Replace | Close",
+        "Command = Add | Control | Replace | Follow | Close",
         "@dataclass(frozen=True)\nclass Dummy:\n    id: int\n\n\n"
-        "Command = Add | Control | Replace | Close | Dummy",
+        "Command = Add | Control | Replace | Follow | Close | Dummy",
         frozenset({"engines/wire.py", "engines/child.py"}),
     ),
     Union(

@@ -198,27 +198,42 @@ def test_a_broker_killed_and_started_again_empty_loses_no_run(tmp_path: Path) ->
         broker.stop()
 
 
-def test_the_web_process_killed_leaves_the_runs_to_their_engines(
+def test_a_web_process_started_again_follows_the_runs_its_engines_kept(
     tmp_path: Path, redis_server: RedisServer
 ) -> None:
     """``kill -9`` of the web process: its engines, processes of their own, step the runs
-    on and store them whole; the web process started again finds them finished."""
+    on. Started again, it asks them for their live runs: a watcher from sample 0 gets every
+    sample (the start from the store, the rest live), a pause and a stop through it work,
+    and a run that ends meanwhile is stored whole."""
     srv = on_broker(tmp_path, redis_server).start()
     try:
         with srv.client() as c:
-            ids = [c.post("/runs", json={**LONG, "duration": 6.0}).json()["id"] for _ in range(2)]
-            until(lambda: c.get(f"/runs/{ids[0]}").json()["n_samples"] >= 1000)
+            long = c.post("/runs", json=LONG).json()["id"]
+            short = c.post("/runs", json={**LONG, "duration": 8.0}).json()["id"]
+            until(lambda: c.get(f"/runs/{long}").json()["n_samples"] >= 1000)
         srv.kill9(engines=False)
         srv.start()
         with srv.client() as c:
-            for rid in ids:
-                info = until(
-                    lambda rid=rid: (
-                        (i := c.get(f"/runs/{rid}").json())["status"] == "finished" and i
-                    )
-                )
-                assert info["n_samples"] == 6000
-                np.testing.assert_array_equal(downloads(c, rid)["csv"], offline(6.0))
+            assert c.post(f"/runs/{long}/pause").json()["status"] == "paused"
+            assert c.post(f"/runs/{long}/resume").json()["status"] == "running"
+
+            async def scenario() -> Watcher:
+                w = await Watcher.open(srv.ws_url, short, "?from_seq=0", as_=c)
+                end = await w.until_status({"finished", "interrupted", "stopped"}, timeout=60)
+                assert end["state"] == "finished", end
+                await w.conn.close()
+                return w
+
+            w = asyncio.run(scenario())
+            k0, cols = w.samples()
+            assert k0 == 0 and len(cols["u"]) == 8000  # every sample, across the restart
+            np.testing.assert_array_equal(cols["u"], offline(8.0)[:, 1].astype("<f4"))
+            np.testing.assert_array_equal(downloads(c, short)["csv"], offline(8.0))
+            stopped = c.post(f"/runs/{long}/stop").json()
+            assert stopped["status"] == "stopped", stopped
+            got = downloads(c, long)["csv"]
+            assert got.shape[0] == stopped["n_samples"]
+            np.testing.assert_array_equal(got, offline(60.0)[: got.shape[0]])
     finally:
         srv.stop()
 

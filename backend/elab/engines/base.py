@@ -246,5 +246,9 @@ class SteppingEngine(Protocol):
     def replace(self, run_id: str, new: NewParams) -> int:
         """As :meth:`Engine.replace`."""
 
+    def follow(self) -> int:
+        """Report each live run again as started (its record, the order it steps by now)
+        and, if paused, its state; how many."""
+
     def health(self) -> Health:
         """Its heartbeat."""

@@ -33,9 +33,9 @@ import socket
 import threading
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Coroutine
 from dataclasses import dataclass, replace
-from typing import assert_never, cast
+from typing import Any, assert_never, cast
 
 import redis
 import redis.asyncio
@@ -219,6 +219,7 @@ class _Member:
     adding: int = 0  # new runs sent to it and not yet answered
     lost: int | None = None  # the process this web process judged lost, if it was
     closing: bool = False  # told to close (lost, yet it reported again)
+    follow: bool = False  # running before this process started: to say its runs again
 
 
 class BrokerEngines:
@@ -263,7 +264,7 @@ class BrokerEngines:
         self._looked = 0.0  # monotonic time the registry was last read
         self._restarts = 0
         self._reported = asyncio.Event()  # set once an engine has been heard
-        self._closing_task: asyncio.Task[None] | None = None
+        self._tasks: set[asyncio.Task[None]] = set()
 
     # -- lifecycle -----------------------------------------------------------------------
     async def start(self, events: EngineEvents) -> None:
@@ -449,7 +450,7 @@ class BrokerEngines:
             start = str(info.get("since", "0-0"))
             if fresh:
                 start = _newest(await self._r.xrevrange(outbox(engine), count=1))
-            self._members[engine] = _Member(engine, start)
+            self._members[engine] = _Member(engine, start, follow=fresh)
 
     async def _read_loop(self) -> None:
         while True:
@@ -534,6 +535,16 @@ class BrokerEngines:
         elif not member.up and member.problem is None:
             member.up = True
             self._reported.set()
+            if member.follow:  # its live runs began before this process: heard again
+                member.follow = False
+                self._spawn(self._follow(member))
+
+    async def _follow(self, member: _Member) -> None:
+        try:
+            said = await self._call(member, lambda cid: wire.Follow(cid))
+            log.info("engine %s: following its %s live runs", member.id, said)
+        except ElabError as exc:  # they finish in the store; their records answer
+            log.error("engine %s did not say its live runs: %s", member.id, exc)
 
     def _ready(self, member: _Member, ready: wire.Ready) -> None:
         if ready.protocol != wire.PROTOCOL:
@@ -586,7 +597,12 @@ class BrokerEngines:
                 member.closing = False
                 log.error("could not tell engine %s to close: %s", member.id, exc)
 
-        self._closing_task = asyncio.get_running_loop().create_task(send())
+        self._spawn(send())
+
+    def _spawn(self, coro: Coroutine[Any, Any, None]) -> None:
+        task = asyncio.get_running_loop().create_task(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
 
     def _lose(self, member: _Member, reason: str) -> None:
         """Its runs are over (interrupted), its unanswered commands fail."""

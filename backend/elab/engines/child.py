@@ -309,6 +309,8 @@ def _serve(
                 _reply_when(engine.control(cmd.run, cmd.action, cmd.reason), outbox, cmd.id)
             case wire.Replace():
                 _reply_when(workers.submit(engine.replace, cmd.run, cmd.new), outbox, cmd.id)
+            case wire.Follow():
+                _reply_when(workers.submit(engine.follow), outbox, cmd.id)
             case _:
                 assert_never(cmd)
 

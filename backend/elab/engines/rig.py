@@ -256,6 +256,11 @@ class RigEngine(HostLoop):
             active.stop = (RunState.STOPPED, reason, fut)
         return fut
 
+    def follow(self) -> int:
+        """Nothing: a rig's engine is a process of the web process that started it, which
+        follows its run from its start (rigs are not on a broker)."""
+        return 0
+
     def replace(self, run_id: str, new: NewParams) -> int:
         law, reference = new.law, new.reference
         with self._lock:

@@ -36,7 +36,7 @@ from elab.engines.outcome import OutcomeTracker
 from elab.engines.recorder import Recorder
 from elab.engines.settings import EngineSettings
 from elab.engines.stepper import Stepper
-from elab.errors import Conflict, InvalidInput, TooMany, Unavailable
+from elab.errors import Conflict, ElabError, InvalidInput, TooMany, Unavailable
 from elab.laws import CodeController, is_code, law_kind
 from elab.lifecycle import RunState
 from elab.plants import get_plant
@@ -84,6 +84,7 @@ class SimulationEngine:
         # runs with code controllers, each stepped by a stepper (a thread) of its own
         self._coders: dict[str, Stepper] = {}
         self._runs: dict[str, CompiledRun] = {}  # live runs as last changed
+        self._orders: dict[str, RunOrder] = {}  # what each live run was started with
         self._changing = threading.Lock()
         self._code_runs = 0  # live runs with a code controller, and those starting
         self._counting = threading.Lock()
@@ -162,6 +163,7 @@ class SimulationEngine:
         self.store.create_run(record)
         self.recorder.open(record.id, len(record.channels), OutcomeTracker.of(run, record.channels))
         self._runs[record.id] = run
+        self._orders[record.id] = order
         self._events.started(self.id, record, order)
         stepper = self.stepper
         if coded is not None:  # its own thread: a slow controller delays only its run
@@ -245,6 +247,29 @@ class SimulationEngine:
         self._events.params(self.id, run_id, change, new)
         return k
 
+    def follow(self) -> int:
+        """Each live run reported again as started: its record as stored now and its order
+        with the law and reference it steps by now; then a paused one's state."""
+        with self._changing:  # not half-way through a change
+            live = [
+                (replace(order, spec=self._runs[run_id].spec), run_id)
+                for run_id, order in self._orders.items()
+                if run_id in self._runs
+            ]
+        said = 0
+        for order, run_id in live:
+            try:
+                record = self.store.get_run(run_id)
+            except ElabError:  # ended and gone meanwhile, or the store fails: not said
+                continue
+            if not RunState(record.status).live:
+                continue
+            self._events.started(self.id, record, order)
+            if record.status == RunState.PAUSED.value:
+                self._events.changed(self.id, Changed(run_id, RunState.PAUSED, record.n_stored))
+            said += 1
+        return said
+
     # -- health ---------------------------------------------------------------------
     def health(self) -> Health:
         """Live runs, the stepping threads' timing (the shared one's, and how far the code
@@ -285,6 +310,7 @@ class SimulationEngine:
             self.recorder.status(c.run_id, c.state, c.error, c.compute, c.k)
             if not c.state.live:
                 run = self._runs.pop(c.run_id, None)
+                self._orders.pop(c.run_id, None)
                 self._coders.pop(c.run_id, None)  # its thread ends by itself
                 if run is not None and is_code(run.spec.law):
                     self._ended_coded()

@@ -101,13 +101,22 @@ class Replace:
 
 
 @dataclass(frozen=True)
+class Follow:
+    """Say each live run again (``Started`` with its record and its order as it steps
+    now, then its state if paused) for a web process that started after them (the
+    answer: how many)."""
+
+    id: int
+
+
+@dataclass(frozen=True)
 class Close:
     """End the engine: its runs end with ``reason``."""
 
     reason: str
 
 
-Command = Add | Control | Replace | Close
+Command = Add | Control | Replace | Follow | Close
 
 
 def command_out(cmd: Command) -> bytes:
@@ -121,6 +130,8 @@ def command_out(cmd: Command) -> bytes:
         case Replace():
             h = {"op": "replace", "id": cmd.id, "run": cmd.run, "params": cmd.new.asked}
             return _frame({**h, "law": _plain(cmd.new.law), "reference": _plain(cmd.new.reference)})
+        case Follow():
+            return _frame({"op": "follow", "id": cmd.id})
         case Close():
             return _frame({"op": "close", "reason": cmd.reason})
         case _:
@@ -177,6 +188,8 @@ def _command_in(h: dict[str, Any]) -> Command:
         case "replace":
             new = NewParams(_typed(h["law"]), _typed(h["reference"]), h["params"])
             return Replace(h["id"], h["run"], new)
+        case "follow":
+            return Follow(h["id"])
         case "close":
             return Close(str(h.get("reason") or "server shut down"))
         case op:

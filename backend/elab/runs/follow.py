@@ -105,8 +105,13 @@ class RunFollower:
 
     # -- events from the engines (on the loop) ----------------------------------------
     def started(self, engine: str, record: RunRecord, order: RunOrder | None = None) -> None:
-        # the order this process sent, or, on a broker, one another web process sent
-        order = self._ordered.get(record.id, order)
+        """A run to follow: one this process ordered, or, on a broker, one another web
+        process ordered, or one its engine says again for a web process that started after
+        it (``follow``: from the samples stored by then; said twice: followed once)."""
+        if record.id in self._runs:
+            return
+        mine = self._ordered.get(record.id)
+        order = mine or order
         if order is None:
             log.error("run %s started without its order: not followed here", record.id)
             return
@@ -114,7 +119,10 @@ class RunFollower:
         ch = RunChannel(names, record.Ts, self._reader(record.id), self.codec, sender=self._sender)
         self._channels[record.id] = ch
         params = RunParams(order.spec.law, order.spec.reference)
-        self._runs[record.id] = LiveRun(record, engine, ch, order, params)
+        run = self._runs[record.id] = LiveRun(record, engine, ch, order, params)
+        if mine is None and record.n_stored:  # joined mid-run: the store has the start
+            ch.edge = run.next_k = record.n_stored // ch.F * ch.F
+            run.committed = record.n_stored
 
     def blocks(self, engine: str, blocks: list[Block]) -> None:
         runs = self._runs

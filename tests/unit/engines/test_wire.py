@@ -69,6 +69,12 @@ def test_a_start_and_a_change_carry_their_typed_parts_to_any_web_process(law: ob
     assert bare == wire.Params("r-2", change, None)
 
 
+def test_a_follow_and_a_close_survive_the_wire() -> None:
+    for cmd in (wire.Follow(5), wire.Close("told to")):
+        message = wire.command_out(cmd)
+        assert wire.decode_command(wire.unframe(message)[0]) == cmd
+
+
 def _head(message: bytes) -> tuple[bytes, bytes]:
     head, size = wire.lengths(message[: wire.HEADER_BYTES])
     body = message[wire.HEADER_BYTES :]
