@@ -84,7 +84,6 @@ def cmd_engine(args: argparse.Namespace) -> str:
     Ctrl-C: it interrupts its live runs, stores them and says why it stopped."""
     import json
     import os
-    import re
     import socket
     from dataclasses import asdict
 
@@ -98,8 +97,10 @@ def cmd_engine(args: argparse.Namespace) -> str:
             "a Redis URL (redis://host:port/db): an engine of its own hears its web servers "
             "through a broker; without one, `elab serve` starts its engine itself",
         )
+    from elab.engines.broker import NAME
+
     name = args.name or f"sim-{socket.gethostname()}"
-    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}", name) or name == "web":
+    if not NAME.fullmatch(name) or name == "web":
         raise InvalidInput("--name", name, "1-40 letters, digits, '.', '_' or '-', not 'web'")
     options = {
         **asdict(settings.engine),

@@ -27,6 +27,7 @@ import itertools
 import json
 import logging
 import os
+import re
 import secrets
 import signal
 import socket
@@ -68,6 +69,8 @@ HEARTBEAT = 0.5  # s between an engine's heartbeats (elab.engines.child.HEARTBEA
 
 
 _PREFIX = "elab:engine:"
+#: an engine's name (`elab engine --name`): a key part on the broker, an id in the store
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
 
 
 def inbox(engine: str) -> str:
@@ -445,9 +448,15 @@ class BrokerEngines:
                 info = json.loads(raw)
             except ValueError:
                 continue
-            if info.get("kind") != self.kind or engine in self._members:
+            if not isinstance(info, dict) or info.get("kind") != self.kind:
+                continue
+            if engine in self._members or not re.fullmatch(
+                r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}", engine
+            ):
                 continue
             start = str(info.get("since", "0-0"))
+            if not re.fullmatch(r"\d{1,20}-\d{1,20}", start):  # not an entry id: from now
+                start = _newest(await self._r.xrevrange(outbox(engine), count=1))
             if fresh:
                 start = _newest(await self._r.xrevrange(outbox(engine), count=1))
             self._members[engine] = _Member(engine, start, follow=fresh)

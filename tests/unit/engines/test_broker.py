@@ -5,12 +5,15 @@ kept over the broker, and what a web process that fell behind is told."""
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 import os
 import signal
 import subprocess
 import time
 from pathlib import Path
+
+import redis.asyncio
 
 from elab.engines import wire
 from elab.engines.base import Block, Changed, Ended, Health, RunOrder
@@ -89,6 +92,12 @@ def test_each_command_is_answered_after_the_events_it_caused(
         await engines.start(heard)
         try:
             await until(lambda: engines.status().up)
+            junk = redis.asyncio.Redis.from_url(url)  # registry entries nobody should trust
+            await junk.hset("elab:engines", "odd", "{not json")
+            await junk.hset("elab:engines", "e-2", json.dumps({"kind": "simulation", "since": "x"}))
+            await junk.hset("elab:engines", "a:b", json.dumps({"kind": "simulation"}))
+            await junk.aclose()
+            await asyncio.sleep(1.5)  # found by the registry's next reading: read from now
             runs = [await engines.add(order(30.0)) for _ in range(5)]
             for r in runs:  # its start was heard before the answer that it started
                 assert ("started", r.id) in heard.said
