@@ -86,6 +86,9 @@ def test_a_store_locked_by_another_process_is_retried_and_loses_nothing(tmp_path
         srv.stop()
 
 
+@pytest.mark.local_engine_only(
+    "on a broker web servers share a store (test_engines_on_broker: two web processes)"
+)
 def test_a_second_server_on_the_same_store_stops_and_the_first_goes_on(tmp_path: Path) -> None:
     """Its engine would have marked the first one's live runs interrupted (both call theirs
     sim-0); it says why it stops, and the first one's run ends whole."""
