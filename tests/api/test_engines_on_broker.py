@@ -52,6 +52,14 @@ def engine_pid(srv: Server, name: str) -> int:
     return proc.pid
 
 
+def a_second_into_a_long_run(srv: Server, c: httpx.Client) -> tuple[str, str, int]:
+    """A 60 s run started and 1,000 samples in: its id, its engine and that one's pid."""
+    rid = c.post("/runs", json=LONG).json()["id"]
+    until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] >= 1000)
+    name = engines_of(srv)[rid]
+    return rid, name, engine_pid(srv, name)
+
+
 def reported(srv: Server, name: str, not_pid: int) -> bool:
     """The web process hears engine ``name`` in another process than ``not_pid``."""
     st = {e["id"]: e for e in srv.status()["engines"]}.get(name)
@@ -136,10 +144,7 @@ def test_an_engine_stopped_past_the_stall_loses_its_runs_and_closes_when_it_goes
     srv = on_broker(tmp_path, redis_server).start()
     try:
         with srv.client() as c:
-            rid = c.post("/runs", json=LONG).json()["id"]
-            until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] >= 1000)
-            name = engines_of(srv)[rid]
-            pid = engine_pid(srv, name)
+            rid, name, pid = a_second_into_a_long_run(srv, c)
             os.kill(pid, signal.SIGSTOP)
             try:
                 info = until(
@@ -328,10 +333,8 @@ def test_an_engine_stops_in_order_its_runs_interrupted_with_their_data(
     srv = on_broker(tmp_path, redis_server).start()
     try:
         with srv.client() as c:
-            rid = c.post("/runs", json=LONG).json()["id"]
-            until(lambda: c.get(f"/runs/{rid}").json()["n_samples"] >= 1000)
-            name = engines_of(srv)[rid]
-            os.kill(engine_pid(srv, name), signal.SIGTERM)  # as systemd stops it
+            rid, _, pid = a_second_into_a_long_run(srv, c)
+            os.kill(pid, signal.SIGTERM)  # as systemd stops it
             info = until(
                 lambda: (i := c.get(f"/runs/{rid}").json())["status"] == "interrupted" and i
             )

@@ -214,34 +214,35 @@ class Settings:
 
 
 def _database_url(env: Mapping[str, str]) -> str | None:
-    url = env.get("ELAB_DATABASE_URL", "").strip()
-    if not url:
-        return None
-    if not url.startswith(POSTGRES_SCHEMES):
-        scheme, _, rest = url.partition("://")
-        shown = f"{scheme}://…@{rest.rsplit('@', 1)[-1]}" if "@" in rest else url  # no password
-        raise InvalidInput(
-            "ELAB_DATABASE_URL",
-            shown,
-            "a PostgreSQL URL, postgresql://user:password@host:port/database "
-            "(unset: the SQLite file in ELAB_DATA)",
-        )
-    return url
+    return _url(
+        env,
+        "ELAB_DATABASE_URL",
+        POSTGRES_SCHEMES,
+        "a PostgreSQL URL, postgresql://user:password@host:port/database "
+        "(unset: the SQLite file in ELAB_DATA)",
+    )
 
 
 def _redis_url(env: Mapping[str, str]) -> str | None:
-    url = env.get("ELAB_REDIS_URL", "").strip()
+    return _url(
+        env,
+        "ELAB_REDIS_URL",
+        REDIS_SCHEMES,
+        "a Redis URL, redis://[:password@]host:port/db, rediss://… or unix:///path "
+        "(unset: the engine is a process of this server's own)",
+    )
+
+
+def _url(env: Mapping[str, str], name: str, schemes: tuple[str, ...], allowed: str) -> str | None:
+    """The URL in ``name``, or ``None`` if unset; one of another scheme is refused, shown
+    without its password."""
+    url = env.get(name, "").strip()
     if not url:
         return None
-    if not url.startswith(REDIS_SCHEMES):
+    if not url.startswith(schemes):
         scheme, _, rest = url.partition("://")
-        shown = f"{scheme}://…@{rest.rsplit('@', 1)[-1]}" if "@" in rest else url  # no password
-        raise InvalidInput(
-            "ELAB_REDIS_URL",
-            shown,
-            "a Redis URL, redis://[:password@]host:port/db, rediss://… or unix:///path "
-            "(unset: the engine is a process of this server's own)",
-        )
+        shown = f"{scheme}://…@{rest.rsplit('@', 1)[-1]}" if "@" in rest else url
+        raise InvalidInput(name, shown, allowed)
     return url
 
 

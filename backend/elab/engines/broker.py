@@ -46,7 +46,7 @@ from redis.retry import Retry
 
 from elab.engines import wire
 from elab.engines.base import Action, EngineEvents, EngineStatus, Health, NewParams, RunOrder
-from elab.engines.process import judged, sample_index
+from elab.engines.process import answer, judged, sample_index
 from elab.errors import Conflict, ElabError, TooMany, Unavailable
 from elab.store.base import RunRecord
 
@@ -517,12 +517,7 @@ class BrokerEngines:
                 pass
         match wire.deliver(events, member.id, ev):
             case wire.Reply() as reply:
-                _, fut = self._pending.get(reply.id, ("", None))
-                if fut is not None and not fut.done():
-                    if reply.error is not None:
-                        fut.set_exception(reply.error)
-                    else:
-                        fut.set_result(reply.ok)
+                answer(self._pending.get(reply.id, ("", None))[1], reply)
             case wire.Beat() as beat:
                 self._beat(member, beat.health)
                 events.health(member.id, beat.health)

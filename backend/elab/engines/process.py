@@ -263,12 +263,7 @@ class ProcessEngine:
             return
         match wire.deliver(events, self.id, ev):
             case wire.Reply() as reply:
-                fut = self._pending.get(reply.id)
-                if fut is not None and not fut.done():
-                    if reply.error is not None:
-                        fut.set_exception(reply.error)
-                    else:
-                        fut.set_result(reply.ok)
+                answer(self._pending.get(reply.id), reply)
             case wire.Beat() as beat:
                 self._health, self._beat = beat.health, time.monotonic()
                 events.health(self.id, beat.health)
@@ -334,6 +329,16 @@ class ProcessEngine:
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
         return task
+
+
+def answer(fut: asyncio.Future[RunRecord | int | None] | None, reply: wire.Reply) -> None:
+    """The command waiting on ``fut`` (if it still does) gets ``reply``'s answer or error."""
+    if fut is None or fut.done():
+        return
+    if reply.error is not None:
+        fut.set_exception(reply.error)
+    else:
+        fut.set_result(reply.ok)
 
 
 def judged(
