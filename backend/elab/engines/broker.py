@@ -450,14 +450,10 @@ class BrokerEngines:
                 continue
             if not isinstance(info, dict) or info.get("kind") != self.kind:
                 continue
-            if engine in self._members or not re.fullmatch(
-                r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}", engine
-            ):
+            if engine in self._members or not NAME.fullmatch(engine):
                 continue
             start = str(info.get("since", "0-0"))
-            if not re.fullmatch(r"\d{1,20}-\d{1,20}", start):  # not an entry id: from now
-                start = _newest(await self._r.xrevrange(outbox(engine), count=1))
-            if fresh:
+            if fresh or not re.fullmatch(r"\d{1,20}-\d{1,20}", start):  # from now
                 start = _newest(await self._r.xrevrange(outbox(engine), count=1))
             self._members[engine] = _Member(engine, start, follow=fresh)
 
@@ -497,7 +493,7 @@ class BrokerEngines:
         except (KeyError, ValueError) as exc:
             log.error("engine %s sent a message not understood here: %s", member.id, exc)
             return
-        if seq > member.seq + 1 and member.seq and seq != 1:
+        if member.seq and seq > member.seq + 1:  # (a new process starts again at 1)
             member.missed += seq - member.seq - 1
             log.error(
                 "missed %d messages of engine %s (this web process fell more than %g s "
